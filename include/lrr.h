@@ -1,0 +1,265 @@
+/*
+ * lrr — Low-Rank Radiosity.
+ *
+ * Solves the radiosity equation (I - R F) B = E for diffuse scenes:
+ *   n subpatches, R = diag(rho) per colour channel, F the form factors.
+ * Preprocess once (hemicube form factors F̄, n×k, and the k×k Sherman–Morrison–Woodbury
+ * matrices M_c), then solve for any emission E with one pass over F̄:
+ *   B_c = E_c + rho_c ∘ ( F̄ · (M_c · (Vᵀ E_c)) ).
+ *
+ * Conventions
+ *   - Every function returns lrr_status (LRR_OK = 0) unless it is a query or a destroy.
+ *   - Handles are opaque. Every create has a destroy; destroy(NULL) does nothing.
+ *   - Objects hold a reference to their context; destroy them in any order.
+ *   - Colour arrays are row-major n×3 (RGB interleaved, ld = 3) unless stated.
+ *   - Radiosity and emission are in W/m² (any consistent unit); lengths in scene units.
+ *   - The library never prints, never exits, keeps no mutable global state.
+ */
+#ifndef LRR_H
+#define LRR_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include "lrr_version.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(_WIN32) && defined(LRR_BUILDING_DLL)
+#define LRR_API __declspec(dllexport)
+#elif defined(__GNUC__) && __GNUC__ >= 4
+#define LRR_API __attribute__((visibility("default")))
+#else
+#define LRR_API
+#endif
+
+#if defined(__GNUC__)
+#define LRR_NODISCARD __attribute__((warn_unused_result))
+#define LRR_NONNULL(...) __attribute__((nonnull(__VA_ARGS__)))
+#else
+#define LRR_NODISCARD
+#define LRR_NONNULL(...)
+#endif
+
+/* ---------------------------------------------------------------- status codes */
+typedef enum lrr_status {
+    LRR_OK = 0,
+    LRR_NOT_CONVERGED = 1,   /* an iteration stopped before its tolerance (not a hard error) */
+    LRR_ERR_INVALID_ARG = 2, /* NULL pointer, bad option value, wrong name */
+    LRR_ERR_NOMEM = 3,       /* allocation failed */
+    LRR_ERR_OVERFLOW = 4,    /* a size computation would overflow size_t */
+    LRR_ERR_IO = 5,          /* open/read/write/rename failed (errno in the message) */
+    LRR_ERR_FORMAT = 6,      /* a scene/image file could not be parsed or imported */
+    LRR_ERR_CORRUPT = 7,     /* an .lrr file is truncated or fails a checksum */
+    LRR_ERR_VERSION = 8,     /* an .lrr file of another version, endianness or kind */
+    LRR_ERR_GEOMETRY = 9,    /* NaN/Inf coordinates, nothing left after removing degenerates */
+    LRR_ERR_MATERIAL = 10,   /* reflectance outside [0,1), negative or non-finite emission */
+    LRR_ERR_EMPTY = 11,      /* a scene without triangles */
+    LRR_ERR_SINGULAR = 12,   /* I - Vᵀ diag(rho) F̄ could not be factorised */
+    LRR_ERR_UNSUPPORTED = 13,/* a backend or feature not built into this library */
+    LRR_ERR_CANCELLED = 14,  /* the progress callback asked to stop */
+    LRR_ERR_DIM = 15         /* array sizes do not agree */
+} lrr_status;
+
+/* A static, human-readable name for a status code. Thread safety: any thread. */
+LRR_API const char *lrr_strerror(lrr_status status);
+
+/* ---------------------------------------------------------------- version */
+/* The library's version string, e.g. "0.1.0"; compare with LRR_VERSION_STRING to check that
+ * header and library agree. Thread safety: any thread. */
+LRR_API const char *lrr_version_string(void);
+LRR_API unsigned lrr_version(void); /* MAJOR*10000 + MINOR*100 + PATCH */
+
+/* ---------------------------------------------------------------- context */
+typedef struct lrr_context lrr_context;
+
+/* Called once per error, in the thread that hit it, with the code and a message naming what
+ * and where (file, face, value). */
+typedef void (*lrr_error_fn)(void *user, lrr_status status, const char *message);
+
+/* Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_context_create(lrr_context **out) LRR_NONNULL(1);
+/* Drops the caller's reference; the context lives until its last object is destroyed. */
+LRR_API void lrr_context_destroy(lrr_context *ctx);
+/* fn = NULL turns the callback off. Thread safety: serialise with other calls on ctx. */
+LRR_API void lrr_context_set_error_callback(lrr_context *ctx, lrr_error_fn fn, void *user)
+    LRR_NONNULL(1);
+/* Returns the first error recorded on ctx since the last call (LRR_OK if none), copies its
+ * message into msg (always NUL-terminated when msg_len > 0) and clears it.
+ * Thread safety: any thread (the record is shared by the threads using ctx). */
+LRR_API lrr_status lrr_context_last_error(lrr_context *ctx, char *msg, size_t msg_len)
+    LRR_NONNULL(1);
+
+/* ---------------------------------------------------------------- scene */
+typedef struct lrr_scene lrr_scene;
+
+/* Imports OBJ(+MTL: Kd = reflectance, Ke = emission), PLY or glTF 2.0 through assimp.
+ * Triangles are one-sided: the front is the side from which the vertices run
+ * counter-clockwise. Zero-area triangles are skipped and counted (see lrr_scene_info);
+ * NaN/Inf coordinates, reflectance outside [0,1), negative emission and an empty scene are
+ * errors naming the file and face. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_scene_load(lrr_context *ctx, const char *path,
+                                                lrr_scene **out) LRR_NONNULL(1, 2, 3);
+
+/* The Cornell box (published measurements, millimetres, 36 triangles, light 0.05 mm below
+ * the ceiling). closed != 0 seals the open front with a white wall. */
+LRR_API LRR_NODISCARD lrr_status lrr_scene_cornell_box(lrr_context *ctx, int closed,
+                                                       lrr_scene **out) LRR_NONNULL(1, 3);
+
+/* "cornell" or "cornell-closed"; LRR_ERR_INVALID_ARG for other names. */
+LRR_API LRR_NODISCARD lrr_status lrr_scene_builtin(lrr_context *ctx, const char *name,
+                                                   lrr_scene **out) LRR_NONNULL(1, 2, 3);
+
+/* A scene from arrays: vertices n_triangles×9 (x0 y0 z0 x1 … z2, counter-clockwise front),
+ * rho and emission n_triangles×3. Same validation as lrr_scene_load; `source` names the
+ * origin in error messages (may be NULL). */
+LRR_API LRR_NODISCARD lrr_status lrr_scene_create(lrr_context *ctx, size_t n_triangles,
+                                                  const float *vertices, const float *rho,
+                                                  const float *emission, const char *source,
+                                                  lrr_scene **out) LRR_NONNULL(1, 3, 4, 5, 7);
+LRR_API void lrr_scene_destroy(lrr_scene *scene);
+
+/* Subdivision: each input triangle is split 4-way at its edge midpoints until every piece
+ * (a patch) has area <= max_patch_area; with target_patches > 0 instead, the threshold that
+ * gives the patch count closest to it is chosen. Each patch is then split `levels` more times
+ * into d = 4^levels subpatches, stored patch-major (subpatch s of patch p is p·d + s). */
+typedef struct lrr_subdivision {
+    double max_patch_area;   /* scene units²; 0 = no limit (one patch per triangle) */
+    size_t target_patches;   /* if > 0, overrides max_patch_area */
+    unsigned levels;         /* 0..10; d = 4^levels */
+} lrr_subdivision;
+
+/* Thread safety: one thread per object. */
+LRR_API LRR_NODISCARD lrr_status lrr_scene_subdivide(lrr_scene *scene,
+                                                     const lrr_subdivision *opts)
+    LRR_NONNULL(1, 2);
+
+typedef struct lrr_scene_info {
+    size_t triangles;        /* input triangles kept */
+    size_t skipped;          /* zero-area triangles removed on input */
+    size_t patches;          /* k (0 before lrr_scene_subdivide) */
+    size_t subpatches;       /* n = k·d */
+    size_t d;                /* subpatches per patch */
+    size_t emitters;         /* input triangles with non-zero emission */
+    double area;             /* total area, scene units² */
+    double max_patch_area;   /* the threshold in force */
+    double bounds_min[3], bounds_max[3];
+} lrr_scene_info;
+
+/* Thread safety: any thread (read only). */
+LRR_API void lrr_scene_get_info(const lrr_scene *scene, lrr_scene_info *info) LRR_NONNULL(1, 2);
+
+/* Maps a point given by barycentric coordinates (b1, b2 of vertices 1 and 2; b0 = 1-b1-b2)
+ * inside input triangle `triangle` to its subpatch index; returns (size_t)-1 when out of
+ * range. Requires a subdivided scene. */
+LRR_API size_t lrr_scene_subpatch_at(const lrr_scene *scene, size_t triangle, double b1,
+                                     double b2) LRR_NONNULL(1);
+
+/* Per-subpatch geometry (each array n entries, NULL to skip): centre n×3, normal n×3,
+ * area n, reflectance n×3, emission n×3. */
+LRR_API LRR_NODISCARD lrr_status lrr_scene_subpatches(const lrr_scene *scene, float *centre,
+                                                      float *normal, float *area, float *rho,
+                                                      float *emission) LRR_NONNULL(1);
+
+/* ---------------------------------------------------------------- operator */
+typedef struct lrr_operator lrr_operator;
+
+/* Progress: called from one thread with done/total receivers; return non-zero to cancel. */
+typedef int (*lrr_progress_fn)(void *user, size_t done, size_t total);
+
+typedef struct lrr_build_options {
+    unsigned hemicube_resolution; /* R: top face R×R, sides R×R/2; even, 8..4096; 0 = 128 */
+    uint64_t seed;                /* random rotation about the normal per receiver */
+    int threads;                  /* OpenMP threads; 0 = OpenMP's default */
+    lrr_progress_fn progress;     /* may be NULL */
+    void *progress_user;
+} lrr_build_options;
+
+/* Builds F̄ by one hemicube per subpatch, then M_c = (I_k - Vᵀ diag(rho_c) F̄)^{-1} per
+ * channel in double precision (LAPACKE dgetrf/dgetri, dgecon condition estimates), stored in
+ * float. The scene must be subdivided. opts may be NULL (defaults). The operator keeps a copy
+ * of what it needs: the scene may be destroyed afterwards. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_build(const lrr_scene *scene,
+                                                    const lrr_build_options *opts,
+                                                    lrr_operator **out) LRR_NONNULL(1, 3);
+LRR_API void lrr_operator_destroy(lrr_operator *op);
+
+/* Writes the operator, its scene emission and the geometry needed to draw it, atomically
+ * (temporary file, fsync, rename). Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
+    LRR_NONNULL(1, 2);
+/* Truncated, corrupted or foreign files give LRR_ERR_CORRUPT / LRR_ERR_VERSION. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_load(lrr_context *ctx, const char *path,
+                                                   lrr_operator **out) LRR_NONNULL(1, 2, 3);
+
+/* New reflectances (n×3, each in [0,1)): recomputes M_c from the stored F̄; no new form
+ * factors. Thread safety: one thread per object, and no solver may run meanwhile. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_set_reflectance(lrr_operator *op,
+                                                              const float *rho)
+    LRR_NONNULL(1, 2);
+
+typedef struct lrr_operator_info {
+    size_t n, k, d, triangles;
+    double condition[3];    /* 1-norm condition estimates of G_c (dgecon) */
+    double build_seconds;   /* wall time of lrr_operator_build (as stored, after a load) */
+    unsigned hemicube_resolution;
+    uint64_t seed;
+    size_t bytes;           /* memory held by F̄, M_c and per-subpatch data */
+} lrr_operator_info;
+LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)
+    LRR_NONNULL(1, 2);
+
+/* Read-only views valid for the operator's life: F̄ (n×k row-major, ld = k), M (3 k×k
+ * row-major matrices, channel-major), rho/emission/centre/normal (n×3), area (n). */
+LRR_API const float *lrr_operator_fbar(const lrr_operator *op) LRR_NONNULL(1);
+LRR_API const float *lrr_operator_m(const lrr_operator *op) LRR_NONNULL(1);
+LRR_API const float *lrr_operator_reflectance(const lrr_operator *op) LRR_NONNULL(1);
+LRR_API const float *lrr_operator_emission(const lrr_operator *op) LRR_NONNULL(1);
+LRR_API const float *lrr_operator_area(const lrr_operator *op) LRR_NONNULL(1);
+LRR_API const float *lrr_operator_centre(const lrr_operator *op) LRR_NONNULL(1);
+LRR_API const float *lrr_operator_normal(const lrr_operator *op) LRR_NONNULL(1);
+
+/* ---------------------------------------------------------------- solver */
+typedef enum lrr_backend {
+    LRR_BACKEND_CPU = 301,
+    LRR_BACKEND_OPENCL = 302
+} lrr_backend;
+
+typedef struct lrr_solver lrr_solver;
+
+/* A solver holds one backend's buffers and scratch for an operator; the operator must
+ * outlive it. Thread safety: create/destroy any thread; one thread per solver at a time;
+ * many solvers may share one operator. */
+LRR_API LRR_NODISCARD lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend,
+                                                   lrr_solver **out) LRR_NONNULL(1, 3);
+LRR_API void lrr_solver_destroy(lrr_solver *solver);
+
+/* B = E + rho ∘ (F̄ · (M · (Vᵀ E))) per channel. emission and radiosity are n×3 row-major
+ * (they may not alias). Emission must be finite and >= 0. */
+LRR_API LRR_NODISCARD lrr_status lrr_solve(lrr_solver *solver, const float *emission,
+                                           float *radiosity) LRR_NONNULL(1, 2, 3);
+
+/* ---------------------------------------------------------------- pictures */
+typedef struct lrr_render_options {
+    unsigned width, height;  /* pixels; 0 = 512 */
+    double exposure;         /* multiplier before tone mapping; 0 = automatic */
+    int use_cornell_camera;  /* 1: the Cornell camera; 0: a camera framing the scene;
+                                -1: automatic (the Cornell camera for the built-in boxes) */
+} lrr_render_options;
+
+/* Draws the operator's geometry with Gouraud-interpolated subpatch radiosity (n×3), tone
+ * mapped to sRGB, and writes a PNG atomically. opts may be NULL. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_render_png(const lrr_operator *op, const float *radiosity,
+                                                const lrr_render_options *opts,
+                                                const char *path) LRR_NONNULL(1, 2, 4);
+
+/* ---------------------------------------------------------------- memory */
+/* 64-byte aligned allocation for SIMD and device buffers; size 0 gives NULL. */
+LRR_API void *lrr_aligned_alloc(size_t size);
+LRR_API void lrr_aligned_free(void *p);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* LRR_H */

@@ -1,0 +1,153 @@
+/* Contexts, status codes, error records, versions and checked allocation. */
+#include "config.h"
+#include "internal.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+const char *lrr_strerror(lrr_status status)
+{
+    switch (status) {
+    case LRR_OK: return "success";
+    case LRR_NOT_CONVERGED: return "iteration did not converge";
+    case LRR_ERR_INVALID_ARG: return "invalid argument";
+    case LRR_ERR_NOMEM: return "out of memory";
+    case LRR_ERR_OVERFLOW: return "size overflow";
+    case LRR_ERR_IO: return "input/output error";
+    case LRR_ERR_FORMAT: return "unreadable file format";
+    case LRR_ERR_CORRUPT: return "corrupted or truncated file";
+    case LRR_ERR_VERSION: return "unsupported file version or kind";
+    case LRR_ERR_GEOMETRY: return "invalid geometry";
+    case LRR_ERR_MATERIAL: return "invalid material";
+    case LRR_ERR_EMPTY: return "empty scene";
+    case LRR_ERR_SINGULAR: return "singular matrix";
+    case LRR_ERR_UNSUPPORTED: return "not supported by this build";
+    case LRR_ERR_CANCELLED: return "cancelled";
+    case LRR_ERR_DIM: return "dimension mismatch";
+    }
+    return "unknown status";
+}
+
+const char *lrr_version_string(void) { return LRR_VERSION_STRING; }
+unsigned lrr_version(void) { return LRR_VERSION; }
+
+lrr_status lrr_context_create(lrr_context **out)
+{
+    *out = NULL;
+    lrr_context *ctx = calloc(1, sizeof *ctx);
+    if (!ctx)
+        return LRR_ERR_NOMEM;
+    if (pthread_mutex_init(&ctx->lock, NULL) != 0) {
+        free(ctx);
+        return LRR_ERR_NOMEM;
+    }
+    ctx->refs = 1;
+    *out = ctx;
+    return LRR_OK;
+}
+
+lrr_context *lrr__context_retain(lrr_context *ctx)
+{
+    if (ctx) {
+        pthread_mutex_lock(&ctx->lock);
+        ctx->refs++;
+        pthread_mutex_unlock(&ctx->lock);
+    }
+    return ctx;
+}
+
+void lrr__context_release(lrr_context *ctx)
+{
+    if (!ctx)
+        return;
+    pthread_mutex_lock(&ctx->lock);
+    int left = --ctx->refs;
+    pthread_mutex_unlock(&ctx->lock);
+    if (left == 0) {
+        pthread_mutex_destroy(&ctx->lock);
+        free(ctx);
+    }
+}
+
+void lrr_context_destroy(lrr_context *ctx) { lrr__context_release(ctx); }
+
+void lrr_context_set_error_callback(lrr_context *ctx, lrr_error_fn fn, void *user)
+{
+    pthread_mutex_lock(&ctx->lock);
+    ctx->callback = fn;
+    ctx->callback_user = user;
+    pthread_mutex_unlock(&ctx->lock);
+}
+
+lrr_status lrr_context_last_error(lrr_context *ctx, char *msg, size_t msg_len)
+{
+    pthread_mutex_lock(&ctx->lock);
+    lrr_status st = ctx->first_status;
+    if (msg && msg_len > 0)
+        snprintf(msg, msg_len, "%s", st == LRR_OK ? "" : ctx->first_message);
+    ctx->first_status = LRR_OK;
+    ctx->first_message[0] = '\0';
+    pthread_mutex_unlock(&ctx->lock);
+    return st;
+}
+
+lrr_status lrr__error(lrr_context *ctx, lrr_status status, const char *fmt, ...)
+{
+    if (!ctx)
+        return status;
+    char buf[sizeof ctx->first_message];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(buf, sizeof buf, fmt, ap);
+    va_end(ap);
+    pthread_mutex_lock(&ctx->lock);
+    if (ctx->first_status == LRR_OK) {
+        ctx->first_status = status;
+        memcpy(ctx->first_message, buf, sizeof buf);
+    }
+    lrr_error_fn fn = ctx->callback;
+    void *user = ctx->callback_user;
+    pthread_mutex_unlock(&ctx->lock);
+    if (fn)
+        fn(user, status, buf);
+    return status;
+}
+
+void *lrr_aligned_alloc(size_t size)
+{
+    if (size == 0)
+        return NULL;
+    size_t rounded = (size + 63) & ~(size_t)63;
+    if (rounded < size)
+        return NULL;
+    return aligned_alloc(64, rounded);
+}
+
+void lrr_aligned_free(void *p) { free(p); }
+
+lrr_status lrr__calloc(lrr_context *ctx, void *out, size_t count, size_t elem, const char *what)
+{
+    void **res = out;
+    *res = NULL;
+    size_t bytes;
+    if (!lrr__mul_size(count, elem, &bytes) || bytes > SIZE_MAX - 64)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW, "%s: %zu × %zu bytes overflows size_t", what,
+                          count, elem);
+    void *p = lrr_aligned_alloc(bytes ? bytes : 64);
+    if (!p)
+        return lrr__error(ctx, LRR_ERR_NOMEM, "%s: cannot allocate %zu bytes (%.1f MiB)", what,
+                          bytes, bytes / 1048576.0);
+    memset(p, 0, bytes ? bytes : 64);
+    *res = p;
+    return LRR_OK;
+}
+
+double lrr__now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}

@@ -1,0 +1,493 @@
+/* Hemicube form factors: one software z-buffer hemicube at each subpatch centre gives one
+ * row of F̄ (F̄_ip = F_{i→p}/d), DESIGN.md "Form factors".
+ *
+ * Per receiver i with centre x and unit normal N:
+ *   - a frame (U, V, N), rotated about N by a pseudo-random angle drawn from (seed, i), so
+ *     aliasing of the pixel grid does not line up across receivers yet results are
+ *     reproducible whatever the thread count;
+ *   - five faces: the top (R×R, looking along N) and four sides (R wide, R/2 high, above the
+ *     tangent plane only);
+ *   - the *input triangles* are rasterised (not the subdivision), so a hemicube's cost does
+ *     not depend on k or d; the item buffer holds the triangle id, and the visible point's
+ *     barycentric coordinates in its triangle give the patch;
+ *   - back faces write depth but no id (they occlude but carry nothing);
+ *   - row_p = Σ multiplier(pixel) over pixels showing patch p.
+ *
+ * Watertightness: triangles are clipped in homogeneous camera space (near plane plus a guard
+ * band at ±4 on the sides) so that projected coordinates stay small; edge functions are
+ * evaluated in double from a canonical vertex order (so the two triangles sharing an edge
+ * compute exactly opposite values) with a top-left tie rule (so a pixel centre on a shared
+ * edge belongs to exactly one of them). A closed room's rows then sum to 1 to rounding.
+ */
+#include "config.h"
+#include "internal.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* ------------------------------------------------------------------ multiplier map */
+lrr_status lrr__multiplier_map_create(lrr_context *ctx, unsigned res, lrr__multiplier_map *m)
+{
+    memset(m, 0, sizeof *m);
+    if (res < 8 || res > 4096 || res % 2)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "hemicube resolution %u: must be even and in 8..4096", res);
+    lrr_status st;
+    size_t rr = (size_t)res * res;
+    if ((st = lrr__calloc(ctx, &m->top, rr, sizeof(double), "hemicube top multipliers")))
+        return st;
+    if ((st = lrr__calloc(ctx, &m->side, rr / 2, sizeof(double), "hemicube side multipliers"))) {
+        lrr_aligned_free(m->top);
+        return st;
+    }
+    m->res = res;
+    const double h = 2.0 / res, dA = h * h;
+    double sum = 0;
+    for (unsigned r = 0; r < res; r++)
+        for (unsigned c = 0; c < res; c++) {
+            double x = -1 + (c + 0.5) * h, y = -1 + (r + 0.5) * h;
+            double q = x * x + y * y + 1;
+            m->top[(size_t)r * res + c] = dA / (M_PI * q * q);
+            sum += m->top[(size_t)r * res + c];
+        }
+    for (unsigned r = 0; r < res / 2; r++)
+        for (unsigned c = 0; c < res; c++) {
+            double a = -1 + (c + 0.5) * h, z = (r + 0.5) * h;
+            double q = a * a + z * z + 1;
+            m->side[(size_t)r * res + c] = z * dA / (M_PI * q * q);
+            sum += 4 * m->side[(size_t)r * res + c];
+        }
+    /* The midpoint rule misses the exact total by O(1/R²); normalise so that a fully covered
+     * hemisphere gives exactly 1 (closed scenes must conserve energy). */
+    m->raw_sum = sum;
+    for (size_t i = 0; i < rr; i++)
+        m->top[i] /= sum;
+    for (size_t i = 0; i < rr / 2; i++)
+        m->side[i] /= sum;
+    return LRR_OK;
+}
+
+void lrr__multiplier_map_free(lrr__multiplier_map *m)
+{
+    lrr_aligned_free(m->top);
+    lrr_aligned_free(m->side);
+    memset(m, 0, sizeof *m);
+}
+
+/* ------------------------------------------------------------------ small vector helpers */
+static inline double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+static inline void cross3(const double *a, const double *b, double *o)
+{
+    o[0] = a[1] * b[2] - a[2] * b[1];
+    o[1] = a[2] * b[0] - a[0] * b[2];
+    o[2] = a[0] * b[1] - a[1] * b[0];
+}
+static inline void normalise3(double *a)
+{
+    double l = sqrt(dot3(a, a));
+    a[0] /= l;
+    a[1] /= l;
+    a[2] /= l;
+}
+
+static uint64_t splitmix64(uint64_t x)
+{
+    x += 0x9e3779b97f4a7c15ull;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+}
+
+/* ------------------------------------------------------------------ per-triangle data */
+typedef struct {
+    double v0[3], e1[3], e2[3];
+    double n[3];                 /* unnormalised geometric normal (v1-v0)×(v2-v0) */
+    double g11, g12, g22, inv;   /* Gram matrix of e1, e2 and 1/det for barycentrics */
+} tri_info;
+
+/* ------------------------------------------------------------------ rasteriser */
+typedef struct {
+    double x, y, iz;             /* pixel coordinates and 1/depth */
+} svert;
+
+typedef struct {
+    double x, y, z;              /* camera coordinates: z along the face's forward axis */
+} cvert;
+
+#define GUARD 4.0
+#define MAX_POLY 16
+
+/* Clips polygon p (n vertices) against a·x + b·y + c·z >= 0. Intersections are computed from
+ * the lexicographically smaller endpoint so the two triangles sharing an edge get bit-identical
+ * new vertices. */
+static int clip_plane(const cvert *in, int n, cvert *out, double a, double b, double c,
+                      double off)
+{
+    int m = 0;
+    for (int i = 0; i < n; i++) {
+        const cvert *p = &in[i], *q = &in[(i + 1) % n];
+        double dp = a * p->x + b * p->y + c * p->z - off;
+        double dq = a * q->x + b * q->y + c * q->z - off;
+        if (dp >= 0)
+            out[m++] = *p;
+        if ((dp >= 0) != (dq >= 0)) {
+            const cvert *s = p, *e = q;
+            double ds = dp, de = dq;
+            if (q->x < p->x || (q->x == p->x && (q->y < p->y || (q->y == p->y && q->z < p->z)))) {
+                s = q; e = p; ds = dq; de = dp;
+            }
+            double t = ds / (ds - de);
+            out[m].x = s->x + t * (e->x - s->x);
+            out[m].y = s->y + t * (e->y - s->y);
+            out[m].z = s->z + t * (e->z - s->z);
+            m++;
+        }
+    }
+    return m;
+}
+
+/* Edge function coefficients A·px + B·py + C for edge a→b, computed from the canonical
+ * (lexicographically ordered) endpoints and negated when reversed: exact antisymmetry. */
+typedef struct {
+    double A, B, C;
+    int owns_ties;   /* top-left rule: this triangle owns pixel centres exactly on the edge */
+} edge_fn;
+
+static void edge_setup(const svert *a, const svert *b, edge_fn *e)
+{
+    int swap = (b->x < a->x) || (b->x == a->x && b->y < a->y);
+    const svert *p = swap ? b : a, *q = swap ? a : b;
+    double A = -(q->y - p->y), B = q->x - p->x;
+    double C = -(A * p->x + B * p->y);
+    if (swap) { A = -A; B = -B; C = -C; }
+    e->A = A;
+    e->B = B;
+    e->C = C;
+    /* For a positively oriented triangle, own ties on edges whose direction is (dy > 0) or
+     * (dy == 0 and dx < 0); the neighbour traverses the edge the other way and does not. */
+    double dx = b->x - a->x, dy = b->y - a->y;
+    e->owns_ties = dy > 0 || (dy == 0 && dx < 0);
+}
+
+static inline int inside(const edge_fn *e, double v)
+{
+    return v > 0 || (v == 0 && e->owns_ties);
+}
+
+static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, float *depth,
+                       int32_t *item)
+{
+    double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (area == 0 || !isfinite(area))
+        return;
+    if (area < 0) {
+        svert t = b; b = c; c = t;
+        area = -area;
+    }
+    double minx = fmin(a.x, fmin(b.x, c.x)), maxx = fmax(a.x, fmax(b.x, c.x));
+    double miny = fmin(a.y, fmin(b.y, c.y)), maxy = fmax(a.y, fmax(b.y, c.y));
+    int x0 = (int)fmax(0.0, floor(minx - 0.5)), x1 = (int)fmin(W - 1.0, ceil(maxx - 0.5));
+    int y0 = (int)fmax(0.0, floor(miny - 0.5)), y1 = (int)fmin(H - 1.0, ceil(maxy - 0.5));
+    if (x0 > x1 || y0 > y1)
+        return;
+    edge_fn e0, e1, e2;
+    edge_setup(&b, &c, &e0); /* weight of a */
+    edge_setup(&c, &a, &e1); /* weight of b */
+    edge_setup(&a, &b, &e2); /* weight of c */
+    double inv_area = 1.0 / area;
+    for (int y = y0; y <= y1; y++) {
+        double py = y + 0.5;
+        for (int x = x0; x <= x1; x++) {
+            double px = x + 0.5;
+            double w0 = e0.A * px + e0.B * py + e0.C;
+            double w1 = e1.A * px + e1.B * py + e1.C;
+            double w2 = e2.A * px + e2.B * py + e2.C;
+            if (!inside(&e0, w0) || !inside(&e1, w1) || !inside(&e2, w2))
+                continue;
+            float iz = (float)((w0 * a.iz + w1 * b.iz + w2 * c.iz) * inv_area);
+            size_t pix = (size_t)y * W + x;
+            if (iz > depth[pix]) {
+                depth[pix] = iz;
+                item[pix] = id;
+            }
+        }
+    }
+}
+
+/* ------------------------------------------------------------------ one hemicube */
+typedef struct {
+    double right[3], up[3], fwd[3];
+    int W, H;              /* pixels */
+    int side;              /* 0 top: rows span [-1,1]; 1 side: rows span heights [0,1] */
+    const double *weight;  /* multiplier map of this face */
+    float *depth;
+    int32_t *item;
+} face;
+
+typedef struct {
+    const lrr__geometry *g;
+    const tri_info *tri;
+    const lrr__multiplier_map *mm;
+    double near, eps;      /* near plane and "on the plane" distance, scene units */
+} hemi_ctx;
+
+static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t, int32_t id)
+{
+    const float *tv = h->g->vert + 9 * t;
+    cvert poly[MAX_POLY], tmp[MAX_POLY];
+    for (int i = 0; i < 3; i++) {
+        double d[3] = {tv[3 * i] - x[0], tv[3 * i + 1] - x[1], tv[3 * i + 2] - x[2]};
+        poly[i].x = dot3(d, f->right);
+        poly[i].y = dot3(d, f->up);
+        poly[i].z = dot3(d, f->fwd);
+    }
+    int n = 3;
+    /* trivial rejects before clipping */
+    int all_behind = 1, out_l = 1, out_r = 1, out_b = 1, out_t = 1;
+    double bottom = f->side ? 0.0 : -1.0;
+    for (int i = 0; i < 3; i++) {
+        if (poly[i].z >= h->near) all_behind = 0;
+        if (poly[i].x >= -poly[i].z) out_l = 0;
+        if (poly[i].x <= poly[i].z) out_r = 0;
+        if (poly[i].y >= bottom * poly[i].z) out_b = 0;
+        if (poly[i].y <= poly[i].z) out_t = 0;
+    }
+    if (all_behind || out_l || out_r || out_b || out_t)
+        return;
+    n = clip_plane(poly, n, tmp, 0, 0, 1, h->near);
+    n = clip_plane(tmp, n, poly, 1, 0, GUARD, 0);   /* x >= -G z */
+    n = clip_plane(poly, n, tmp, -1, 0, GUARD, 0);  /* x <=  G z */
+    n = clip_plane(tmp, n, poly, 0, 1, GUARD, 0);   /* y >= -G z */
+    n = clip_plane(poly, n, tmp, 0, -1, GUARD, 0);  /* y <=  G z */
+    if (n < 3)
+        return;
+    svert s[MAX_POLY];
+    double half = 0.5 * f->W;
+    for (int i = 0; i < n; i++) {
+        double iz = 1.0 / tmp[i].z;
+        s[i].x = (tmp[i].x * iz + 1) * half;
+        s[i].y = f->side ? tmp[i].y * iz * half : (tmp[i].y * iz + 1) * half;
+        s[i].iz = iz;
+    }
+    for (int i = 1; i + 1 < n; i++)
+        raster_tri(s[0], s[i], s[i + 1], id, f->W, f->H, f->depth, f->item);
+}
+
+/* Accumulates the visible patches of face f into row (k doubles). */
+static void integrate_face(const hemi_ctx *h, const double x[3], const face *f, double *row)
+{
+    double half = 0.5 * f->W;
+    for (int y = 0; y < f->H; y++) {
+        double sy = f->side ? (y + 0.5) / half : (y + 0.5) / half - 1;
+        for (int xx = 0; xx < f->W; xx++) {
+            size_t pix = (size_t)y * f->W + xx;
+            int32_t id = f->item[pix];
+            if (id < 0)
+                continue;
+            double sx = (xx + 0.5) / half - 1;
+            double dir[3];
+            for (int j = 0; j < 3; j++)
+                dir[j] = sx * f->right[j] + sy * f->up[j] + f->fwd[j];
+            const tri_info *ti = &h->tri[id];
+            double w0[3] = {ti->v0[0] - x[0], ti->v0[1] - x[1], ti->v0[2] - x[2]};
+            double tt = dot3(ti->n, w0) / dot3(ti->n, dir);
+            double r[3];
+            for (int j = 0; j < 3; j++)
+                r[j] = x[j] + tt * dir[j] - ti->v0[j];
+            double d1 = dot3(r, ti->e1), d2 = dot3(r, ti->e2);
+            double b1 = (ti->g22 * d1 - ti->g12 * d2) * ti->inv;
+            double b2 = (ti->g11 * d2 - ti->g12 * d1) * ti->inv;
+            row[lrr__patch_at(h->g, (size_t)id, b1, b2)] += f->weight[pix];
+        }
+    }
+}
+
+typedef struct {
+    float *depth;
+    int32_t *item;
+    double *row;
+} scratch;
+
+static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, scratch *sc, float *out)
+{
+    const lrr__geometry *g = h->g;
+    unsigned R = h->mm->res;
+    double v[9];
+    lrr__subpatch_vertices(g, i, v);
+    double x[3], N[3], e1[3], e2[3];
+    for (int j = 0; j < 3; j++) {
+        x[j] = (v[j] + v[3 + j] + v[6 + j]) / 3;
+        e1[j] = v[3 + j] - v[j];
+        e2[j] = v[6 + j] - v[j];
+    }
+    cross3(e1, e2, N);
+    normalise3(N);
+    /* tangent frame, then the per-receiver random rotation about N */
+    double helper[3] = {1, 0, 0};
+    if (fabs(N[0]) > 0.6) { helper[0] = 0; helper[1] = 1; }
+    double U0[3], V0[3], U[3], Vv[3];
+    cross3(helper, N, U0);
+    normalise3(U0);
+    cross3(N, U0, V0);
+    double theta = 2 * M_PI * (double)(splitmix64(seed ^ splitmix64(i)) >> 11) * 0x1.0p-53;
+    double ct = cos(theta), st = sin(theta);
+    for (int j = 0; j < 3; j++)
+        U[j] = ct * U0[j] + st * V0[j];
+    cross3(N, U, Vv);
+
+    size_t rr = (size_t)R * R;
+    face faces[5];
+    for (int fi = 0; fi < 5; fi++) {
+        face *f = &faces[fi];
+        f->W = (int)R;
+        f->H = fi == 0 ? (int)R : (int)R / 2;
+        f->side = fi != 0;
+        f->weight = fi == 0 ? h->mm->top : h->mm->side;
+        f->depth = sc->depth + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
+        f->item = sc->item + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
+        if (fi == 0) {
+            memcpy(f->fwd, N, sizeof N);
+            memcpy(f->right, U, sizeof U);
+            memcpy(f->up, Vv, sizeof Vv);
+        } else {
+            const double *ax = (fi == 1 || fi == 2) ? U : Vv;
+            double sgn = (fi == 1 || fi == 3) ? 1 : -1;
+            for (int j = 0; j < 3; j++)
+                f->fwd[j] = sgn * ax[j];
+            memcpy(f->up, N, sizeof N);
+            cross3(f->up, f->fwd, f->right);
+        }
+    }
+    size_t total = rr * 3;
+    for (size_t p = 0; p < total; p++) {
+        sc->depth[p] = 0.0f;
+        sc->item[p] = -1;
+    }
+    for (size_t t = 0; t < g->n_tri; t++) {
+        const tri_info *ti = &h->tri[t];
+        const float *tv = g->vert + 9 * t;
+        /* wholly behind (or in) the tangent plane: cannot be seen */
+        int any_above = 0;
+        for (int c = 0; c < 3; c++) {
+            double d[3] = {tv[3 * c] - x[0], tv[3 * c + 1] - x[1], tv[3 * c + 2] - x[2]};
+            if (dot3(d, N) > h->eps)
+                any_above = 1;
+        }
+        if (!any_above)
+            continue;
+        double w0[3] = {x[0] - ti->v0[0], x[1] - ti->v0[1], x[2] - ti->v0[2]};
+        double side = dot3(w0, ti->n) / sqrt(dot3(ti->n, ti->n));
+        if (fabs(side) <= h->eps)
+            continue; /* x lies in the triangle's plane: seen edge-on */
+        int32_t id = side > 0 ? (int32_t)t : -1;
+        for (int fi = 0; fi < 5; fi++)
+            render_face(h, x, &faces[fi], t, id);
+    }
+    memset(sc->row, 0, g->k * sizeof(double));
+    for (int fi = 0; fi < 5; fi++)
+        integrate_face(h, x, &faces[fi], sc->row);
+    double inv_d = 1.0 / (double)g->d;
+    for (size_t p = 0; p < g->k; p++)
+        out[p] = (float)(sc->row[p] * inv_d);
+}
+
+lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
+                              const lrr_build_options *opts, float *fbar)
+{
+    unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
+    if (g->n_tri > INT32_MAX)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW, "%zu triangles: the item buffer holds int32 ids",
+                          g->n_tri);
+    lrr__multiplier_map mm;
+    lrr_status st = lrr__multiplier_map_create(ctx, R, &mm);
+    if (st)
+        return st;
+    tri_info *tri;
+    if ((st = lrr__calloc(ctx, &tri, g->n_tri, sizeof *tri, "triangle table"))) {
+        lrr__multiplier_map_free(&mm);
+        return st;
+    }
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t t = 0; t < g->n_tri; t++) {
+        const float *v = g->vert + 9 * t;
+        tri_info *ti = &tri[t];
+        for (int j = 0; j < 3; j++) {
+            ti->v0[j] = v[j];
+            ti->e1[j] = (double)v[3 + j] - v[j];
+            ti->e2[j] = (double)v[6 + j] - v[j];
+            for (int c = 0; c < 3; c++) {
+                lo[j] = fmin(lo[j], v[3 * c + j]);
+                hi[j] = fmax(hi[j], v[3 * c + j]);
+            }
+        }
+        cross3(ti->e1, ti->e2, ti->n);
+        ti->g11 = dot3(ti->e1, ti->e1);
+        ti->g12 = dot3(ti->e1, ti->e2);
+        ti->g22 = dot3(ti->e2, ti->e2);
+        ti->inv = 1.0 / (ti->g11 * ti->g22 - ti->g12 * ti->g12);
+    }
+    double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                       (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    /* Distances below ~1e-7 of the scene size are float rounding of the input coordinates:
+     * treat such points as lying in the plane (edge-on / tangent), and put the near plane
+     * there too so touching geometry (a block on the floor) is still seen up close. */
+    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag};
+
+    size_t rr = (size_t)R * R;
+    int nthreads = opts->threads > 0 ? opts->threads : omp_get_max_threads();
+    volatile int cancelled = 0, failed = 0;
+    size_t done = 0;
+    double last_report = lrr__now();
+    #pragma omp parallel num_threads(nthreads)
+    {
+        scratch sc = {0};
+        int ok = lrr__calloc(ctx, &sc.depth, rr * 3, sizeof(float), "hemicube depth buffer") == 0 &&
+                 lrr__calloc(ctx, &sc.item, rr * 3, sizeof(int32_t), "hemicube item buffer") == 0 &&
+                 lrr__calloc(ctx, &sc.row, g->k, sizeof(double), "hemicube row") == 0;
+        if (!ok) {
+            #pragma omp atomic write
+            failed = 1;
+        }
+        #pragma omp for schedule(dynamic, 16)
+        for (size_t i = 0; i < g->n; i++) {
+            if (cancelled || failed)
+                continue;
+            hemicube_row(&h, i, opts->seed, &sc, fbar + i * g->k);
+            size_t now_done;
+            #pragma omp atomic capture
+            now_done = ++done;
+            if (opts->progress && omp_get_thread_num() == 0) {
+                double t = lrr__now();
+                if (t - last_report > 0.05 || now_done == g->n) {
+                    last_report = t;
+                    if (opts->progress(opts->progress_user, now_done, g->n)) {
+                        #pragma omp atomic write
+                        cancelled = 1;
+                    }
+                }
+            }
+        }
+        lrr_aligned_free(sc.depth);
+        lrr_aligned_free(sc.item);
+        lrr_aligned_free(sc.row);
+    }
+    lrr_aligned_free(tri);
+    lrr__multiplier_map_free(&mm);
+    if (failed)
+        return LRR_ERR_NOMEM;
+    if (cancelled)
+        return lrr__error(ctx, LRR_ERR_CANCELLED, "form-factor build cancelled after %zu of %zu "
+                          "receivers", done, g->n);
+    if (opts->progress && !cancelled)
+        opts->progress(opts->progress_user, g->n, g->n);
+    return LRR_OK;
+}

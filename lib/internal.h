@@ -1,0 +1,143 @@
+/* Internal declarations shared by the library's files. Not installed. */
+#ifndef LRR_INTERNAL_H
+#define LRR_INTERNAL_H
+
+#include "lrr.h"
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdbool.h>
+
+/* ------------------------------------------------------------ context and errors */
+struct lrr_context {
+    int refs;                 /* guarded by lock */
+    pthread_mutex_t lock;
+    lrr_error_fn callback;
+    void *callback_user;
+    lrr_status first_status;  /* first error since the last lrr_context_last_error() */
+    char first_message[512];
+};
+
+lrr_context *lrr__context_retain(lrr_context *ctx);
+void lrr__context_release(lrr_context *ctx);
+
+/* Records an error on ctx (printf-style message naming what and where) and returns status.
+ * ctx may be NULL (then only the status is returned). */
+lrr_status lrr__error(lrr_context *ctx, lrr_status status, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* ------------------------------------------------------------ checked sizes and memory */
+/* *out = a*b; returns false on overflow. */
+static inline bool lrr__mul_size(size_t a, size_t b, size_t *out)
+{
+    return !__builtin_mul_overflow(a, b, out);
+}
+/* Allocates count*elem zeroed bytes, 64-byte aligned. On failure records LRR_ERR_OVERFLOW or
+ * LRR_ERR_NOMEM naming `what`, sets *out = NULL. count == 0 gives a valid 64-byte block. */
+lrr_status lrr__calloc(lrr_context *ctx, void *out, size_t count, size_t elem, const char *what);
+
+/* ------------------------------------------------------------ geometry and hierarchy */
+/* Input triangles and their subdivision; shared by scenes and operators.
+ * Triangle t is split into 4^depth[t] patches, numbered patch0[t] .. patch0[t+1]-1, and each
+ * patch into d = 4^levels subpatches. Children of a split (a,b,c) are, in order:
+ *   0 (a, ab, ca)   1 (ab, b, bc)   2 (ca, bc, c)   3 (bc, ca, ab)
+ * where ab is the midpoint of a and b. A patch/subpatch's local index is its sequence of
+ * child digits, most significant first (base 4). */
+typedef struct lrr__geometry {
+    size_t n_tri;
+    float *vert;        /* n_tri×9 */
+    uint8_t *depth;     /* n_tri, patch depth per triangle; NULL until subdivided */
+    size_t *patch0;     /* n_tri+1 prefix sums of 4^depth; NULL until subdivided */
+    unsigned levels;
+    size_t d, k, n;     /* d = 4^levels, k = patch0[n_tri], n = k·d */
+} lrr__geometry;
+
+void lrr__geometry_free(lrr__geometry *g);
+/* Deep copy (dst is overwritten). */
+lrr_status lrr__geometry_copy(lrr_context *ctx, lrr__geometry *dst, const lrr__geometry *src);
+/* Computes patch0/k/n/d from depth and levels; checks for overflow. */
+lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g);
+
+/* Index of the child containing barycentric (b0,b1,b2), rewriting them to the child's. */
+static inline unsigned lrr__child_at(double *b0, double *b1, double *b2)
+{
+    double u = *b0, v = *b1, w = *b2;
+    if (u >= 0.5) { *b0 = 2 * u - 1; *b1 = 2 * v; *b2 = 2 * w; return 0; }
+    if (v >= 0.5) { *b0 = 2 * u; *b1 = 2 * v - 1; *b2 = 2 * w; return 1; }
+    if (w >= 0.5) { *b0 = 2 * u; *b1 = 2 * v; *b2 = 2 * w - 1; return 2; }
+    *b0 = 1 - 2 * u; *b1 = 1 - 2 * v; *b2 = 1 - 2 * w; return 3;
+}
+/* Subpatch index of barycentric point (b1, b2) (b0 = 1-b1-b2) of triangle t. */
+size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2);
+/* Patch index only (used by the hemicube item buffer). */
+size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2);
+/* Triangle that owns patch p (binary search on patch0). */
+size_t lrr__patch_triangle(const lrr__geometry *g, size_t p);
+/* Vertices (9 doubles) of subpatch i, in the triangle's orientation. */
+void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9]);
+/* Per-subpatch centre (n×3), unit normal (n×3) and area (n); any may be NULL. */
+void lrr__subpatch_frames(const lrr__geometry *g, float *centre, float *normal, float *area);
+
+/* ------------------------------------------------------------ scene */
+enum { LRR__SCENE_FILE = 0, LRR__SCENE_CORNELL = 1, LRR__SCENE_CORNELL_CLOSED = 2 };
+
+struct lrr_scene {
+    lrr_context *ctx;
+    int builtin;          /* LRR__SCENE_* : chooses the render camera */
+    size_t skipped;       /* zero-area triangles removed */
+    lrr__geometry geom;
+    float *rho;           /* n_tri×3 */
+    float *emission;      /* n_tri×3 */
+    double max_patch_area;
+};
+
+/* Validates and takes a copy of the arrays: NaN/Inf coordinates and bad materials are errors
+ * naming `source` and the face index face_ids[t] (or t when face_ids is NULL); zero-area
+ * triangles are skipped and counted. */
+lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *vert,
+                                  const float *rho, const float *emission,
+                                  const size_t *face_ids, const char *source, int builtin,
+                                  lrr_scene **out);
+
+/* ------------------------------------------------------------ operator */
+struct lrr_operator {
+    lrr_context *ctx;
+    int builtin;               /* LRR__SCENE_* of the source scene */
+    lrr__geometry geom;
+    size_t n, k, d;
+    float *rho;                /* n×3 */
+    float *emission;           /* n×3, the scene's own emission */
+    float *area;               /* n */
+    float *centre, *normal;    /* n×3, derived from geom (not stored in files) */
+    float *fbar;               /* n×k row-major, 64-byte aligned: F̄_ip = F_{i→p}/d */
+    float *m;                  /* 3×k×k row-major: M_c = G_c^{-1} */
+    double cond[3];            /* dgecon estimates (1-norm) of G_c */
+    double build_seconds;
+    unsigned hemicube_resolution;
+    uint64_t seed;
+};
+
+/* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, fbar
+ * and m are allocated (zeroed); area/centre/normal are filled from the geometry. */
+lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_operator **out);
+/* Recomputes m and cond from fbar and rho (double precision LAPACKE). */
+lrr_status lrr__operator_factor(lrr_operator *op);
+
+/* ------------------------------------------------------------ hemicube */
+typedef struct lrr__multiplier_map {
+    unsigned res;          /* R */
+    double *top;           /* R×R delta form factors */
+    double *side;          /* (R/2)×R: row 0 at the horizon, columns across the face */
+    double raw_sum;        /* midpoint-rule total before normalisation (→ 1 as R grows) */
+} lrr__multiplier_map;
+
+lrr_status lrr__multiplier_map_create(lrr_context *ctx, unsigned res, lrr__multiplier_map *m);
+void lrr__multiplier_map_free(lrr__multiplier_map *m);
+
+/* Fills fbar (n×k) from geometry g with one hemicube per subpatch. */
+lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
+                              const lrr_build_options *opts, float *fbar);
+
+/* ------------------------------------------------------------ misc */
+double lrr__now(void);  /* monotonic seconds */
+
+#endif

@@ -1,0 +1,219 @@
+/* The low-rank operator: F̄ from hemicubes and, per colour channel c, the
+ * Sherman–Morrison–Woodbury matrices (DESIGN.md "Low-rank model")
+ *
+ *     G_c = I_k - Vᵀ diag(rho_c) F̄        G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq
+ *     M_c = G_c^{-1}
+ *
+ * so that B_c = E_c + rho_c ∘ (F̄ · (M_c · (Vᵀ E_c))) solves (I - diag(rho_c) F̄ Vᵀ) B_c = E_c.
+ * G_c is factorised in double (its condition grows like (1+rho)/(1-rho)) and M_c stored in
+ * float; the 1-norm condition estimate (dgecon) is kept for the user. */
+#include "config.h"
+#include "internal.h"
+
+#include <lapacke.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void lrr_operator_destroy(lrr_operator *op)
+{
+    if (!op)
+        return;
+    lrr__geometry_free(&op->geom);
+    lrr_aligned_free(op->rho);
+    lrr_aligned_free(op->emission);
+    lrr_aligned_free(op->area);
+    lrr_aligned_free(op->centre);
+    lrr_aligned_free(op->normal);
+    lrr_aligned_free(op->fbar);
+    lrr_aligned_free(op->m);
+    lrr__context_release(op->ctx);
+    free(op);
+}
+
+lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_operator **out)
+{
+    *out = NULL;
+    lrr_operator *op = calloc(1, sizeof *op);
+    if (!op)
+        return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate an operator");
+    op->ctx = lrr__context_retain(ctx);
+    lrr_status st;
+    size_t kk;
+    if ((st = lrr__geometry_copy(ctx, &op->geom, g)))
+        goto fail;
+    op->n = g->n;
+    op->k = g->k;
+    op->d = g->d;
+    if (!lrr__mul_size(g->k, g->k, &kk)) {
+        st = lrr__error(ctx, LRR_ERR_OVERFLOW, "k² overflows for k = %zu", g->k);
+        goto fail;
+    }
+    if ((st = lrr__calloc(ctx, &op->rho, g->n, 3 * sizeof(float), "reflectances (n×3)")) ||
+        (st = lrr__calloc(ctx, &op->emission, g->n, 3 * sizeof(float), "emission (n×3)")) ||
+        (st = lrr__calloc(ctx, &op->area, g->n, sizeof(float), "subpatch areas")) ||
+        (st = lrr__calloc(ctx, &op->centre, g->n, 3 * sizeof(float), "subpatch centres")) ||
+        (st = lrr__calloc(ctx, &op->normal, g->n, 3 * sizeof(float), "subpatch normals")) ||
+        (st = lrr__calloc(ctx, &op->fbar, g->n, g->k * sizeof(float), "F̄ (n×k floats)")) ||
+        (st = lrr__calloc(ctx, &op->m, kk, 3 * sizeof(float), "M (3×k×k floats)")))
+        goto fail;
+    lrr__subpatch_frames(&op->geom, op->centre, op->normal, op->area);
+    *out = op;
+    return LRR_OK;
+fail:
+    lrr_operator_destroy(op);
+    return st;
+}
+
+lrr_status lrr__operator_factor(lrr_operator *op)
+{
+    const size_t k = op->k, d = op->d;
+    double *G;
+    lapack_int *ipiv;
+    lrr_status st;
+    size_t kk = k * k; /* checked in lrr__operator_new */
+    if (k > (size_t)INT32_MAX)
+        return lrr__error(op->ctx, LRR_ERR_OVERFLOW, "k = %zu exceeds LAPACK's int range", k);
+    if ((st = lrr__calloc(op->ctx, &G, kk, sizeof(double), "G (k×k doubles)")))
+        return st;
+    if ((st = lrr__calloc(op->ctx, &ipiv, k, sizeof(lapack_int), "pivots"))) {
+        lrr_aligned_free(G);
+        return st;
+    }
+    for (int c = 0; c < 3; c++) {
+        /* G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq: rows of G are independent segmented sums */
+        #pragma omp parallel for schedule(static)
+        for (size_t p = 0; p < k; p++) {
+            double *gp = G + p * k;
+            for (size_t q = 0; q < k; q++)
+                gp[q] = 0;
+            for (size_t i = p * d; i < (p + 1) * d; i++) {
+                double r = op->rho[3 * i + c];
+                if (r == 0)
+                    continue; /* black subpatches reflect nothing */
+                const float *fi = op->fbar + i * k;
+                for (size_t q = 0; q < k; q++)
+                    gp[q] -= r * fi[q];
+            }
+            gp[p] += 1;
+        }
+        double anorm = LAPACKE_dlange(LAPACK_ROW_MAJOR, '1', (lapack_int)k, (lapack_int)k, G,
+                                      (lapack_int)k);
+        lapack_int info = LAPACKE_dgetrf(LAPACK_ROW_MAJOR, (lapack_int)k, (lapack_int)k, G,
+                                         (lapack_int)k, ipiv);
+        if (info > 0) {
+            st = lrr__error(op->ctx, LRR_ERR_SINGULAR,
+                            "channel %d: G = I - Vᵀ diag(rho) F̄ is singular (U[%d][%d] = 0)", c,
+                            (int)info, (int)info);
+            break;
+        }
+        double rcond = 0;
+        if (info == 0)
+            info = LAPACKE_dgecon(LAPACK_ROW_MAJOR, '1', (lapack_int)k, G, (lapack_int)k, anorm,
+                                  &rcond);
+        if (info == 0)
+            info = LAPACKE_dgetri(LAPACK_ROW_MAJOR, (lapack_int)k, G, (lapack_int)k, ipiv);
+        if (info != 0) {
+            st = lrr__error(op->ctx, info < 0 ? LRR_ERR_INVALID_ARG : LRR_ERR_SINGULAR,
+                            "channel %d: LAPACK failed (info = %d)", c, (int)info);
+            break;
+        }
+        op->cond[c] = rcond > 0 ? 1.0 / rcond : INFINITY;
+        float *mc = op->m + (size_t)c * kk;
+        for (size_t j = 0; j < kk; j++) {
+            if (!isfinite(G[j])) {
+                st = lrr__error(op->ctx, LRR_ERR_SINGULAR,
+                                "channel %d: M has a non-finite entry at (%zu, %zu)", c, j / k,
+                                j % k);
+                break;
+            }
+            mc[j] = (float)G[j];
+        }
+        if (st)
+            break;
+    }
+    lrr_aligned_free(G);
+    lrr_aligned_free(ipiv);
+    return st;
+}
+
+lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *opts,
+                              lrr_operator **out)
+{
+    *out = NULL;
+    lrr_context *ctx = scene->ctx;
+    if (!scene->geom.depth)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "the scene is not subdivided: call lrr_scene_subdivide first");
+    lrr_build_options o = {0};
+    if (opts)
+        o = *opts;
+    if (o.hemicube_resolution == 0)
+        o.hemicube_resolution = 128;
+    if (o.threads < 0)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0", o.threads);
+    double t0 = lrr__now();
+    lrr_operator *op;
+    lrr_status st = lrr__operator_new(ctx, &scene->geom, &op);
+    if (st)
+        return st;
+    op->builtin = scene->builtin;
+    op->hemicube_resolution = o.hemicube_resolution;
+    op->seed = o.seed;
+    if ((st = lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission)) ||
+        (st = lrr__hemicube_fbar(ctx, &op->geom, &o, op->fbar)) ||
+        (st = lrr__operator_factor(op))) {
+        lrr_operator_destroy(op);
+        return st;
+    }
+    op->build_seconds = lrr__now() - t0;
+    *out = op;
+    return LRR_OK;
+}
+
+lrr_status lrr_operator_set_reflectance(lrr_operator *op, const float *rho)
+{
+    for (size_t i = 0; i < 3 * op->n; i++)
+        if (!(rho[i] >= 0.0f && rho[i] < 1.0f))
+            return lrr__error(op->ctx, LRR_ERR_MATERIAL,
+                              "reflectance of subpatch %zu, channel %zu = %g is outside [0,1)",
+                              i / 3, i % 3, (double)rho[i]);
+    float *old;
+    lrr_status st = lrr__calloc(op->ctx, &old, op->n, 3 * sizeof(float), "reflectance backup");
+    if (st)
+        return st;
+    memcpy(old, op->rho, op->n * 3 * sizeof(float));
+    memcpy(op->rho, rho, op->n * 3 * sizeof(float));
+    double cond[3];
+    memcpy(cond, op->cond, sizeof cond);
+    if ((st = lrr__operator_factor(op))) {
+        /* keep the operator usable: restore the old reflectances and M */
+        memcpy(op->rho, old, op->n * 3 * sizeof(float));
+        lrr__operator_factor(op);
+    }
+    lrr_aligned_free(old);
+    return st;
+}
+
+void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)
+{
+    memset(info, 0, sizeof *info);
+    info->n = op->n;
+    info->k = op->k;
+    info->d = op->d;
+    info->triangles = op->geom.n_tri;
+    memcpy(info->condition, op->cond, sizeof op->cond);
+    info->build_seconds = op->build_seconds;
+    info->hemicube_resolution = op->hemicube_resolution;
+    info->seed = op->seed;
+    info->bytes = op->n * op->k * sizeof(float) + 3 * op->k * op->k * sizeof(float) +
+                  op->n * 13 * sizeof(float);
+}
+
+const float *lrr_operator_fbar(const lrr_operator *op) { return op->fbar; }
+const float *lrr_operator_m(const lrr_operator *op) { return op->m; }
+const float *lrr_operator_reflectance(const lrr_operator *op) { return op->rho; }
+const float *lrr_operator_emission(const lrr_operator *op) { return op->emission; }
+const float *lrr_operator_area(const lrr_operator *op) { return op->area; }
+const float *lrr_operator_centre(const lrr_operator *op) { return op->centre; }
+const float *lrr_operator_normal(const lrr_operator *op) { return op->normal; }

@@ -1,0 +1,75 @@
+/* Shared helpers for the unit tests (cmocka). */
+#ifndef LRR_TESTUTIL_H
+#define LRR_TESTUTIL_H
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "lrr.h"
+
+/* Fails the test with the context's error message when st != LRR_OK. */
+#define LRR_CHECK(ctx, call)                                                                  \
+    do {                                                                                      \
+        lrr_status st__ = (call);                                                             \
+        if (st__ != LRR_OK) {                                                                 \
+            char msg__[512];                                                                  \
+            lrr_context_last_error((ctx), msg__, sizeof msg__);                               \
+            fail_msg("%s -> %s: %s", #call, lrr_strerror(st__), msg__);                       \
+        }                                                                                     \
+    } while (0)
+
+/* Asserts |a - b| <= tol with a message naming the values. */
+#define ASSERT_NEAR(a, b, tol, ...)                                                           \
+    do {                                                                                      \
+        double a__ = (a), b__ = (b), t__ = (tol);                                             \
+        if (!(fabs(a__ - b__) <= t__)) {                                                      \
+            print_error(__VA_ARGS__);                                                         \
+            fail_msg("%s = %.10g, expected %.10g (tolerance %.3g)", #a, a__, b__, t__);       \
+        }                                                                                     \
+    } while (0)
+
+/* Writes the two triangles of quad (p0,p1,p2,p3) (counter-clockwise seen from the front)
+ * into v (18 floats). */
+static inline void tu_quad(float *v, const double p0[3], const double p1[3], const double p2[3],
+                           const double p3[3])
+{
+    const double *q[6] = {p0, p1, p2, p0, p2, p3};
+    for (int i = 0; i < 6; i++)
+        for (int j = 0; j < 3; j++)
+            v[3 * i + j] = (float)q[i][j];
+}
+
+/* An axis-aligned box [0,sx]×[0,sy]×[0,sz] with faces pointing inwards (12 triangles).
+ * Faces in order: x=0, x=sx, y=0, y=sy, z=0, z=sz. */
+static inline void tu_box_inward(float v[108], double sx, double sy, double sz)
+{
+    double c[8][3];
+    for (int i = 0; i < 8; i++) {
+        c[i][0] = (i & 1) ? sx : 0;
+        c[i][1] = (i & 2) ? sy : 0;
+        c[i][2] = (i & 4) ? sz : 0;
+    }
+    /* each face listed counter-clockwise as seen from inside the box */
+    static const int f[6][4] = {{0, 2, 6, 4}, {1, 5, 7, 3}, {0, 4, 5, 1},
+                                {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 6, 7, 5}};
+    for (int i = 0; i < 6; i++)
+        tu_quad(v + 18 * i, c[f[i][0]], c[f[i][1]], c[f[i][2]], c[f[i][3]]);
+}
+
+/* Temporary file path under $LRR_TEST_TMP (or /tmp), unique per process. */
+static inline void tu_tmp_path(char *buf, size_t len, const char *name)
+{
+    const char *dir = getenv("LRR_TEST_TMP");
+    snprintf(buf, len, "%s/%s.%ld", dir && *dir ? dir : "/tmp", name, (long)getpid());
+}
+
+#endif

@@ -1,0 +1,331 @@
+/* Helpers of the `lrr` tool: see cli.h. */
+#include "cli.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* ------------------------------------------------------------------ messages */
+void cli_usage_error(const char *prog, const char *fmt, ...)
+{
+    va_list ap;
+    fprintf(stderr, "%s: ", prog);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+}
+
+int cli_lib_error(lrr_context *ctx, lrr_status status)
+{
+    char msg[1024] = "";
+    if (ctx) {
+        /* The first error recorded is the most specific one (later ones are consequences). */
+        lrr_status recorded = lrr_context_last_error(ctx, msg, sizeof msg);
+        if (recorded == LRR_OK)
+            msg[0] = '\0';
+    }
+    if (msg[0])
+        fprintf(stderr, "lrr: %s: %s\n", lrr_strerror(status), msg);
+    else
+        fprintf(stderr, "lrr: %s\n", lrr_strerror(status));
+    return CLI_EXIT_FAIL;
+}
+
+int cli_fail(lrr_status status, const char *fmt, ...)
+{
+    va_list ap;
+    fprintf(stderr, "lrr: %s: ", lrr_strerror(status));
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    return CLI_EXIT_FAIL;
+}
+
+/* ------------------------------------------------------------------ numbers */
+int cli_parse_u64(const char *prog, const char *opt, const char *text, uint64_t min,
+                  uint64_t max, uint64_t *out)
+{
+    /* strtoull skips spaces and silently wraps "-1" to 2^64-1: only plain digits pass. */
+    if (!isdigit((unsigned char)text[0])) {
+        cli_usage_error(prog, "%s: '%s' is not an integer", opt, text);
+        return -1;
+    }
+    char *end = NULL;
+    errno = 0;
+    unsigned long long v = strtoull(text, &end, 10);
+    if (*end != '\0') {
+        cli_usage_error(prog, "%s: '%s' is not an integer", opt, text);
+        return -1;
+    }
+    if (errno == ERANGE || v < min || v > max) {
+        cli_usage_error(prog, "%s: '%s' is out of range (%llu..%llu)", opt, text,
+                        (unsigned long long)min, (unsigned long long)max);
+        return -1;
+    }
+    *out = (uint64_t)v;
+    return 0;
+}
+
+int cli_parse_size(const char *prog, const char *opt, const char *text, size_t min,
+                   size_t max, size_t *out)
+{
+    uint64_t v;
+    if (cli_parse_u64(prog, opt, text, min, max, &v) != 0)
+        return -1;
+    *out = (size_t)v;
+    return 0;
+}
+
+int cli_parse_unsigned(const char *prog, const char *opt, const char *text, unsigned min,
+                       unsigned max, unsigned *out)
+{
+    uint64_t v;
+    if (cli_parse_u64(prog, opt, text, min, max, &v) != 0)
+        return -1;
+    *out = (unsigned)v;
+    return 0;
+}
+
+int cli_parse_double(const char *prog, const char *opt, const char *text, double min,
+                     int min_open, double max, double *out)
+{
+    char *end = NULL;
+    if (text[0] == '\0' || isspace((unsigned char)text[0])) {
+        cli_usage_error(prog, "%s: '%s' is not a number", opt, text);
+        return -1;
+    }
+    errno = 0;
+    double v = strtod(text, &end);
+    if (*end != '\0') {
+        cli_usage_error(prog, "%s: '%s' is not a number", opt, text);
+        return -1;
+    }
+    if (!isfinite(v) || errno == ERANGE) {
+        cli_usage_error(prog, "%s: '%s' is not a finite number", opt, text);
+        return -1;
+    }
+    if (v < min || (min_open && v == min)) {
+        cli_usage_error(prog, "%s: '%s' is out of range (it must be %s %g)", opt, text,
+                        min_open ? "greater than" : "at least", min);
+        return -1;
+    }
+    if (v > max) {
+        cli_usage_error(prog, "%s: '%s' is out of range (it must be at most %g)", opt, text,
+                        max);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+/* ------------------------------------------------------------------ time */
+double cli_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* ------------------------------------------------------------------ progress bar */
+void cli_progress_init(cli_progress *p, const char *label, int enabled)
+{
+    p->label = label;
+    p->enabled = enabled;
+    p->drawn = 0;
+    p->start = cli_now();
+    p->last_draw = -1.0;
+    p->last_done = (size_t)-1;
+}
+
+int cli_progress_cb(void *user, size_t done, size_t total)
+{
+    cli_progress *p = user;
+    if (!p || !p->enabled)
+        return 0;
+    double now = cli_now();
+    int last = total > 0 && done >= total;
+    /* Redrawing on every receiver would cost more than the hemicubes on small scenes. */
+    if (done == p->last_done || (!last && p->last_draw >= 0.0 && now - p->last_draw < 0.1))
+        return 0;
+    p->last_draw = now;
+    p->last_done = done;
+
+    enum { WIDTH = 30 };
+    double frac = total > 0 ? (double)done / (double)total : 0.0;
+    if (frac > 1.0)
+        frac = 1.0;
+    int filled = (int)(frac * WIDTH + 0.5);
+    char bar[WIDTH + 1];
+    for (int i = 0; i < WIDTH; i++)
+        bar[i] = i < filled ? '#' : '.';
+    bar[WIDTH] = '\0';
+    fprintf(stderr, "\r%s [%s] %3d%% %zu/%zu %.1f s", p->label, bar, (int)(frac * 100.0),
+            done, total, now - p->start);
+    fflush(stderr);
+    p->drawn = 1;
+    return 0;
+}
+
+void cli_progress_finish(cli_progress *p)
+{
+    if (p->enabled && p->drawn) {
+        fputc('\n', stderr);
+        fflush(stderr);
+    }
+    p->drawn = 0;
+}
+
+/* ------------------------------------------------------------------ atomic output files */
+int cli_outfile_open(cli_outfile *out, const char *path)
+{
+    static const char suffix[] = ".tmpXXXXXX";
+    out->f = NULL;
+    out->path = NULL;
+    out->tmp_path = NULL;
+    size_t len = strlen(path);
+    if (len > SIZE_MAX - sizeof suffix) {
+        errno = ENAMETOOLONG;
+        return -1;
+    }
+    out->path = strdup(path);
+    out->tmp_path = malloc(len + sizeof suffix);
+    if (!out->path || !out->tmp_path) {
+        free(out->path);
+        free(out->tmp_path);
+        out->path = out->tmp_path = NULL;
+        errno = ENOMEM;
+        return -1;
+    }
+    memcpy(out->tmp_path, path, len);
+    memcpy(out->tmp_path + len, suffix, sizeof suffix);
+    /* Same directory as the target, so rename() stays within one file system. */
+    int fd = mkstemp(out->tmp_path);
+    if (fd < 0) {
+        int e = errno;
+        free(out->path);
+        free(out->tmp_path);
+        out->path = out->tmp_path = NULL;
+        errno = e;
+        return -1;
+    }
+    /* mkstemp creates mode 0600; give the result the permissions a plain fopen would. */
+    mode_t mask = umask(0);
+    umask(mask);
+    (void)fchmod(fd, 0666 & ~mask);
+    out->f = fdopen(fd, "w");
+    if (!out->f) {
+        int e = errno;
+        close(fd);
+        unlink(out->tmp_path);
+        free(out->path);
+        free(out->tmp_path);
+        out->path = out->tmp_path = NULL;
+        errno = e;
+        return -1;
+    }
+    return 0;
+}
+
+static void outfile_release(cli_outfile *out)
+{
+    free(out->path);
+    free(out->tmp_path);
+    out->f = NULL;
+    out->path = out->tmp_path = NULL;
+}
+
+int cli_outfile_commit(cli_outfile *out)
+{
+    int e = 0;
+    if (ferror(out->f))
+        e = EIO;
+    if (!e && fflush(out->f) != 0)
+        e = errno ? errno : EIO;
+    if (!e && fsync(fileno(out->f)) != 0)
+        e = errno;
+    if (fclose(out->f) != 0 && !e)
+        e = errno ? errno : EIO;
+    out->f = NULL;
+    if (!e && rename(out->tmp_path, out->path) != 0)
+        e = errno;
+    if (e) {
+        unlink(out->tmp_path);
+        outfile_release(out);
+        errno = e;
+        return -1;
+    }
+    outfile_release(out);
+    return 0;
+}
+
+void cli_outfile_abort(cli_outfile *out)
+{
+    if (out->f)
+        fclose(out->f);
+    if (out->tmp_path)
+        unlink(out->tmp_path);
+    outfile_release(out);
+}
+
+int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const float *radiosity)
+{
+    lrr_operator_info info;
+    lrr_operator_get_info(op, &info);
+    const float *area = lrr_operator_area(op);
+    const float *centre = lrr_operator_centre(op);
+    const float *normal = lrr_operator_normal(op);
+    if (!area || !centre || !normal)
+        return cli_fail(LRR_ERR_INVALID_ARG, "%s: the operator has no per-subpatch geometry",
+                        path);
+    size_t d = info.d ? info.d : 1;
+
+    cli_outfile out;
+    if (cli_outfile_open(&out, path) != 0)
+        return cli_fail(LRR_ERR_IO, "cannot create a temporary file for '%s': %s", path,
+                        strerror(errno));
+    fputs("subpatch,patch,area,cx,cy,cz,nx,ny,nz,b_r,b_g,b_b\n", out.f);
+    for (size_t i = 0; i < info.n; i++) {
+        const float *c = centre + 3 * i, *nr = normal + 3 * i, *b = radiosity + 3 * i;
+        if (fprintf(out.f, "%zu,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", i,
+                    i / d, (double)area[i], (double)c[0], (double)c[1], (double)c[2],
+                    (double)nr[0], (double)nr[1], (double)nr[2], (double)b[0], (double)b[1],
+                    (double)b[2]) < 0)
+            break; /* the error sticks in ferror(); commit reports it */
+    }
+    if (cli_outfile_commit(&out) != 0)
+        return cli_fail(LRR_ERR_IO, "cannot write '%s': %s", path, strerror(errno));
+    return CLI_EXIT_OK;
+}
+
+/* ------------------------------------------------------------------ misc */
+float *cli_alloc_rgb(size_t n)
+{
+    if (n == 0 || n > SIZE_MAX / (3 * sizeof(float))) {
+        cli_fail(LRR_ERR_OVERFLOW, "%zu subpatches × 3 colours does not fit in memory", n);
+        return NULL;
+    }
+    float *p = calloc(n * 3, sizeof(float));
+    if (!p)
+        cli_fail(LRR_ERR_NOMEM, "cannot allocate %zu colours", n * 3);
+    return p;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+double cli_median(double *v, size_t n)
+{
+    qsort(v, n, sizeof *v, cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}

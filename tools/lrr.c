@@ -1,0 +1,1002 @@
+/*
+ * lrr — command-line front end of the Low-Rank Radiosity library.
+ *
+ *   lrr info SCENE        scene statistics after subdivision
+ *   lrr preprocess SCENE  build and save the operator (F̄, M_c)
+ *   lrr solve FILE.lrr    solve for the stored emission, time it, write a CSV
+ *   lrr render FILE.lrr   solve and draw a PNG
+ *   lrr demo              the Cornell box from start to picture
+ *
+ * Exit status: 0 success, 1 a failure while working (library error, I/O), 2 a malformed
+ * command line. Uses only the public API (lrr.h).
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "cli.h"
+#include "lrr.h"
+
+/* Defaults when no subdivision option is given (documented in the help texts). */
+#define DEFAULT_PATCHES 216
+#define DEFAULT_LEVELS 2u
+#define DEFAULT_HEMICUBE 128u
+#define DEFAULT_SEED 1u
+#define DEFAULT_REPEAT 10u
+
+/* Long-only options get codes above the char range. */
+enum {
+    OPT_MAX_PATCH_AREA = 256,
+    OPT_PATCHES,
+    OPT_LEVELS,
+    OPT_HEMICUBE,
+    OPT_SEED,
+    OPT_THREADS,
+    OPT_PROGRESS,
+    OPT_CSV,
+    OPT_EMISSION_SCALE,
+    OPT_REPEAT,
+    OPT_WIDTH,
+    OPT_HEIGHT,
+    OPT_EXPOSURE,
+    OPT_CAMERA,
+    OPT_OUT
+};
+
+/* ------------------------------------------------------------------ help texts */
+static const char main_help[] =
+    "Usage: lrr COMMAND [OPTIONS]\n"
+    "Low-Rank Radiosity: preprocess a diffuse scene once, then solve for any emission.\n"
+    "\n"
+    "Commands:\n"
+    "  info SCENE           scene statistics after subdivision\n"
+    "  preprocess SCENE     build the operator and save it to an .lrr file\n"
+    "  solve FILE.lrr       solve for the stored emission, time it, optionally write a CSV\n"
+    "  render FILE.lrr      solve and draw a PNG\n"
+    "  demo                 the Cornell box from scene to picture\n"
+    "\n"
+    "Options:\n"
+    "  -h, --help           show this help (COMMAND --help: help on a command)\n"
+    "  -V, --version        print the library version\n"
+    "\n"
+    "Exit status: 0 success, 1 failure, 2 bad command line.\n";
+
+#define SUBDIV_HELP                                                                           \
+    "Subdivision (default when neither --max-patch-area nor --patches is given:\n"           \
+    "--patches 216 --levels 2):\n"                                                            \
+    "  --max-patch-area A   split input triangles until every patch has area <= A\n"          \
+    "  --patches K          choose the area threshold giving about K patches\n"               \
+    "  --levels L           split each patch L more times: d = 4^L subpatches (0..10,\n"      \
+    "                       default 2)\n"
+
+#define SCENE_HELP                                                                            \
+    "SCENE is an OBJ/PLY/glTF file, or a built-in scene: 'cornell' or 'cornell-closed'.\n"  \
+    "A built-in name is used only when no file of that name exists.\n"
+
+static const char info_help[] =
+    "Usage: lrr info SCENE [OPTIONS]\n"
+    "Prints scene statistics as 'key: value' lines (scene, triangles, skipped, patches,\n"
+    "subpatches, d, area, emitters, max_patch_area, bounds_min, bounds_max).\n"
+    "\n" SCENE_HELP "\n" SUBDIV_HELP "  -h, --help           show this help\n";
+
+static const char preprocess_help[] =
+    "Usage: lrr preprocess SCENE -o FILE.lrr [OPTIONS]\n"
+    "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
+    "saves it atomically. Prints 'key: value' lines: n, k, d, hemicube, seed,\n"
+    "build_seconds, cond_r, cond_g, cond_b, memory_mb, output.\n"
+    "\n" SCENE_HELP "\n"
+    "Options:\n"
+    "  -o, --output FILE    where to write the operator (required)\n"
+    "  --hemicube R         hemicube resolution: even, 8..4096 (default 128)\n"
+    "  --seed S             seed of the random hemicube rotations (default 1)\n"
+    "  --threads T          OpenMP threads, 0 = OpenMP's default (default 0)\n"
+    "  --progress           draw a progress bar on stderr even when it is not a terminal\n"
+    "  -h, --help           show this help\n" SUBDIV_HELP;
+
+static const char solve_help[] =
+    "Usage: lrr solve FILE.lrr [OPTIONS]\n"
+    "Solves B = E + rho ∘ (F̄ (M (Vᵀ E))) on the CPU for the emission stored in the file\n"
+    "and prints n, k, d, solve_ms (median of the timed runs, after one warm-up run),\n"
+    "mean_b_r, mean_b_g, mean_b_b (area-weighted mean radiosity) and max_b.\n"
+    "\n"
+    "Options:\n"
+    "  --csv OUT.csv        write one row per subpatch:\n"
+    "                       subpatch,patch,area,cx,cy,cz,nx,ny,nz,b_r,b_g,b_b\n"
+    "  --emission-scale S   multiply the stored emission by S (finite, >= 0; default 1)\n"
+    "  --repeat N           number of timed runs (1..1000000, default 10)\n"
+    "  -h, --help           show this help\n";
+
+static const char render_help[] =
+    "Usage: lrr render FILE.lrr -o OUT.png [OPTIONS]\n"
+    "Solves for the stored emission and draws the scene with its radiosity to a PNG.\n"
+    "\n"
+    "Options:\n"
+    "  -o, --output OUT.png where to write the picture (required)\n"
+    "  --width W            picture width in pixels (1..16384, default 512)\n"
+    "  --height H           picture height in pixels (1..16384, default 512)\n"
+    "  --exposure X         multiplier before tone mapping (> 0; default automatic)\n"
+    "  --emission-scale S   multiply the stored emission by S (finite, >= 0; default 1)\n"
+    "  --camera C           'cornell', 'fit' (frame the scene) or 'auto' (default: the\n"
+    "                       Cornell camera for the built-in boxes)\n"
+    "  -h, --help           show this help\n";
+
+static const char demo_help[] =
+    "Usage: lrr demo [OPTIONS]\n"
+    "The Cornell box from start to picture: scene statistics, preprocessing (216 patches,\n"
+    "2 levels, hemicube 128) with a progress bar, a timed solve, a table of the mean\n"
+    "radiosity of each wall, and a PNG.\n"
+    "\n"
+    "Options:\n"
+    "  --out DIR            where to write cornell.lrr and cornell.png (default ./out)\n"
+    "  -h, --help           show this help\n";
+
+/* ------------------------------------------------------------------ option parsing */
+/* Reports the option getopt_long rejected (it is told to stay quiet: the optstring starts
+ * with ':' and opterr = 0) and returns the usage exit status. */
+static int bad_option(const char *prog, int c, char *const argv[])
+{
+    const char *arg = optind > 0 ? argv[optind - 1] : "";
+    if (c == ':') {
+        cli_usage_error(prog, "%s: a value is required", arg);
+    } else if (strncmp(arg, "--", 2) == 0 || optopt == 0 || optopt > 255) {
+        cli_usage_error(prog, "unknown option '%s'", arg);
+    } else {
+        cli_usage_error(prog, "unknown option '-%c'", optopt);
+    }
+    fprintf(stderr, "Try '%s --help'.\n", prog);
+    return CLI_EXIT_USAGE;
+}
+
+static void start_getopt(void)
+{
+    opterr = 0;
+    optind = 0; /* glibc: 0 re-initialises the scanner completely */
+}
+
+typedef struct subdiv_args {
+    lrr_subdivision sub;
+    int have_area, have_patches;
+} subdiv_args;
+
+static void subdiv_init(subdiv_args *s)
+{
+    memset(s, 0, sizeof *s);
+    s->sub.levels = DEFAULT_LEVELS;
+}
+
+/* Returns 1 if c was a subdivision option, 0 if not, -1 on a bad value. */
+static int subdiv_option(subdiv_args *s, const char *prog, int c, const char *arg)
+{
+    switch (c) {
+    case OPT_MAX_PATCH_AREA:
+        s->have_area = 1;
+        return cli_parse_double(prog, "--max-patch-area", arg, 0.0, 1, 1e300,
+                                &s->sub.max_patch_area) == 0 ? 1 : -1;
+    case OPT_PATCHES:
+        s->have_patches = 1;
+        return cli_parse_size(prog, "--patches", arg, 1, SIZE_MAX, &s->sub.target_patches) == 0
+                   ? 1 : -1;
+    case OPT_LEVELS:
+        return cli_parse_unsigned(prog, "--levels", arg, 0, 10, &s->sub.levels) == 0 ? 1 : -1;
+    default:
+        return 0;
+    }
+}
+
+/* Checks the combination and fills in the default. Returns 0 or the usage exit status. */
+static int subdiv_finish(subdiv_args *s, const char *prog)
+{
+    if (s->have_area && s->have_patches) {
+        cli_usage_error(prog, "--max-patch-area and --patches exclude each other");
+        return CLI_EXIT_USAGE;
+    }
+    if (!s->have_area && !s->have_patches)
+        s->sub.target_patches = DEFAULT_PATCHES;
+    return 0;
+}
+
+/* Takes exactly one positional argument; returns it or NULL after a usage message. */
+static const char *one_positional(const char *prog, const char *what, int argc,
+                                  char *const argv[])
+{
+    if (optind >= argc) {
+        cli_usage_error(prog, "missing %s", what);
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return NULL;
+    }
+    if (optind + 1 < argc) {
+        cli_usage_error(prog, "unexpected argument '%s'", argv[optind + 1]);
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return NULL;
+    }
+    return argv[optind];
+}
+
+/* ------------------------------------------------------------------ shared steps */
+static int is_builtin(const char *name)
+{
+    return strcmp(name, "cornell") == 0 || strcmp(name, "cornell-closed") == 0;
+}
+
+/* A file wins over a built-in name, so a scene file called "cornell" stays reachable. */
+static int open_scene(lrr_context *ctx, const char *name, lrr_scene **scene)
+{
+    struct stat st;
+    lrr_status s;
+    if (stat(name, &st) == 0) {
+        s = lrr_scene_load(ctx, name, scene);
+    } else if (is_builtin(name)) {
+        s = lrr_scene_builtin(ctx, name, scene);
+    } else {
+        return cli_fail(LRR_ERR_IO, "scene '%s': %s (built-in scenes: cornell, cornell-closed)",
+                        name, strerror(errno));
+    }
+    return s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, s);
+}
+
+static int open_subdivided_scene(lrr_context *ctx, const char *name, const subdiv_args *sa,
+                                 lrr_scene **scene)
+{
+    int rc = open_scene(ctx, name, scene);
+    if (rc != CLI_EXIT_OK)
+        return rc;
+    lrr_status s = lrr_scene_subdivide(*scene, &sa->sub);
+    if (s != LRR_OK) {
+        rc = cli_lib_error(ctx, s);
+        lrr_scene_destroy(*scene);
+        *scene = NULL;
+        return rc;
+    }
+    return CLI_EXIT_OK;
+}
+
+static void print_scene_info(const char *name, const lrr_scene *scene)
+{
+    lrr_scene_info si;
+    lrr_scene_get_info(scene, &si);
+    printf("scene: %s\n", name);
+    printf("triangles: %zu\n", si.triangles);
+    printf("skipped: %zu\n", si.skipped);
+    printf("patches: %zu\n", si.patches);
+    printf("subpatches: %zu\n", si.subpatches);
+    printf("d: %zu\n", si.d);
+    printf("area: %.9g\n", si.area);
+    printf("emitters: %zu\n", si.emitters);
+    printf("max_patch_area: %.9g\n", si.max_patch_area);
+    printf("bounds_min: %.9g %.9g %.9g\n", si.bounds_min[0], si.bounds_min[1],
+           si.bounds_min[2]);
+    printf("bounds_max: %.9g %.9g %.9g\n", si.bounds_max[0], si.bounds_max[1],
+           si.bounds_max[2]);
+}
+
+static void print_operator_info(const lrr_operator *op)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    printf("n: %zu\n", oi.n);
+    printf("k: %zu\n", oi.k);
+    printf("d: %zu\n", oi.d);
+    printf("hemicube: %u\n", oi.hemicube_resolution);
+    printf("seed: %llu\n", (unsigned long long)oi.seed);
+    printf("build_seconds: %.3f\n", oi.build_seconds);
+    printf("cond_r: %.6g\n", oi.condition[0]);
+    printf("cond_g: %.6g\n", oi.condition[1]);
+    printf("cond_b: %.6g\n", oi.condition[2]);
+    printf("memory_mb: %.3f\n", (double)oi.bytes / (1024.0 * 1024.0));
+}
+
+/* Fails early when the directory of an output file cannot be written, so a long build is
+ * not thrown away at the save. */
+static int check_writable_dir(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    char *dir = slash ? strndup(path, slash == path ? 1 : (size_t)(slash - path)) : strdup(".");
+    if (!dir)
+        return cli_fail(LRR_ERR_NOMEM, "cannot copy the path '%s'", path);
+    int rc = CLI_EXIT_OK;
+    if (access(dir, W_OK | X_OK) != 0)
+        rc = cli_fail(LRR_ERR_IO, "cannot write '%s': directory '%s': %s", path, dir,
+                      strerror(errno));
+    free(dir);
+    return rc;
+}
+
+static int load_operator(lrr_context *ctx, const char *path, lrr_operator **op)
+{
+    lrr_status s = lrr_operator_load(ctx, path, op);
+    return s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, s);
+}
+
+/* E = S × (stored emission); fails if scaling makes a value overflow to infinity. */
+static int scaled_emission(const lrr_operator *op, double scale, float **out)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    const float *e0 = lrr_operator_emission(op);
+    if (!e0)
+        return cli_fail(LRR_ERR_INVALID_ARG, "the operator has no stored emission");
+    float *e = cli_alloc_rgb(oi.n);
+    if (!e)
+        return CLI_EXIT_FAIL;
+    for (size_t i = 0; i < 3 * oi.n; i++) {
+        e[i] = (float)((double)e0[i] * scale);
+        if (!isfinite(e[i])) {
+            free(e);
+            return cli_fail(LRR_ERR_INVALID_ARG,
+                            "--emission-scale %g: the emission of subpatch %zu overflows", scale,
+                            i / 3);
+        }
+    }
+    *out = e;
+    return CLI_EXIT_OK;
+}
+
+/* A solve must never hand back NaN or Inf silently; the tool double-checks. */
+static int check_finite(const float *b, size_t n)
+{
+    for (size_t i = 0; i < 3 * n; i++)
+        if (!isfinite(b[i])) {
+            fprintf(stderr, "lrr: the radiosity of subpatch %zu is not finite (%g)\n", i / 3,
+                    (double)b[i]);
+            return CLI_EXIT_FAIL;
+        }
+    return CLI_EXIT_OK;
+}
+
+/* Solves once to warm up, then `repeat` timed runs; *median_ms gets their median. */
+static int timed_solve(lrr_context *ctx, const lrr_operator *op, const float *e, float *b,
+                       unsigned repeat, double *median_ms)
+{
+    lrr_solver *solver = NULL;
+    lrr_status s = lrr_solver_create(op, LRR_BACKEND_CPU, &solver);
+    if (s != LRR_OK)
+        return cli_lib_error(ctx, s);
+    double *t = calloc(repeat ? repeat : 1, sizeof *t);
+    if (!t) {
+        lrr_solver_destroy(solver);
+        return cli_fail(LRR_ERR_NOMEM, "cannot allocate %u timings", repeat);
+    }
+    s = lrr_solve(solver, e, b);
+    for (unsigned r = 0; s == LRR_OK && r < repeat; r++) {
+        double t0 = cli_now();
+        s = lrr_solve(solver, e, b);
+        t[r] = 1e3 * (cli_now() - t0);
+    }
+    lrr_solver_destroy(solver);
+    if (s != LRR_OK) {
+        free(t);
+        return cli_lib_error(ctx, s);
+    }
+    *median_ms = repeat ? cli_median(t, repeat) : 0.0;
+    free(t);
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    return check_finite(b, oi.n);
+}
+
+static void print_solution_summary(const lrr_operator *op, const float *b)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    const float *area = lrr_operator_area(op);
+    double sum[3] = {0, 0, 0}, total = 0.0, maxb = 0.0;
+    for (size_t i = 0; i < oi.n; i++) {
+        double a = area ? (double)area[i] : 1.0;
+        total += a;
+        for (int c = 0; c < 3; c++) {
+            sum[c] += a * (double)b[3 * i + c];
+            if (b[3 * i + c] > maxb)
+                maxb = b[3 * i + c];
+        }
+    }
+    static const char ch[3] = {'r', 'g', 'b'};
+    for (int c = 0; c < 3; c++)
+        printf("mean_b_%c: %.9g\n", ch[c], total > 0 ? sum[c] / total : 0.0);
+    printf("max_b: %.9g\n", maxb);
+}
+
+/* ------------------------------------------------------------------ lrr info */
+static int cmd_info(int argc, char *argv[])
+{
+    static const char prog[] = "lrr info";
+    static const struct option longopts[] = {
+        {"max-patch-area", required_argument, NULL, OPT_MAX_PATCH_AREA},
+        {"patches", required_argument, NULL, OPT_PATCHES},
+        {"levels", required_argument, NULL, OPT_LEVELS},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    subdiv_args sa;
+    subdiv_init(&sa);
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        int r = subdiv_option(&sa, prog, c, optarg);
+        if (r < 0)
+            return CLI_EXIT_USAGE;
+        if (r > 0)
+            continue;
+        if (c == 'h') {
+            fputs(info_help, stdout);
+            return CLI_EXIT_OK;
+        }
+        return bad_option(prog, c, argv);
+    }
+    const char *name = one_positional(prog, "SCENE", argc, argv);
+    if (!name)
+        return CLI_EXIT_USAGE;
+    int rc = subdiv_finish(&sa, prog);
+    if (rc)
+        return rc;
+
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return cli_lib_error(NULL, s);
+    lrr_scene *scene = NULL;
+    rc = open_subdivided_scene(ctx, name, &sa, &scene);
+    if (rc == CLI_EXIT_OK)
+        print_scene_info(name, scene);
+    lrr_scene_destroy(scene);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ lrr preprocess */
+static int cmd_preprocess(int argc, char *argv[])
+{
+    static const char prog[] = "lrr preprocess";
+    static const struct option longopts[] = {
+        {"output", required_argument, NULL, 'o'},
+        {"max-patch-area", required_argument, NULL, OPT_MAX_PATCH_AREA},
+        {"patches", required_argument, NULL, OPT_PATCHES},
+        {"levels", required_argument, NULL, OPT_LEVELS},
+        {"hemicube", required_argument, NULL, OPT_HEMICUBE},
+        {"seed", required_argument, NULL, OPT_SEED},
+        {"threads", required_argument, NULL, OPT_THREADS},
+        {"progress", no_argument, NULL, OPT_PROGRESS},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    subdiv_args sa;
+    subdiv_init(&sa);
+    const char *output = NULL;
+    unsigned hemicube = DEFAULT_HEMICUBE, threads = 0;
+    uint64_t seed = DEFAULT_SEED;
+    int force_progress = 0;
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
+        int r = subdiv_option(&sa, prog, c, optarg);
+        if (r < 0)
+            return CLI_EXIT_USAGE;
+        if (r > 0)
+            continue;
+        switch (c) {
+        case 'h':
+            fputs(preprocess_help, stdout);
+            return CLI_EXIT_OK;
+        case 'o':
+            output = optarg;
+            break;
+        case OPT_HEMICUBE:
+            if (cli_parse_unsigned(prog, "--hemicube", optarg, 8, 4096, &hemicube) != 0)
+                return CLI_EXIT_USAGE;
+            if (hemicube % 2 != 0) {
+                cli_usage_error(prog, "--hemicube: %u is odd (the side faces are R×R/2)",
+                                hemicube);
+                return CLI_EXIT_USAGE;
+            }
+            break;
+        case OPT_SEED:
+            if (cli_parse_u64(prog, "--seed", optarg, 0, UINT64_MAX, &seed) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_THREADS:
+            if (cli_parse_unsigned(prog, "--threads", optarg, 0, 4096, &threads) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_PROGRESS:
+            force_progress = 1;
+            break;
+        default:
+            return bad_option(prog, c, argv);
+        }
+    }
+    const char *name = one_positional(prog, "SCENE", argc, argv);
+    if (!name)
+        return CLI_EXIT_USAGE;
+    if (!output || !output[0]) {
+        cli_usage_error(prog, "-o FILE.lrr is required");
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return CLI_EXIT_USAGE;
+    }
+    int rc = subdiv_finish(&sa, prog);
+    if (rc)
+        return rc;
+
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return cli_lib_error(NULL, s);
+    lrr_scene *scene = NULL;
+    lrr_operator *op = NULL;
+    rc = check_writable_dir(output);
+    if (rc == CLI_EXIT_OK)
+        rc = open_subdivided_scene(ctx, name, &sa, &scene);
+    if (rc == CLI_EXIT_OK) {
+        cli_progress bar;
+        cli_progress_init(&bar, "hemicubes", force_progress || isatty(STDERR_FILENO));
+        lrr_build_options bo = {.hemicube_resolution = hemicube,
+                                .seed = seed,
+                                .threads = (int)threads,
+                                .progress = cli_progress_cb,
+                                .progress_user = &bar};
+        s = lrr_operator_build(scene, &bo, &op);
+        cli_progress_finish(&bar);
+        if (s == LRR_OK)
+            s = lrr_operator_save(op, output);
+        if (s != LRR_OK)
+            rc = cli_lib_error(ctx, s);
+    }
+    if (rc == CLI_EXIT_OK) {
+        print_operator_info(op);
+        printf("output: %s\n", output);
+    }
+    lrr_operator_destroy(op);
+    lrr_scene_destroy(scene);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ lrr solve */
+static int cmd_solve(int argc, char *argv[])
+{
+    static const char prog[] = "lrr solve";
+    static const struct option longopts[] = {
+        {"csv", required_argument, NULL, OPT_CSV},
+        {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
+        {"repeat", required_argument, NULL, OPT_REPEAT},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    const char *csv = NULL;
+    double scale = 1.0;
+    unsigned repeat = DEFAULT_REPEAT;
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        switch (c) {
+        case 'h':
+            fputs(solve_help, stdout);
+            return CLI_EXIT_OK;
+        case OPT_CSV:
+            csv = optarg;
+            break;
+        case OPT_EMISSION_SCALE:
+            if (cli_parse_double(prog, "--emission-scale", optarg, 0.0, 0, 1e300, &scale) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_REPEAT:
+            if (cli_parse_unsigned(prog, "--repeat", optarg, 1, 1000000, &repeat) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        default:
+            return bad_option(prog, c, argv);
+        }
+    }
+    const char *path = one_positional(prog, "FILE.lrr", argc, argv);
+    if (!path)
+        return CLI_EXIT_USAGE;
+    if (csv && !csv[0]) {
+        cli_usage_error(prog, "--csv: the file name is empty");
+        return CLI_EXIT_USAGE;
+    }
+
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return cli_lib_error(NULL, s);
+    lrr_operator *op = NULL;
+    float *e = NULL, *b = NULL;
+    double ms = 0.0;
+    int rc = load_operator(ctx, path, &op);
+    if (rc == CLI_EXIT_OK)
+        rc = scaled_emission(op, scale, &e);
+    if (rc == CLI_EXIT_OK) {
+        lrr_operator_info oi;
+        lrr_operator_get_info(op, &oi);
+        b = cli_alloc_rgb(oi.n);
+        rc = b ? timed_solve(ctx, op, e, b, repeat, &ms) : CLI_EXIT_FAIL;
+    }
+    if (rc == CLI_EXIT_OK && csv)
+        rc = cli_write_radiosity_csv(csv, op, b);
+    if (rc == CLI_EXIT_OK) {
+        lrr_operator_info oi;
+        lrr_operator_get_info(op, &oi);
+        printf("n: %zu\n", oi.n);
+        printf("k: %zu\n", oi.k);
+        printf("d: %zu\n", oi.d);
+        printf("solve_ms: %.4f\n", ms);
+        print_solution_summary(op, b);
+        if (csv)
+            printf("csv: %s\n", csv);
+    }
+    free(b);
+    free(e);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ lrr render */
+static int cmd_render(int argc, char *argv[])
+{
+    static const char prog[] = "lrr render";
+    static const struct option longopts[] = {
+        {"output", required_argument, NULL, 'o'},
+        {"width", required_argument, NULL, OPT_WIDTH},
+        {"height", required_argument, NULL, OPT_HEIGHT},
+        {"exposure", required_argument, NULL, OPT_EXPOSURE},
+        {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
+        {"camera", required_argument, NULL, OPT_CAMERA},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    const char *output = NULL;
+    lrr_render_options ro = {.width = 0, .height = 0, .exposure = 0.0, .use_cornell_camera = -1};
+    double scale = 1.0;
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
+        switch (c) {
+        case 'h':
+            fputs(render_help, stdout);
+            return CLI_EXIT_OK;
+        case 'o':
+            output = optarg;
+            break;
+        case OPT_WIDTH:
+            if (cli_parse_unsigned(prog, "--width", optarg, 1, 16384, &ro.width) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_HEIGHT:
+            if (cli_parse_unsigned(prog, "--height", optarg, 1, 16384, &ro.height) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_EXPOSURE:
+            if (cli_parse_double(prog, "--exposure", optarg, 0.0, 1, 1e300, &ro.exposure) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_EMISSION_SCALE:
+            if (cli_parse_double(prog, "--emission-scale", optarg, 0.0, 0, 1e300, &scale) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_CAMERA:
+            if (strcmp(optarg, "cornell") == 0)
+                ro.use_cornell_camera = 1;
+            else if (strcmp(optarg, "fit") == 0)
+                ro.use_cornell_camera = 0;
+            else if (strcmp(optarg, "auto") == 0)
+                ro.use_cornell_camera = -1;
+            else {
+                cli_usage_error(prog, "--camera: '%s' is not one of cornell, fit, auto", optarg);
+                return CLI_EXIT_USAGE;
+            }
+            break;
+        default:
+            return bad_option(prog, c, argv);
+        }
+    }
+    const char *path = one_positional(prog, "FILE.lrr", argc, argv);
+    if (!path)
+        return CLI_EXIT_USAGE;
+    if (!output || !output[0]) {
+        cli_usage_error(prog, "-o OUT.png is required");
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return CLI_EXIT_USAGE;
+    }
+
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return cli_lib_error(NULL, s);
+    lrr_operator *op = NULL;
+    float *e = NULL, *b = NULL;
+    double ms = 0.0;
+    int rc = load_operator(ctx, path, &op);
+    if (rc == CLI_EXIT_OK)
+        rc = scaled_emission(op, scale, &e);
+    if (rc == CLI_EXIT_OK) {
+        lrr_operator_info oi;
+        lrr_operator_get_info(op, &oi);
+        b = cli_alloc_rgb(oi.n);
+        rc = b ? timed_solve(ctx, op, e, b, 0, &ms) : CLI_EXIT_FAIL;
+    }
+    if (rc == CLI_EXIT_OK) {
+        s = lrr_render_png(op, b, &ro, output);
+        if (s != LRR_OK)
+            rc = cli_lib_error(ctx, s);
+    }
+    if (rc == CLI_EXIT_OK)
+        printf("output: %s\n", output);
+    free(b);
+    free(e);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ lrr demo */
+/* mkdir -p: creates each missing component of dir. */
+static int make_dirs(const char *dir)
+{
+    char *p = strdup(dir);
+    if (!p)
+        return cli_fail(LRR_ERR_NOMEM, "cannot copy the path '%s'", dir);
+    for (char *q = p + 1;; q++) {
+        int end = *q == '\0';
+        if (*q == '/' || end) {
+            char keep = *q;
+            *q = '\0';
+            struct stat st;
+            if (mkdir(p, 0777) != 0 && errno != EEXIST) {
+                int e = errno;
+                free(p);
+                return cli_fail(LRR_ERR_IO, "cannot create the directory '%s': %s", dir,
+                                strerror(e));
+            }
+            if (stat(p, &st) != 0 || !S_ISDIR(st.st_mode)) {
+                free(p);
+                return cli_fail(LRR_ERR_IO, "'%s' is not a directory", dir);
+            }
+            *q = keep;
+        }
+        if (end)
+            break;
+    }
+    free(p);
+    return CLI_EXIT_OK;
+}
+
+static char *join_path(const char *dir, const char *file)
+{
+    size_t a = strlen(dir), b = strlen(file);
+    char *p = malloc(a + b + 2);
+    if (p) {
+        memcpy(p, dir, a);
+        p[a] = '/';
+        memcpy(p + a + 1, file, b + 1);
+    }
+    return p;
+}
+
+/* Groups of the demo's table: the Cornell box's walls seen from its camera (x = max is the
+ * red wall on the left), the light, and everything else (the two blocks). */
+enum { G_LIGHT, G_CEILING, G_FLOOR, G_BACK, G_LEFT, G_RIGHT, G_FRONT, G_OTHER, G_COUNT };
+static const char *const group_names[G_COUNT] = {"light", "ceiling", "floor", "back wall",
+                                                 "left wall", "right wall", "front wall",
+                                                 "blocks"};
+
+static int classify(const float *c, const float *nr, const float *em, const double lo[3],
+                    const double hi[3])
+{
+    if (em[0] > 0 || em[1] > 0 || em[2] > 0)
+        return G_LIGHT;
+    for (int a = 0; a < 3; a++) {
+        /* A wall faces the room's inside and lies within 3% of the bounding box's face. */
+        double tol = 0.03 * (hi[a] - lo[a]);
+        if (nr[a] > 0.99 && c[a] <= lo[a] + tol)
+            return a == 0 ? G_RIGHT : a == 1 ? G_FLOOR : G_FRONT;
+        if (nr[a] < -0.99 && c[a] >= hi[a] - tol)
+            return a == 0 ? G_LEFT : a == 1 ? G_CEILING : G_BACK;
+    }
+    return G_OTHER;
+}
+
+static void print_wall_table(const lrr_operator *op, const float *b)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    const float *centre = lrr_operator_centre(op), *normal = lrr_operator_normal(op);
+    const float *area = lrr_operator_area(op), *em = lrr_operator_emission(op);
+    if (!centre || !normal || !area || !em || oi.n == 0)
+        return;
+    double lo[3], hi[3];
+    for (int a = 0; a < 3; a++)
+        lo[a] = hi[a] = centre[a];
+    for (size_t i = 0; i < oi.n; i++)
+        for (int a = 0; a < 3; a++) {
+            if (centre[3 * i + a] < lo[a])
+                lo[a] = centre[3 * i + a];
+            if (centre[3 * i + a] > hi[a])
+                hi[a] = centre[3 * i + a];
+        }
+    double sum[G_COUNT][3] = {{0}}, garea[G_COUNT] = {0};
+    size_t count[G_COUNT] = {0};
+    for (size_t i = 0; i < oi.n; i++) {
+        int g = classify(centre + 3 * i, normal + 3 * i, em + 3 * i, lo, hi);
+        count[g]++;
+        garea[g] += area[i];
+        for (int ch = 0; ch < 3; ch++)
+            sum[g][ch] += (double)area[i] * (double)b[3 * i + ch];
+    }
+    printf("\n%-12s %10s %12s %12s %12s\n", "surface", "subpatches", "mean B r", "mean B g",
+           "mean B b");
+    for (int g = 0; g < G_COUNT; g++) {
+        if (count[g] == 0)
+            continue;
+        printf("%-12s %10zu", group_names[g], count[g]);
+        for (int ch = 0; ch < 3; ch++)
+            printf(" %12.5g", garea[g] > 0 ? sum[g][ch] / garea[g] : 0.0);
+        printf("\n");
+    }
+}
+
+static int cmd_demo(int argc, char *argv[])
+{
+    static const char prog[] = "lrr demo";
+    static const struct option longopts[] = {{"out", required_argument, NULL, OPT_OUT},
+                                             {"help", no_argument, NULL, 'h'},
+                                             {NULL, 0, NULL, 0}};
+    const char *dir = "./out";
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        switch (c) {
+        case 'h':
+            fputs(demo_help, stdout);
+            return CLI_EXIT_OK;
+        case OPT_OUT:
+            dir = optarg;
+            break;
+        default:
+            return bad_option(prog, c, argv);
+        }
+    }
+    if (optind < argc) {
+        cli_usage_error(prog, "unexpected argument '%s'", argv[optind]);
+        return CLI_EXIT_USAGE;
+    }
+    if (!dir[0]) {
+        cli_usage_error(prog, "--out: the directory name is empty");
+        return CLI_EXIT_USAGE;
+    }
+    int rc = make_dirs(dir);
+    if (rc)
+        return rc;
+    char *lrr_path = join_path(dir, "cornell.lrr"), *png_path = join_path(dir, "cornell.png");
+    lrr_context *ctx = NULL;
+    lrr_scene *scene = NULL;
+    lrr_operator *op = NULL;
+    float *b = NULL;
+    lrr_status s = LRR_OK;
+    /* Declared up front: the error paths jump to the single clean-up below. */
+    subdiv_args sa;
+    cli_progress bar;
+    lrr_build_options bo = {.hemicube_resolution = DEFAULT_HEMICUBE,
+                            .seed = DEFAULT_SEED,
+                            .progress = cli_progress_cb,
+                            .progress_user = &bar};
+    lrr_operator_info built;
+    double ms = 0.0;
+    lrr_render_options ro = {.width = 512, .height = 512, .exposure = 0.0,
+                             .use_cornell_camera = 1};
+    if (!lrr_path || !png_path) {
+        rc = cli_fail(LRR_ERR_NOMEM, "cannot build the output paths");
+        goto done;
+    }
+    s = lrr_context_create(&ctx);
+    if (s != LRR_OK) {
+        rc = cli_lib_error(NULL, s);
+        goto done;
+    }
+
+    printf("== 1. scene\n");
+    subdiv_init(&sa);
+    subdiv_finish(&sa, prog);
+    rc = open_subdivided_scene(ctx, "cornell", &sa, &scene);
+    if (rc)
+        goto done;
+    print_scene_info("cornell", scene);
+    fflush(stdout);
+
+    printf("\n== 2. preprocess (one hemicube per subpatch)\n");
+    fflush(stdout);
+    cli_progress_init(&bar, "hemicubes", 1);
+    s = lrr_operator_build(scene, &bo, &op);
+    cli_progress_finish(&bar);
+    if (s == LRR_OK)
+        s = lrr_operator_save(op, lrr_path);
+    if (s != LRR_OK) {
+        rc = cli_lib_error(ctx, s);
+        goto done;
+    }
+    print_operator_info(op);
+    printf("output: %s\n", lrr_path);
+
+    /* Solve from the saved file, as `lrr solve` would: the demo checks the round trip too. */
+    lrr_operator_get_info(op, &built);
+    lrr_operator_destroy(op);
+    op = NULL;
+    printf("\n== 3. solve (CPU)\n");
+    rc = load_operator(ctx, lrr_path, &op);
+    if (rc)
+        goto done;
+    b = cli_alloc_rgb(built.n);
+    if (!b) {
+        rc = CLI_EXIT_FAIL;
+        goto done;
+    }
+    rc = timed_solve(ctx, op, lrr_operator_emission(op), b, DEFAULT_REPEAT, &ms);
+    if (rc)
+        goto done;
+    printf("solve_ms: %.4f (median of %u)\n", ms, DEFAULT_REPEAT);
+    print_solution_summary(op, b);
+    print_wall_table(op, b);
+
+    printf("\n== 4. render\n");
+    s = lrr_render_png(op, b, &ro, png_path);
+    if (s != LRR_OK) {
+        rc = cli_lib_error(ctx, s);
+        goto done;
+    }
+    printf("\nn = %zu, k = %zu, d = %zu, build %.2f s, solve %.3f ms, cond %.3g/%.3g/%.3g\n",
+           built.n, built.k, built.d, built.build_seconds, ms, built.condition[0],
+           built.condition[1], built.condition[2]);
+    printf("png: %s\n", png_path);
+done:
+    free(b);
+    lrr_operator_destroy(op);
+    lrr_scene_destroy(scene);
+    lrr_context_destroy(ctx);
+    free(lrr_path);
+    free(png_path);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ main */
+static int print_version(void)
+{
+    const char *lib = lrr_version_string();
+    if (!lib || strcmp(lib, LRR_VERSION_STRING) != 0) {
+        fprintf(stderr, "lrr: the library is version %s but lrr was built with header %s\n",
+                lib ? lib : "(null)", LRR_VERSION_STRING);
+        return CLI_EXIT_FAIL;
+    }
+    printf("lrr %s\n", lib);
+    return CLI_EXIT_OK;
+}
+
+int main(int argc, char *argv[])
+{
+    static const struct {
+        const char *name;
+        int (*run)(int, char *[]);
+    } commands[] = {{"info", cmd_info},
+                    {"preprocess", cmd_preprocess},
+                    {"solve", cmd_solve},
+                    {"render", cmd_render},
+                    {"demo", cmd_demo}};
+    if (argc < 2) {
+        fputs(main_help, stderr);
+        return CLI_EXIT_USAGE;
+    }
+    const char *cmd = argv[1];
+    if (strcmp(cmd, "-h") == 0 || strcmp(cmd, "--help") == 0 || strcmp(cmd, "help") == 0) {
+        fputs(main_help, stdout);
+        return CLI_EXIT_OK;
+    }
+    if (strcmp(cmd, "-V") == 0 || strcmp(cmd, "--version") == 0)
+        return print_version();
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; i++)
+        if (strcmp(cmd, commands[i].name) == 0)
+            return commands[i].run(argc - 1, argv + 1);
+    if (cmd[0] == '-')
+        cli_usage_error("lrr", "unknown option '%s'", cmd);
+    else
+        cli_usage_error("lrr", "unknown command '%s'", cmd);
+    fprintf(stderr, "Try 'lrr --help'.\n");
+    return CLI_EXIT_USAGE;
+}
