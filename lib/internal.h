@@ -137,6 +137,13 @@ void lrr__multiplier_map_free(lrr__multiplier_map *m);
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, float *fbar);
 
+/* ------------------------------------------------------------ real-time kernels */
+/* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
+void lrr__smw_apply(const float *m, size_t k, const float *w, float *z);
+/* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ n×k row-major read once; E, rho, B n×3. */
+void lrr__fbar_apply(const float *fbar, size_t n, size_t k, const float *z, const float *E,
+                     const float *rho, float *B);
+
 /* ------------------------------------------------------------ misc */
 double lrr__now(void);  /* monotonic seconds */
 

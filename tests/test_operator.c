@@ -309,6 +309,59 @@ static void test_progress_cancel(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* The real-time kernels (realtime_kernel.c) against a naive double-precision product, on
+ * sizes that exercise the vector tails (k = 1, 7, 8, 9, 13, 64, 217). */
+static void test_realtime_kernels(void **state)
+{
+    (void)state;
+    const size_t ks[] = {1, 7, 8, 9, 13, 64, 217};
+    const size_t n = 37;
+    uint64_t x = 12345;
+#define RND() ((x = x * 6364136223846793005ull + 1442695040888963407ull), (double)(x >> 40) / (1 << 24))
+    for (size_t t = 0; t < sizeof ks / sizeof ks[0]; t++) {
+        size_t k = ks[t];
+        float *m = malloc(3 * k * k * sizeof *m), *w = malloc(3 * k * sizeof *w),
+              *z = malloc(3 * k * sizeof *z), *f = malloc(n * k * sizeof *f),
+              *e = malloc(3 * n * sizeof *e), *rho = malloc(3 * n * sizeof *rho),
+              *b = malloc(3 * n * sizeof *b);
+        assert_non_null(m && w && z && f && e && rho && b);
+        for (size_t i = 0; i < 3 * k * k; i++)
+            m[i] = (float)(RND() - 0.3);
+        for (size_t i = 0; i < 3 * k; i++)
+            w[i] = (float)RND();
+        for (size_t i = 0; i < n * k; i++)
+            f[i] = (float)RND();
+        for (size_t i = 0; i < 3 * n; i++) {
+            e[i] = (float)RND();
+            rho[i] = (float)(0.9 * RND());
+        }
+        lrr__smw_apply(m, k, w, z);
+        for (int c = 0; c < 3; c++)
+            for (size_t p = 0; p < k; p++) {
+                double ref = 0, mag = 0;
+                for (size_t q = 0; q < k; q++) {
+                    ref += (double)m[(c * k + p) * k + q] * w[c * k + q];
+                    mag += fabs((double)m[(c * k + p) * k + q] * w[c * k + q]);
+                }
+                ASSERT_NEAR(z[c * k + p], ref, 1e-6 * mag + 1e-30, "k %zu c %d p %zu\n", k, c, p);
+            }
+        lrr__fbar_apply(f, n, k, z, e, rho, b);
+        for (size_t i = 0; i < n; i++)
+            for (int c = 0; c < 3; c++) {
+                double dot = 0, mag = 0;
+                for (size_t p = 0; p < k; p++) {
+                    dot += (double)f[i * k + p] * z[c * k + p];
+                    mag += fabs((double)f[i * k + p] * z[c * k + p]);
+                }
+                double ref = e[3 * i + c] + (double)rho[3 * i + c] * dot;
+                ASSERT_NEAR(b[3 * i + c], ref, 1e-6 * (mag + e[3 * i + c]) + 1e-30,
+                            "k %zu row %zu c %d\n", k, i, c);
+            }
+        free(m), free(w), free(z), free(f), free(e), free(rho), free(b);
+    }
+#undef RND
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -318,6 +371,7 @@ int main(void)
         cmocka_unit_test(test_set_reflectance),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_progress_cancel),
+        cmocka_unit_test(test_realtime_kernels),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
