@@ -88,6 +88,8 @@ static void test_point_to_disk(void **state)
             double sum = 0;
             for (size_t p = 1; p < op->k; p++)
                 sum += op->fbar[p];
+            print_message("point to disk r = %g, h = %g, seed %d: F = %.6f, closed form %.6f, "
+                          "relative error %+.2e\n", r, h, sd, sum, expect, sum / expect - 1);
             ASSERT_NEAR(sum, expect, 0.01 * expect, "r = %g, h = %g, seed %d\n", r, h, sd);
             lrr_operator_destroy(op);
         }
@@ -149,6 +151,8 @@ static void test_closed_forms(void **state)
         tu_quad(v + 18, q0, q1, q2, q3);
         lrr_operator *op = build(ctx, 4, v, a * b / 16, 2, 128, 7);
         double F = area_average(op, 2), ref = parallel_closed_form(a / c, b / c);
+        print_message("parallel %g×%g at %g: F = %.6f, closed form %.6f, relative error %+.2e\n",
+                      a, b, c, F, ref, F / ref - 1);
         ASSERT_NEAR(F, ref, 0.01 * ref, "parallel %g×%g at %g (n = %zu)\n", a, b, c, op->n);
         lrr_operator_destroy(op);
     }
@@ -164,6 +168,8 @@ static void test_closed_forms(void **state)
         tu_quad(v + 18, q0, q1, q2, q3);
         lrr_operator *op = build(ctx, 4, v, w * l / 16, 2, 128, 11);
         double F = area_average(op, 2), ref = perpendicular_closed_form(w / l, hh / l);
+        print_message("perpendicular w = %g, h = %g, l = %g: F = %.6f, closed form %.6f, "
+                      "relative error %+.2e\n", w, hh, l, F, ref, F / ref - 1);
         ASSERT_NEAR(F, ref, 0.01 * ref, "perpendicular w=%g h=%g l=%g (n = %zu)\n", w, hh, l,
                     op->n);
         lrr_operator_destroy(op);
