@@ -59,7 +59,8 @@ typedef enum lrr_status {
     LRR_ERR_SINGULAR = 12,   /* I - Vᵀ diag(rho) F̄ could not be factorised */
     LRR_ERR_UNSUPPORTED = 13,/* a backend or feature not built into this library */
     LRR_ERR_CANCELLED = 14,  /* the progress callback asked to stop */
-    LRR_ERR_DIM = 15         /* array sizes do not agree */
+    LRR_ERR_DIM = 15,        /* array sizes do not agree */
+    LRR_ERR_BUDGET = 16      /* the work needs more memory than the given budget allows */
 } lrr_status;
 
 /* A static, human-readable name for a status code. Thread safety: any thread. */
@@ -239,6 +240,66 @@ LRR_API void lrr_solver_destroy(lrr_solver *solver);
  * (they may not alias). Emission must be finite and >= 0. */
 LRR_API LRR_NODISCARD lrr_status lrr_solve(lrr_solver *solver, const float *emission,
                                            float *radiosity) LRR_NONNULL(1, 2, 3);
+
+/* ---------------------------------------------------------------- reference solvers */
+/* The full n×n form-factor matrix F (subpatch to subpatch) and classic solvers of
+ * (I − R F) B = E on it, to measure the error of the low-rank operator against. */
+typedef struct lrr_reference lrr_reference;
+
+/* Bytes lrr_reference_build needs for n subpatches (the n×n float matrix plus per-subpatch
+ * data); SIZE_MAX when that overflows. The direct method needs 8·n² bytes more while it runs. */
+LRR_API size_t lrr_reference_bytes(size_t n);
+
+/* Builds F from the same hemicubes as lrr_operator_build with the same scene and options
+ * (same centres, resolution and rotations); a pixel's subpatch comes from the barycentric
+ * coordinates of the visible point, so F̄ = F V / d holds up to rounding. memory_budget is
+ * the most bytes the reference may hold (0 = 4 GiB): larger scenes are refused with
+ * LRR_ERR_BUDGET before anything is allocated, the message naming the amount needed.
+ * The scene must be subdivided; opts may be NULL. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_reference_build(const lrr_scene *scene,
+                                                     const lrr_build_options *opts,
+                                                     size_t memory_budget, lrr_reference **out)
+    LRR_NONNULL(1, 4);
+LRR_API void lrr_reference_destroy(lrr_reference *ref);
+
+/* Read-only views valid for the reference's life: F (n×n row-major), rho and emission
+ * (n×3, the scene's), area (n). */
+LRR_API size_t lrr_reference_size(const lrr_reference *ref) LRR_NONNULL(1);
+LRR_API const float *lrr_reference_f(const lrr_reference *ref) LRR_NONNULL(1);
+LRR_API const float *lrr_reference_reflectance(const lrr_reference *ref) LRR_NONNULL(1);
+LRR_API const float *lrr_reference_emission(const lrr_reference *ref) LRR_NONNULL(1);
+LRR_API const float *lrr_reference_area(const lrr_reference *ref) LRR_NONNULL(1);
+
+typedef enum lrr_method {
+    LRR_METHOD_JACOBI = 401,       /* B ← E + R F B, all at once */
+    LRR_METHOD_GAUSS_SEIDEL = 402, /* the same, using each new B_i at once */
+    LRR_METHOD_SOUTHWELL = 403,    /* progressive refinement: shoot the largest unshot energy */
+    LRR_METHOD_DIRECT = 404        /* LU of I − R F per channel (LAPACKE dgesv, 8·n² bytes) */
+} lrr_method;
+
+/* "jacobi", "gauss-seidel", "southwell", "direct"; NULL for an unknown value. */
+LRR_API const char *lrr_method_name(lrr_method method);
+/* The inverse of lrr_method_name; LRR_ERR_INVALID_ARG for an unknown name. */
+LRR_API LRR_NODISCARD lrr_status lrr_method_from_name(const char *name, lrr_method *out)
+    LRR_NONNULL(1, 2);
+
+typedef struct lrr_reference_stats {
+    size_t iterations; /* sweeps (Jacobi, Gauss–Seidel), shots (Southwell), 1 (direct) */
+    double residual;   /* max over channels of ||E − (I − R F) B||₂ / ||E||₂, in double */
+    double seconds;    /* wall time of the solve */
+} lrr_reference_stats;
+
+/* Solves (I − R F) B = E for each channel, accumulating in double. Iterative methods stop
+ * when the relative residual is <= tol (0 = 1e-6) or after max_iterations (0 = a default
+ * large enough for rho up to 0.999), then return LRR_NOT_CONVERGED with B holding the last
+ * iterate. emission and radiosity are n×3 (no aliasing); emission finite and >= 0.
+ * stats may be NULL. Thread safety: any thread; many solves may share one reference. */
+LRR_API LRR_NODISCARD lrr_status lrr_reference_solve(const lrr_reference *ref,
+                                                     lrr_method method, double tol,
+                                                     size_t max_iterations,
+                                                     const float *emission, float *radiosity,
+                                                     lrr_reference_stats *stats)
+    LRR_NONNULL(1, 5, 6);
 
 /* ---------------------------------------------------------------- pictures */
 typedef struct lrr_render_options {

@@ -27,6 +27,7 @@ const char *lrr_strerror(lrr_status status)
     case LRR_ERR_UNSUPPORTED: return "not supported by this build";
     case LRR_ERR_CANCELLED: return "cancelled";
     case LRR_ERR_DIM: return "dimension mismatch";
+    case LRR_ERR_BUDGET: return "memory budget exceeded";
     }
     return "unknown status";
 }

@@ -238,6 +238,7 @@ typedef struct {
     const tri_info *tri;
     const lrr__multiplier_map *mm;
     double near, eps;      /* near plane and "on the plane" distance, scene units */
+    int by_subpatch;       /* 1: columns are subpatches (full F, n wide); 0: patches (F̄) */
 } hemi_ctx;
 
 static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t, int32_t id)
@@ -282,7 +283,7 @@ static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t,
         raster_tri(s[0], s[i], s[i + 1], id, f->W, f->H, f->depth, f->item);
 }
 
-/* Accumulates the visible patches of face f into row (k doubles). */
+/* Accumulates the visible patches (or subpatches) of face f into row (k or n doubles). */
 static void integrate_face(const hemi_ctx *h, const double x[3], const face *f, double *row)
 {
     double half = 0.5 * f->W;
@@ -306,7 +307,8 @@ static void integrate_face(const hemi_ctx *h, const double x[3], const face *f, 
             double d1 = dot3(r, ti->e1), d2 = dot3(r, ti->e2);
             double b1 = (ti->g22 * d1 - ti->g12 * d2) * ti->inv;
             double b2 = (ti->g11 * d2 - ti->g12 * d1) * ti->inv;
-            row[lrr__patch_at(h->g, (size_t)id, b1, b2)] += f->weight[pix];
+            row[h->by_subpatch ? lrr__subpatch_at(h->g, (size_t)id, b1, b2)
+                               : lrr__patch_at(h->g, (size_t)id, b1, b2)] += f->weight[pix];
         }
     }
 }
@@ -392,16 +394,23 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, scratch *sc
         for (int fi = 0; fi < 5; fi++)
             render_face(h, x, &faces[fi], t, id);
     }
-    memset(sc->row, 0, g->k * sizeof(double));
+    size_t cols = h->by_subpatch ? g->n : g->k;
+    memset(sc->row, 0, cols * sizeof(double));
     for (int fi = 0; fi < 5; fi++)
         integrate_face(h, x, &faces[fi], sc->row);
-    double inv_d = 1.0 / (double)g->d;
-    for (size_t p = 0; p < g->k; p++)
-        out[p] = (float)(sc->row[p] * inv_d);
+    double scale = h->by_subpatch ? 1.0 : 1.0 / (double)g->d;
+    for (size_t p = 0; p < cols; p++)
+        out[p] = (float)(sc->row[p] * scale);
 }
 
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, float *fbar)
+{
+    return lrr__hemicube_rows(ctx, g, opts, 0, fbar);
+}
+
+lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
+                              const lrr_build_options *opts, int by_subpatch, float *out)
 {
     unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
     if (g->n_tri > INT32_MAX)
@@ -440,7 +449,8 @@ lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
     /* Distances below ~1e-7 of the scene size are float rounding of the input coordinates:
      * treat such points as lying in the plane (edge-on / tangent), and put the near plane
      * there too so touching geometry (a block on the floor) is still seen up close. */
-    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag};
+    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch};
+    const size_t cols = by_subpatch ? g->n : g->k;
 
     size_t rr = (size_t)R * R;
     int nthreads = opts->threads > 0 ? opts->threads : omp_get_max_threads();
@@ -452,7 +462,7 @@ lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
         scratch sc = {0};
         int ok = lrr__calloc(ctx, &sc.depth, rr * 3, sizeof(float), "hemicube depth buffer") == 0 &&
                  lrr__calloc(ctx, &sc.item, rr * 3, sizeof(int32_t), "hemicube item buffer") == 0 &&
-                 lrr__calloc(ctx, &sc.row, g->k, sizeof(double), "hemicube row") == 0;
+                 lrr__calloc(ctx, &sc.row, cols, sizeof(double), "hemicube row") == 0;
         if (!ok) {
             #pragma omp atomic write
             failed = 1;
@@ -461,7 +471,7 @@ lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
         for (size_t i = 0; i < g->n; i++) {
             if (cancelled || failed)
                 continue;
-            hemicube_row(&h, i, opts->seed, &sc, fbar + i * g->k);
+            hemicube_row(&h, i, opts->seed, &sc, out + i * cols);
             size_t now_done;
             #pragma omp atomic capture
             now_done = ++done;

@@ -136,6 +136,10 @@ void lrr__multiplier_map_free(lrr__multiplier_map *m);
 /* Fills fbar (n×k) from geometry g with one hemicube per subpatch. */
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, float *fbar);
+/* The same hemicubes with subpatch columns when by_subpatch (out n×n: the full F, not
+ * divided by d) or patch columns otherwise (out n×k: F̄). */
+lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
+                              const lrr_build_options *opts, int by_subpatch, float *out);
 
 /* ------------------------------------------------------------ real-time kernels */
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */

@@ -7,11 +7,11 @@
 static void test_strerror(void **state)
 {
     (void)state;
-    for (int a = LRR_OK; a <= LRR_ERR_DIM; a++) {
+    for (int a = LRR_OK; a <= LRR_ERR_BUDGET; a++) {
         const char *sa = lrr_strerror((lrr_status)a);
         assert_non_null(sa);
         assert_string_not_equal(sa, "unknown status");
-        for (int b = a + 1; b <= LRR_ERR_DIM; b++)
+        for (int b = a + 1; b <= LRR_ERR_BUDGET; b++)
             assert_string_not_equal(sa, lrr_strerror((lrr_status)b));
     }
     assert_string_equal(lrr_strerror((lrr_status)999), "unknown status");
