@@ -236,6 +236,10 @@ LRR_API LRR_NODISCARD lrr_status lrr_solver_create(const lrr_operator *op, lrr_b
                                                    lrr_solver **out) LRR_NONNULL(1, 3);
 LRR_API void lrr_solver_destroy(lrr_solver *solver);
 
+/* The instruction-set variant the CPU solver runs: "c", "avx2" or "avx512" (the widest this
+ * CPU supports; the environment variable LRR_SIMD, read by lrr_solver_create, forces one). */
+LRR_API const char *lrr_solver_kernel(const lrr_solver *solver) LRR_NONNULL(1);
+
 /* B = E + rho ∘ (F̄ · (M · (Vᵀ E))) per channel. emission and radiosity are n×3 row-major
  * (they may not alias). Emission must be finite and >= 0. */
 LRR_API LRR_NODISCARD lrr_status lrr_solve(lrr_solver *solver, const float *emission,

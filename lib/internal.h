@@ -142,11 +142,23 @@ lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, int by_subpatch, float *out);
 
 /* ------------------------------------------------------------ real-time kernels */
+/* One instruction-set variant of the two row kernels (realtime_kernel.c). */
+typedef struct lrr__kernel {
+    const char *name; /* "c", "avx2", "avx512" */
+    /* rows [i0, i1): B_c = E_c + rho_c ∘ (F̄ z_c), z 3×k channel-major */
+    void (*fbar_rows)(const float *fbar, size_t i0, size_t i1, size_t k, const float *z,
+                      const float *E, const float *rho, float *B);
+    /* rows [i0, i1) of y = A x, A row-major with k columns */
+    void (*gemv_rows)(const float *a, size_t i0, size_t i1, size_t k, const float *x, float *y);
+} lrr__kernel;
+
+/* The widest variant this CPU runs, or the one named by force (LRR_SIMD: c, avx2, avx512). */
+lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, const lrr__kernel **out);
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
-void lrr__smw_apply(const float *m, size_t k, const float *w, float *z);
+void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z);
 /* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ n×k row-major read once; E, rho, B n×3. */
-void lrr__fbar_apply(const float *fbar, size_t n, size_t k, const float *z, const float *E,
-                     const float *rho, float *B);
+void lrr__fbar_apply(const lrr__kernel *kn, const float *fbar, size_t n, size_t k,
+                     const float *z, const float *E, const float *rho, float *B);
 
 /* ------------------------------------------------------------ misc */
 double lrr__now(void);  /* monotonic seconds */

@@ -1,23 +1,45 @@
 /* The two dense products of the real-time step, written for one pass over each matrix with
  * all three colour channels at once (DESIGN.md "Low-rank model"):
- *     z = M_c w_c               (k×k, three matrices)
- *     B_c = E_c + rho_c ∘ (F̄ z_c) (n×k, read once for r, g and b; epilogue fused)
+ *     z_c = M_c w_c                 (three k×k matrices)
+ *     B_c = E_c + rho_c ∘ (F̄ z_c)   (n×k, read once for r, g and b; epilogue fused)
+ *
  * Why not OpenBLAS here: sgemm with 3 right-hand sides repacks F̄, three sgemv read F̄
  * three times, and OpenBLAS's pthreads fight the OpenMP threads of the rest of the solve
  * for the cores (spinning GOMP workers: `lrr demo` measured 3.9 ms per frame that way and
  * 0.25 ms with OMP_WAIT_POLICY=passive). Measured in one process on 2 cores, medians of 200
- * (the kernels here vs 3 sgemv k×k + sgemm n×k×3 vs 3 sgemv n×k, the last without the
- * epilogue): Cornell n = 3456, k = 216: 0.158 / 0.353 / 0.274 ms; n = 55296, k = 864:
- * 20.0 / 28.3 / 20.4 ms. At the larger size this portable loop is compute-bound (F̄ is
- * 191 MB, ~6.5 ms at this machine's ~30 GB/s); wider SIMD is issue 4's work.
- * The inner loops keep eight independent partial sums per channel so the compiler can
- * vectorise them without reassociating a single running sum. */
+ * (the portable loops here vs 3 sgemv k×k + sgemm n×k×3 vs 3 sgemv n×k, the last without
+ * the epilogue): Cornell n = 3456, k = 216: 0.158 / 0.353 / 0.274 ms; n = 55296, k = 864:
+ * 20.0 / 28.3 / 20.4 ms. The portable loop is compute-bound at the larger size, hence the
+ * AVX2 and AVX-512 variants below, chosen at run time (lrr__kernel_select): at n = 55296,
+ * k = 864 they run 10.0 (AVX2) and 8.2 ms (AVX-512) against 20.1 ms for the portable loop.
+ *
+ * Layout: F̄ stays row-major (n×k). A row is a contiguous stream, so each thread reads its
+ * own block of rows once, and its dot products with z_r, z_g, z_b reuse the three short
+ * vectors from L1. Several rows are processed together so that each z load feeds several
+ * FMAs (4 rows with AVX-512's 32 registers, 2 with AVX2's 16). Column-major would need
+ * n×3 partial sums written back per column instead.
+ */
 #include "config.h"
 #include "internal.h"
 
-#define LANES 8
+#include <stdlib.h>
+#include <string.h>
 
-/* dot products of one row (length k) with three vectors */
+#if defined(__x86_64__) || defined(__i386__)
+#define LRR_X86 1
+#include <immintrin.h>
+#endif
+
+#define LANES 8
+/* Software prefetch distance in bytes along each row. Measured (n = 55296, k = 864, 2
+ * threads, AVX-512, medians of 100): none 9.3 ms, 512 B 8.2 ms, 1 KiB 9.2 ms, 2 KiB 9.5 ms;
+ * the floor there is 6.7 ms (200 MB at the 30 GB/s an AVX-512 read loop reaches). */
+#define PREFETCH 512
+
+/* ------------------------------------------------------------------ portable C */
+
+/* dot products of one row (length k) with three vectors; eight independent partial sums
+ * per channel let the compiler vectorise without reassociating one running sum */
 static inline void dot3(const float *restrict row, const float *restrict zr,
                         const float *restrict zg, const float *restrict zb, size_t k,
                         float out[3])
@@ -47,37 +69,277 @@ static inline void dot3(const float *restrict row, const float *restrict zr,
     out[2] = sb;
 }
 
-void lrr__smw_apply(const float *m, size_t k, const float *w, float *z)
+static float dot1(const float *restrict row, const float *restrict x, size_t k)
 {
-    /* z (3×k, channel-major) = M_c w_c; M is three k×k row-major blocks */
-    #pragma omp parallel for schedule(static) if (k >= 64)
-    for (size_t p = 0; p < k; p++)
-        for (int c = 0; c < 3; c++) {
-            const float *row = m + ((size_t)c * k + p) * k;
-            const float *wc = w + (size_t)c * k;
-            float acc[LANES] = {0};
-            size_t q = 0;
-            for (; q + LANES <= k; q += LANES)
-                for (int l = 0; l < LANES; l++)
-                    acc[l] += row[q + l] * wc[q + l];
-            float s = 0;
-            for (int l = 0; l < LANES; l++)
-                s += acc[l];
-            for (; q < k; q++)
-                s += row[q] * wc[q];
-            z[(size_t)c * k + p] = s;
-        }
+    float acc[LANES] = {0};
+    size_t q = 0;
+    for (; q + LANES <= k; q += LANES)
+        for (int l = 0; l < LANES; l++)
+            acc[l] += row[q + l] * x[q + l];
+    float s = 0;
+    for (int l = 0; l < LANES; l++)
+        s += acc[l];
+    for (; q < k; q++)
+        s += row[q] * x[q];
+    return s;
 }
 
-void lrr__fbar_apply(const float *fbar, size_t n, size_t k, const float *z, const float *E,
-                     const float *rho, float *B)
+static void fbar_rows_c(const float *fbar, size_t i0, size_t i1, size_t k, const float *z,
+                        const float *E, const float *rho, float *B)
 {
-    const float *zr = z, *zg = z + k, *zb = z + 2 * k;
-    #pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < n; i++) {
+    for (size_t i = i0; i < i1; i++) {
         float t[3];
-        dot3(fbar + i * k, zr, zg, zb, k, t);
+        dot3(fbar + i * k, z, z + k, z + 2 * k, k, t);
         for (int c = 0; c < 3; c++)
             B[3 * i + c] = E[3 * i + c] + rho[3 * i + c] * t[c];
+    }
+}
+
+static void gemv_rows_c(const float *a, size_t i0, size_t i1, size_t k, const float *x,
+                        float *y)
+{
+    for (size_t i = i0; i < i1; i++)
+        y[i] = dot1(a + i * k, x, k);
+}
+
+#ifdef LRR_X86
+/* ------------------------------------------------------------------ AVX2 + FMA */
+
+__attribute__((target("avx2,fma"))) static inline float hsum256(__m256 v)
+{
+    __m128 s = _mm_add_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps(v, 1));
+    s = _mm_add_ps(s, _mm_movehl_ps(s, s));
+    s = _mm_add_ss(s, _mm_movehdup_ps(s));
+    return _mm_cvtss_f32(s);
+}
+
+/* lanes [0, r) set, for the k % 8 tail */
+__attribute__((target("avx2,fma"))) static inline __m256i tail_mask256(size_t r)
+{
+    static const int32_t m[16] = {-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0};
+    return _mm256_loadu_si256((const __m256i *)(m + 8 - r));
+}
+
+__attribute__((target("avx2,fma"))) static void fbar_rows_avx2(const float *fbar, size_t i0,
+                                                               size_t i1, size_t k,
+                                                               const float *z, const float *E,
+                                                               const float *rho, float *B)
+{
+    const float *zr = z, *zg = z + k, *zb = z + 2 * k;
+    const size_t kv = k & ~(size_t)7;
+    const __m256i tm = tail_mask256(k - kv);
+    size_t i = i0;
+    for (; i + 2 <= i1; i += 2) {
+        const float *f0 = fbar + i * k, *f1 = f0 + k;
+        __m256 a0r = _mm256_setzero_ps(), a0g = a0r, a0b = a0r, a1r = a0r, a1g = a0r, a1b = a0r;
+        for (size_t p = 0; p < kv; p += 8) {
+            __m256 r = _mm256_loadu_ps(zr + p), g = _mm256_loadu_ps(zg + p),
+                   b = _mm256_loadu_ps(zb + p);
+            _mm_prefetch((const char *)(f0 + p) + PREFETCH, _MM_HINT_T0);
+            _mm_prefetch((const char *)(f1 + p) + PREFETCH, _MM_HINT_T0);
+            __m256 x0 = _mm256_loadu_ps(f0 + p), x1 = _mm256_loadu_ps(f1 + p);
+            a0r = _mm256_fmadd_ps(x0, r, a0r);
+            a0g = _mm256_fmadd_ps(x0, g, a0g);
+            a0b = _mm256_fmadd_ps(x0, b, a0b);
+            a1r = _mm256_fmadd_ps(x1, r, a1r);
+            a1g = _mm256_fmadd_ps(x1, g, a1g);
+            a1b = _mm256_fmadd_ps(x1, b, a1b);
+        }
+        if (kv < k) {
+            __m256 r = _mm256_maskload_ps(zr + kv, tm), g = _mm256_maskload_ps(zg + kv, tm),
+                   b = _mm256_maskload_ps(zb + kv, tm);
+            __m256 x0 = _mm256_maskload_ps(f0 + kv, tm), x1 = _mm256_maskload_ps(f1 + kv, tm);
+            a0r = _mm256_fmadd_ps(x0, r, a0r);
+            a0g = _mm256_fmadd_ps(x0, g, a0g);
+            a0b = _mm256_fmadd_ps(x0, b, a0b);
+            a1r = _mm256_fmadd_ps(x1, r, a1r);
+            a1g = _mm256_fmadd_ps(x1, g, a1g);
+            a1b = _mm256_fmadd_ps(x1, b, a1b);
+        }
+        const float t[6] = {hsum256(a0r), hsum256(a0g), hsum256(a0b),
+                            hsum256(a1r), hsum256(a1g), hsum256(a1b)};
+        for (int j = 0; j < 6; j++)
+            B[3 * i + j] = E[3 * i + j] + rho[3 * i + j] * t[j];
+    }
+    if (i < i1)
+        fbar_rows_c(fbar, i, i1, k, z, E, rho, B);
+}
+
+__attribute__((target("avx2,fma"))) static void gemv_rows_avx2(const float *a, size_t i0,
+                                                               size_t i1, size_t k,
+                                                               const float *x, float *y)
+{
+    const size_t kv = k & ~(size_t)7;
+    const __m256i tm = tail_mask256(k - kv);
+    size_t i = i0;
+    for (; i + 4 <= i1; i += 4) {
+        const float *r0 = a + i * k;
+        __m256 s0 = _mm256_setzero_ps(), s1 = s0, s2 = s0, s3 = s0;
+        for (size_t p = 0; p < kv; p += 8) {
+            __m256 v = _mm256_loadu_ps(x + p);
+            s0 = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + p), v, s0);
+            s1 = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + k + p), v, s1);
+            s2 = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + 2 * k + p), v, s2);
+            s3 = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + 3 * k + p), v, s3);
+        }
+        if (kv < k) {
+            __m256 v = _mm256_maskload_ps(x + kv, tm);
+            s0 = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + kv, tm), v, s0);
+            s1 = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + k + kv, tm), v, s1);
+            s2 = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + 2 * k + kv, tm), v, s2);
+            s3 = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + 3 * k + kv, tm), v, s3);
+        }
+        y[i] = hsum256(s0);
+        y[i + 1] = hsum256(s1);
+        y[i + 2] = hsum256(s2);
+        y[i + 3] = hsum256(s3);
+    }
+    if (i < i1)
+        gemv_rows_c(a, i, i1, k, x, y);
+}
+
+/* ------------------------------------------------------------------ AVX-512 */
+
+__attribute__((target("avx512f"))) static void fbar_rows_avx512(const float *fbar, size_t i0,
+                                                                 size_t i1, size_t k,
+                                                                 const float *z, const float *E,
+                                                                 const float *rho, float *B)
+{
+    const float *zr = z, *zg = z + k, *zb = z + 2 * k;
+    const size_t kv = k & ~(size_t)15;
+    const __mmask16 tm = (__mmask16)((1u << (k - kv)) - 1);
+    size_t i = i0;
+    for (; i + 4 <= i1; i += 4) {
+        const float *f0 = fbar + i * k;
+        __m512 acc[4][3];
+        for (int r = 0; r < 4; r++)
+            acc[r][0] = acc[r][1] = acc[r][2] = _mm512_setzero_ps();
+        for (size_t p = 0; p < kv; p += 16) {
+            __m512 r = _mm512_loadu_ps(zr + p), g = _mm512_loadu_ps(zg + p),
+                   b = _mm512_loadu_ps(zb + p);
+            for (int q = 0; q < 4; q++) {
+                _mm_prefetch((const char *)(f0 + q * k + p) + PREFETCH, _MM_HINT_T0);
+                __m512 x = _mm512_loadu_ps(f0 + q * k + p);
+                acc[q][0] = _mm512_fmadd_ps(x, r, acc[q][0]);
+                acc[q][1] = _mm512_fmadd_ps(x, g, acc[q][1]);
+                acc[q][2] = _mm512_fmadd_ps(x, b, acc[q][2]);
+            }
+        }
+        if (kv < k) {
+            __m512 r = _mm512_maskz_loadu_ps(tm, zr + kv), g = _mm512_maskz_loadu_ps(tm, zg + kv),
+                   b = _mm512_maskz_loadu_ps(tm, zb + kv);
+            for (int q = 0; q < 4; q++) {
+                __m512 x = _mm512_maskz_loadu_ps(tm, f0 + q * k + kv);
+                acc[q][0] = _mm512_fmadd_ps(x, r, acc[q][0]);
+                acc[q][1] = _mm512_fmadd_ps(x, g, acc[q][1]);
+                acc[q][2] = _mm512_fmadd_ps(x, b, acc[q][2]);
+            }
+        }
+        for (int q = 0; q < 4; q++)
+            for (int c = 0; c < 3; c++) {
+                size_t j = 3 * (i + q) + c;
+                B[j] = E[j] + rho[j] * _mm512_reduce_add_ps(acc[q][c]);
+            }
+    }
+    if (i < i1)
+        fbar_rows_c(fbar, i, i1, k, z, E, rho, B);
+}
+
+__attribute__((target("avx512f"))) static void gemv_rows_avx512(const float *a, size_t i0,
+                                                                 size_t i1, size_t k,
+                                                                 const float *x, float *y)
+{
+    const size_t kv = k & ~(size_t)15;
+    const __mmask16 tm = (__mmask16)((1u << (k - kv)) - 1);
+    size_t i = i0;
+    for (; i + 4 <= i1; i += 4) {
+        const float *r0 = a + i * k;
+        __m512 s[4] = {_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps(),
+                       _mm512_setzero_ps()};
+        for (size_t p = 0; p < kv; p += 16) {
+            __m512 v = _mm512_loadu_ps(x + p);
+            for (int q = 0; q < 4; q++)
+                s[q] = _mm512_fmadd_ps(_mm512_loadu_ps(r0 + q * k + p), v, s[q]);
+        }
+        if (kv < k) {
+            __m512 v = _mm512_maskz_loadu_ps(tm, x + kv);
+            for (int q = 0; q < 4; q++)
+                s[q] = _mm512_fmadd_ps(_mm512_maskz_loadu_ps(tm, r0 + q * k + kv), v, s[q]);
+        }
+        for (int q = 0; q < 4; q++)
+            y[i + q] = _mm512_reduce_add_ps(s[q]);
+    }
+    if (i < i1)
+        gemv_rows_c(a, i, i1, k, x, y);
+}
+#endif /* LRR_X86 */
+
+/* ------------------------------------------------------------------ dispatch */
+
+static const lrr__kernel kernels[] = {
+    {"c", fbar_rows_c, gemv_rows_c},
+#ifdef LRR_X86
+    {"avx2", fbar_rows_avx2, gemv_rows_avx2},
+    {"avx512", fbar_rows_avx512, gemv_rows_avx512},
+#endif
+};
+
+static int supported(const char *name)
+{
+#ifdef LRR_X86
+    if (strcmp(name, "avx2") == 0)
+        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    if (strcmp(name, "avx512") == 0)
+        return __builtin_cpu_supports("avx512f");
+#endif
+    return strcmp(name, "c") == 0;
+}
+
+lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, const lrr__kernel **out)
+{
+    const size_t count = sizeof kernels / sizeof kernels[0];
+    if (force && *force) {
+        for (size_t i = 0; i < count; i++)
+            if (strcmp(kernels[i].name, force) == 0) {
+                if (!supported(force))
+                    return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                                      "LRR_SIMD=%s: this CPU lacks the instructions", force);
+                *out = &kernels[i];
+                return LRR_OK;
+            }
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "LRR_SIMD=%s: not one of c, avx2, avx512", force);
+    }
+    *out = &kernels[0];
+    for (size_t i = count; i-- > 1;)
+        if (supported(kernels[i].name)) {
+            *out = &kernels[i];
+            break;
+        }
+    return LRR_OK;
+}
+
+/* Rows per OpenMP chunk: a multiple of 4 so the vector kernels' row groups stay whole. */
+#define ROW_BLOCK 64
+
+void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z)
+{
+    const size_t blocks = (k + ROW_BLOCK - 1) / ROW_BLOCK;
+    #pragma omp parallel for schedule(static) if (k >= 128)
+    for (size_t b = 0; b < 3 * blocks; b++) {
+        size_t c = b / blocks, i0 = (b % blocks) * ROW_BLOCK;
+        size_t i1 = i0 + ROW_BLOCK < k ? i0 + ROW_BLOCK : k;
+        kn->gemv_rows(m + c * k * k, i0, i1, k, w + c * k, z + c * k);
+    }
+}
+
+void lrr__fbar_apply(const lrr__kernel *kn, const float *fbar, size_t n, size_t k,
+                     const float *z, const float *E, const float *rho, float *B)
+{
+    const size_t blocks = (n + ROW_BLOCK - 1) / ROW_BLOCK;
+    #pragma omp parallel for schedule(static)
+    for (size_t b = 0; b < blocks; b++) {
+        size_t i0 = b * ROW_BLOCK, i1 = i0 + ROW_BLOCK < n ? i0 + ROW_BLOCK : n;
+        kn->fbar_rows(fbar, i0, i1, k, z, E, rho, B);
     }
 }

@@ -16,6 +16,7 @@ struct lrr_solver {
     lrr_backend backend;
     float *w;   /* 3×k, channel-major */
     float *z;   /* 3×k, channel-major: the right-hand sides of the n×k product */
+    const lrr__kernel *kernel; /* SIMD variant, chosen once (environment LRR_SIMD forces one) */
 };
 
 void lrr_solver_destroy(lrr_solver *s)
@@ -35,12 +36,16 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
                           "the OpenCL backend is not built into this library");
     if (backend != LRR_BACKEND_CPU)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown backend %d", (int)backend);
+    const lrr__kernel *kernel;
+    lrr_status st = lrr__kernel_select(op->ctx, getenv("LRR_SIMD"), &kernel);
+    if (st)
+        return st;
     lrr_solver *s = calloc(1, sizeof *s);
     if (!s)
         return lrr__error(op->ctx, LRR_ERR_NOMEM, "cannot allocate a solver");
     s->op = op;
+    s->kernel = kernel;
     s->backend = backend;
-    lrr_status st;
     if ((st = lrr__calloc(op->ctx, &s->w, op->k, 3 * sizeof(float), "solver w (3×k)")) ||
         (st = lrr__calloc(op->ctx, &s->z, op->k, 3 * sizeof(float), "solver z (3×k)"))) {
         lrr_solver_destroy(s);
@@ -75,7 +80,12 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG,
                           "emission of subpatch %zu, channel %zu = %g (must be finite and >= 0)",
                           bad / 3, bad % 3, (double)E[bad]);
-    lrr__smw_apply(op->m, k, s->w, s->z);
-    lrr__fbar_apply(op->fbar, n, k, s->z, E, op->rho, B);
+    lrr__smw_apply(s->kernel, op->m, k, s->w, s->z);
+    lrr__fbar_apply(s->kernel, op->fbar, n, k, s->z, E, op->rho, B);
     return LRR_OK;
+}
+
+const char *lrr_solver_kernel(const lrr_solver *s)
+{
+    return s->kernel->name;
 }

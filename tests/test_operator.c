@@ -313,57 +313,81 @@ static void test_progress_cancel(void **state)
     lrr_context_destroy(ctx);
 }
 
-/* The real-time kernels (realtime_kernel.c) against a naive double-precision product, on
- * sizes that exercise the vector tails (k = 1, 7, 8, 9, 13, 64, 217). */
+/* The real-time kernels (realtime_kernel.c), every SIMD variant this CPU runs, against a
+ * naive double-precision product on sizes that exercise the vector and row-group tails
+ * (n = 1, 37; k = 1, 7, 8, 9, 13, 16, 17, 64, 217). */
 static void test_realtime_kernels(void **state)
 {
     (void)state;
-    const size_t ks[] = {1, 7, 8, 9, 13, 64, 217};
-    const size_t n = 37;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    const size_t ks[] = {1, 7, 8, 9, 13, 16, 17, 64, 217};
+    const size_t ns[] = {1, 37};
+    const char *variants[] = {"c", "avx2", "avx512"};
     uint64_t x = 12345;
 #define RND() ((x = x * 6364136223846793005ull + 1442695040888963407ull), (double)(x >> 40) / (1 << 24))
-    for (size_t t = 0; t < sizeof ks / sizeof ks[0]; t++) {
-        size_t k = ks[t];
-        float *m = malloc(3 * k * k * sizeof *m), *w = malloc(3 * k * sizeof *w),
-              *z = malloc(3 * k * sizeof *z), *f = malloc(n * k * sizeof *f),
-              *e = malloc(3 * n * sizeof *e), *rho = malloc(3 * n * sizeof *rho),
-              *b = malloc(3 * n * sizeof *b);
-        assert_non_null(m && w && z && f && e && rho && b);
-        for (size_t i = 0; i < 3 * k * k; i++)
-            m[i] = (float)(RND() - 0.3);
-        for (size_t i = 0; i < 3 * k; i++)
-            w[i] = (float)RND();
-        for (size_t i = 0; i < n * k; i++)
-            f[i] = (float)RND();
-        for (size_t i = 0; i < 3 * n; i++) {
-            e[i] = (float)RND();
-            rho[i] = (float)(0.9 * RND());
+    int ran = 0;
+    for (int v = 0; v < 3; v++) {
+        const lrr__kernel *kn;
+        lrr_status st = lrr__kernel_select(ctx, variants[v], &kn);
+        if (st == LRR_ERR_UNSUPPORTED) {
+            print_message("kernel %s: not supported by this CPU, skipped\n", variants[v]);
+            lrr_context_last_error(ctx, NULL, 0);
+            continue;
         }
-        lrr__smw_apply(m, k, w, z);
-        for (int c = 0; c < 3; c++)
-            for (size_t p = 0; p < k; p++) {
-                double ref = 0, mag = 0;
-                for (size_t q = 0; q < k; q++) {
-                    ref += (double)m[(c * k + p) * k + q] * w[c * k + q];
-                    mag += fabs((double)m[(c * k + p) * k + q] * w[c * k + q]);
+        assert_int_equal(st, LRR_OK);
+        assert_string_equal(kn->name, variants[v]);
+        ran++;
+        for (size_t t = 0; t < sizeof ks / sizeof ks[0]; t++)
+            for (size_t u = 0; u < 2; u++) {
+                size_t k = ks[t], n = ns[u];
+                float *m = malloc(3 * k * k * sizeof *m), *w = malloc(3 * k * sizeof *w),
+                      *z = malloc(3 * k * sizeof *z), *f = malloc(n * k * sizeof *f),
+                      *e = malloc(3 * n * sizeof *e), *rho = malloc(3 * n * sizeof *rho),
+                      *b = malloc(3 * n * sizeof *b);
+                assert_non_null(m && w && z && f && e && rho && b);
+                for (size_t i = 0; i < 3 * k * k; i++)
+                    m[i] = (float)(RND() - 0.3);
+                for (size_t i = 0; i < 3 * k; i++)
+                    w[i] = (float)RND();
+                for (size_t i = 0; i < n * k; i++)
+                    f[i] = (float)RND();
+                for (size_t i = 0; i < 3 * n; i++) {
+                    e[i] = (float)RND();
+                    rho[i] = (float)(0.9 * RND());
                 }
-                ASSERT_NEAR(z[c * k + p], ref, 1e-6 * mag + 1e-30, "k %zu c %d p %zu\n", k, c, p);
+                lrr__smw_apply(kn, m, k, w, z);
+                for (int c = 0; c < 3; c++)
+                    for (size_t p = 0; p < k; p++) {
+                        double ref = 0, mag = 0;
+                        for (size_t q = 0; q < k; q++) {
+                            ref += (double)m[(c * k + p) * k + q] * w[c * k + q];
+                            mag += fabs((double)m[(c * k + p) * k + q] * w[c * k + q]);
+                        }
+                        ASSERT_NEAR(z[c * k + p], ref, 1e-6 * mag + 1e-30,
+                                    "%s: k %zu c %d p %zu\n", kn->name, k, c, p);
+                    }
+                lrr__fbar_apply(kn, f, n, k, z, e, rho, b);
+                for (size_t i = 0; i < n; i++)
+                    for (int c = 0; c < 3; c++) {
+                        double dot = 0, mag = 0;
+                        for (size_t p = 0; p < k; p++) {
+                            dot += (double)f[i * k + p] * z[c * k + p];
+                            mag += fabs((double)f[i * k + p] * z[c * k + p]);
+                        }
+                        double ref = e[3 * i + c] + (double)rho[3 * i + c] * dot;
+                        ASSERT_NEAR(b[3 * i + c], ref, 1e-6 * (mag + e[3 * i + c]) + 1e-30,
+                                    "%s: n %zu k %zu row %zu c %d\n", kn->name, n, k, i, c);
+                    }
+                free(m), free(w), free(z), free(f), free(e), free(rho), free(b);
             }
-        lrr__fbar_apply(f, n, k, z, e, rho, b);
-        for (size_t i = 0; i < n; i++)
-            for (int c = 0; c < 3; c++) {
-                double dot = 0, mag = 0;
-                for (size_t p = 0; p < k; p++) {
-                    dot += (double)f[i * k + p] * z[c * k + p];
-                    mag += fabs((double)f[i * k + p] * z[c * k + p]);
-                }
-                double ref = e[3 * i + c] + (double)rho[3 * i + c] * dot;
-                ASSERT_NEAR(b[3 * i + c], ref, 1e-6 * (mag + e[3 * i + c]) + 1e-30,
-                            "k %zu row %zu c %d\n", k, i, c);
-            }
-        free(m), free(w), free(z), free(f), free(e), free(rho), free(b);
     }
 #undef RND
+    assert_true(ran >= 1);
+    /* a name that is not a variant is an argument error */
+    const lrr__kernel *kn;
+    assert_int_equal(lrr__kernel_select(ctx, "sse9", &kn), LRR_ERR_INVALID_ARG);
+    lrr_context_destroy(ctx);
 }
 
 int main(void)
