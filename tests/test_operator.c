@@ -387,6 +387,33 @@ static void test_realtime_kernels(void **state)
     /* a name that is not a variant is an argument error */
     const lrr__kernel *kn;
     assert_int_equal(lrr__kernel_select(ctx, "sse9", &kn), LRR_ERR_INVALID_ARG);
+    /* LRR_SIMD reaches the solver; every variant gives the same B to float rounding */
+    lrr_scene *s;
+    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_operator *op = build_scene(ctx, s, 40, 1, 16);
+    float *b0 = malloc(3 * op->n * sizeof *b0), *b1 = malloc(3 * op->n * sizeof *b1);
+    lrr_solver *sv;
+    setenv("LRR_SIMD", "c", 1);
+    LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &sv));
+    assert_string_equal(lrr_solver_kernel(sv), "c");
+    LRR_CHECK(ctx, lrr_solve(sv, op->emission, b0));
+    lrr_solver_destroy(sv);
+    unsetenv("LRR_SIMD");
+    LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &sv));
+    LRR_CHECK(ctx, lrr_solve(sv, op->emission, b1));
+    for (size_t j = 0; j < 3 * op->n; j++)
+        ASSERT_NEAR(b1[j], b0[j], 1e-5 * fabs(b0[j]) + 1e-6, "%s vs c: entry %zu\n",
+                    lrr_solver_kernel(sv), j);
+    lrr_solver_destroy(sv);
+    setenv("LRR_SIMD", "bogus", 1);
+    sv = (lrr_solver *)0x1;
+    assert_int_equal(lrr_solver_create(op, LRR_BACKEND_CPU, &sv), LRR_ERR_INVALID_ARG);
+    assert_null(sv);
+    unsetenv("LRR_SIMD");
+    free(b0);
+    free(b1);
+    lrr_operator_destroy(op);
+    lrr_scene_destroy(s);
     lrr_context_destroy(ctx);
 }
 
