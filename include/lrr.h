@@ -200,8 +200,36 @@ LRR_API LRR_NODISCARD lrr_status lrr_operator_set_reflectance(lrr_operator *op,
                                                               const float *rho)
     LRR_NONNULL(1, 2);
 
+/* How F̄ is stored. F16 and BF16 halve its memory and the bytes each frame reads; the
+ * kernels convert to float on the fly and accumulate in float. F16 rows carry a power-of-two
+ * scale so that small form factors stay normal numbers; BF16 keeps float's exponent range
+ * with an 8-bit mantissa. */
+typedef enum lrr_storage {
+    LRR_STORAGE_F32 = 0,
+    LRR_STORAGE_F16 = 1,
+    LRR_STORAGE_BF16 = 2
+} lrr_storage;
+
+/* "f32", "f16", "bf16"; NULL for an unknown value. */
+LRR_API const char *lrr_storage_name(lrr_storage storage);
+/* The inverse of lrr_storage_name; LRR_ERR_INVALID_ARG for an unknown name. */
+LRR_API LRR_NODISCARD lrr_status lrr_storage_from_name(const char *name, lrr_storage *out)
+    LRR_NONNULL(1, 2);
+
+/* Re-encodes F̄ in the given storage (rounding to nearest even; going back to F32 decodes
+ * the rounded values, it does not restore the originals). M is recomputed from the stored
+ * F̄, so the operator stays exactly consistent with what the kernels read. Destroy the
+ * operator's solvers first. Thread safety: one thread per object. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
+    LRR_NONNULL(1);
+
+/* Row i of F̄ (k floats), decoded from whatever storage the operator uses. */
+LRR_API void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
+    LRR_NONNULL(1, 3);
+
 typedef struct lrr_operator_info {
     size_t n, k, d, triangles;
+    lrr_storage storage;    /* how F̄ is held */
     double condition[3];    /* 1-norm condition estimates of G_c (dgecon) */
     double build_seconds;   /* wall time of lrr_operator_build (as stored, after a load) */
     unsigned hemicube_resolution;
@@ -211,8 +239,9 @@ typedef struct lrr_operator_info {
 LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)
     LRR_NONNULL(1, 2);
 
-/* Read-only views valid for the operator's life: F̄ (n×k row-major, ld = k), M (3 k×k
- * row-major matrices, channel-major), rho/emission/centre/normal (n×3), area (n). */
+/* Read-only views valid for the operator's life: F̄ (n×k row-major, ld = k; NULL unless the
+ * storage is LRR_STORAGE_F32: use lrr_operator_fbar_row then), M (3 k×k row-major matrices,
+ * channel-major), rho/emission/centre/normal (n×3), area (n). */
 LRR_API const float *lrr_operator_fbar(const lrr_operator *op) LRR_NONNULL(1);
 LRR_API const float *lrr_operator_m(const lrr_operator *op) LRR_NONNULL(1);
 LRR_API const float *lrr_operator_reflectance(const lrr_operator *op) LRR_NONNULL(1);

@@ -8,11 +8,13 @@
  *      8  version      u32      1
  *     12  endianness   u32      0x01020304 (reads 0x04030201 on a byte-swapped file)
  *     16  header_size  u32      64
- *     20  sections     u32      number of entries in the section table (6 in version 1)
+ *     20  sections     u32      number of entries in the section table (6, or 7 with
+ *                               ROWSCALE)
  *     24  n            u64      subpatches
  *     32  k            u64      patches
  *     40  d            u64      subpatches per patch (n = k·d, d = 4^levels)
- *     48  dtype        u32      0 = float32 (the element type of RHO, EMISSION, FBAR, M)
+ *     48  dtype        u32      storage of FBAR: 0 = float32, 1 = binary16, 2 = bfloat16
+ *                               (RHO, EMISSION, M and ROWSCALE are float32 always)
  *     52  reserved     u32      0
  *     56  checksum     u64      checksum of bytes 0..55
  *   The first 16 bytes (magic, version, endianness) keep their meaning in every version, so
@@ -31,11 +33,15 @@
  *                 with the header.
  *     2 RHO       n×3 float, each in [0,1)
  *     3 EMISSION  n×3 float, finite and >= 0
- *     4 FBAR      n×k float, row-major (64-byte aligned so the file could be mapped)
+ *     4 FBAR      n×k elements of dtype, row-major (64-byte aligned so the file could be
+ *                 mapped); for dtype 1 and 2 row i holds F̄_i / ROWSCALE_i
  *     5 M         3×k×k float, row-major, channel-major
  *     6 INFO      cond[3] f64, build_seconds f64, hemicube_resolution u32, reserved u32,
  *                 seed u64: size 48
+ *     7 ROWSCALE  n float, positive powers of two; present exactly when dtype is 1 or 2
  *   Centres, normals and areas are not stored: they are recomputed from the geometry.
+ *   (dtype 1 and 2 came after the first files: a reader that knows only float32 refuses them
+ *   by their dtype, so the version stayed 1.)
  *
  * Checksum: h = 0xcbf29ce484222325 ^ len; for each little-endian 64-bit word w (the last one
  * zero-padded) h = (h ^ w) · 0x100000001b3 mod 2^64; finally the MurmurHash3 fmix64 of
@@ -78,18 +84,23 @@
 #define ENTRY_SIZE 32u
 #define MAX_SECTIONS 64u   /* bounds the table read from a corrupted count */
 #define ALIGN 64u
-#define DTYPE_F32 0u
+#define DTYPE_F32 0u /* equal to LRR_STORAGE_F32; 1 and 2 are LRR_STORAGE_F16 / _BF16 */
 #define INFO_SIZE 48u
 #define GEOM_PREFIX 16u
 
 static const char MAGIC[8] = {'L', 'R', 'R', 'O', 'P', 'E', 'R', '\0'};
 
-enum { SEC_GEOMETRY = 1, SEC_RHO, SEC_EMISSION, SEC_FBAR, SEC_M, SEC_INFO, SEC_COUNT = 6 };
+enum {
+    SEC_GEOMETRY = 1, SEC_RHO, SEC_EMISSION, SEC_FBAR, SEC_M, SEC_INFO, SEC_ROWSCALE,
+    SEC_COUNT = 6,     /* sections every file has */
+    SEC_KNOWN = 7      /* sections this reader knows */
+};
 
 static const char *section_name(uint32_t id)
 {
-    static const char *const names[] = {"?", "GEOMETRY", "RHO", "EMISSION", "FBAR", "M", "INFO"};
-    return id >= 1 && id <= SEC_COUNT ? names[id] : "unknown";
+    static const char *const names[] = {"?",    "GEOMETRY", "RHO",     "EMISSION",
+                                        "FBAR", "M",        "INFO",    "ROWSCALE"};
+    return id >= 1 && id <= SEC_KNOWN ? names[id] : "unknown";
 }
 
 /* ------------------------------------------------------------ checksum and byte order */
@@ -222,7 +233,9 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
                           "file %s: .lrr files are little-endian; this host is not", path);
     const lrr__geometry *g = &op->geom;
-    if (!g->vert || !g->depth || !op->rho || !op->emission || !op->fbar || !op->m ||
+    const int half = op->storage != LRR_STORAGE_F32;
+    if (!g->vert || !g->depth || !op->rho || !op->emission || !op->m ||
+        (half ? !op->fbar16 || !op->row_scale : !op->fbar) ||
         g->n != op->n || g->k != op->k || g->d != op->d || op->n == 0)
         return lrr__error(ctx, LRR_ERR_INVALID_ARG,
                           "file %s: operator is incomplete (no geometry or arrays)", path);
@@ -231,7 +244,8 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     if (!bytes_of(g->n_tri, 37, &geom_size) || __builtin_add_overflow(geom_size, GEOM_PREFIX,
                                                                      &geom_size) ||
         !bytes_of(op->n, 3 * sizeof(float), &rho_size) ||
-        !bytes_of(op->n, op->k, &fbar_elems) || !bytes_of(fbar_elems, sizeof(float), &fbar_size) ||
+        !bytes_of(op->n, op->k, &fbar_elems) ||
+        !bytes_of(fbar_elems, half ? sizeof(uint16_t) : sizeof(float), &fbar_size) ||
         !bytes_of(op->k, op->k, &m_elems) || !bytes_of(m_elems, 3 * sizeof(float), &m_size))
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "file %s: section sizes overflow 64 bits",
                           path);
@@ -254,14 +268,18 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     put32(info + 32, op->hemicube_resolution);
     put64(info + 40, op->seed);
 
-    struct section sec[SEC_COUNT] = {
+    const void *fbar_data = half ? (const void *)op->fbar16 : (const void *)op->fbar;
+    struct section sec[SEC_KNOWN] = {
         {SEC_GEOMETRY, geom, geom_size, 0, 0},  {SEC_RHO, op->rho, rho_size, 0, 0},
-        {SEC_EMISSION, op->emission, rho_size, 0, 0}, {SEC_FBAR, op->fbar, fbar_size, 0, 0},
+        {SEC_EMISSION, op->emission, rho_size, 0, 0}, {SEC_FBAR, fbar_data, fbar_size, 0, 0},
         {SEC_M, op->m, m_size, 0, 0},           {SEC_INFO, info, INFO_SIZE, 0, 0},
+        {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0},
     };
-    unsigned char table[SEC_COUNT * ENTRY_SIZE + 8] = {0};
-    uint64_t pos = HEADER_SIZE + sizeof table;
-    for (int s = 0; s < SEC_COUNT; s++) {
+    const int count = half ? SEC_KNOWN : SEC_COUNT;
+    unsigned char table[SEC_KNOWN * ENTRY_SIZE + 8] = {0};
+    const size_t tsize = (size_t)count * ENTRY_SIZE + 8;
+    uint64_t pos = HEADER_SIZE + tsize;
+    for (int s = 0; s < count; s++) {
         sec[s].offset = align_up(pos);
         sec[s].checksum = checksum(sec[s].data, (size_t)sec[s].size);
         pos = sec[s].offset + sec[s].size; /* below the in-memory sizes: cannot overflow */
@@ -271,18 +289,18 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         put64(e + 16, sec[s].size);
         put64(e + 24, sec[s].checksum);
     }
-    put64(table + SEC_COUNT * ENTRY_SIZE, checksum(table, SEC_COUNT * ENTRY_SIZE));
+    put64(table + (size_t)count * ENTRY_SIZE, checksum(table, (size_t)count * ENTRY_SIZE));
 
     unsigned char header[HEADER_SIZE] = {0};
     memcpy(header, MAGIC, 8);
     put32(header + 8, FILE_VERSION);
     put32(header + 12, ENDIAN_MARK);
     put32(header + 16, HEADER_SIZE);
-    put32(header + 20, SEC_COUNT);
+    put32(header + 20, (uint32_t)count);
     put64(header + 24, op->n);
     put64(header + 32, op->k);
     put64(header + 40, op->d);
-    put32(header + 48, DTYPE_F32);
+    put32(header + 48, (uint32_t)op->storage);
     put64(header + 56, checksum(header, 56));
 
     size_t plen = strlen(path);
@@ -316,8 +334,8 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         goto fail;
     }
     w_bytes(&w, header, sizeof header);
-    w_bytes(&w, table, sizeof table);
-    for (int s = 0; s < SEC_COUNT; s++) {
+    w_bytes(&w, table, tsize);
+    for (int s = 0; s < count; s++) {
         w_pad_to(&w, sec[s].offset);
         w_bytes(&w, sec[s].data, (size_t)sec[s].size);
     }
@@ -417,9 +435,9 @@ static lrr_status expect_size(struct reader *r, const struct section *s, uint64_
     return LRR_OK;
 }
 
-/* Reads and validates header and section table into sec[SEC_COUNT] (indexed by id-1). */
+/* Reads and validates header and section table into sec[SEC_KNOWN] (indexed by id-1). */
 static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64_t *d,
-                              struct section sec[SEC_COUNT])
+                              uint32_t *dtype_out, struct section sec[SEC_KNOWN])
 {
     unsigned char h[HEADER_SIZE];
     size_t have = r->file_size < HEADER_SIZE ? (size_t)r->file_size : HEADER_SIZE;
@@ -459,10 +477,13 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
     if (hsize != HEADER_SIZE)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: header size %" PRIu32 ", not %u",
                           r->path, hsize, HEADER_SIZE);
-    if (dtype != DTYPE_F32)
+    if (dtype > LRR_STORAGE_BF16)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
-                          "file %s: element type %" PRIu32 " (only 0 = float32 is supported)",
+                          "file %s: element type %" PRIu32 " (this library reads 0 = float32, "
+                          "1 = binary16, 2 = bfloat16)",
                           r->path, dtype);
+    *dtype_out = dtype;
+    const int required = dtype == DTYPE_F32 ? SEC_COUNT : SEC_KNOWN;
     if (count < SEC_COUNT || count > MAX_SECTIONS)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: %" PRIu32 " sections (expected %d..%u)", r->path, count,
@@ -488,12 +509,12 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
         return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section table fails its checksum",
                           r->path);
 
-    bool seen[SEC_COUNT] = {false};
+    bool seen[SEC_KNOWN] = {false};
     for (uint32_t i = 0; i < count; i++) {
         const unsigned char *e = table + i * ENTRY_SIZE;
         struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24)};
-        if (s.id < 1 || s.id > SEC_COUNT)
-            continue; /* a later minor addition: skip it */
+        if (s.id < 1 || s.id > (uint32_t)required)
+            continue; /* a later minor addition (or a ROWSCALE a float32 file ignores) */
         if (seen[s.id - 1])
             return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s appears twice",
                               r->path, section_name(s.id));
@@ -512,7 +533,7 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
         seen[s.id - 1] = true;
         sec[s.id - 1] = s;
     }
-    for (int i = 0; i < SEC_COUNT; i++)
+    for (int i = 0; i < required; i++)
         if (!seen[i])
             return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s is missing",
                               r->path, section_name((uint32_t)i + 1));
@@ -529,7 +550,11 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
                           "file %s: implausible sizes n = %" PRIu64 ", k = %" PRIu64
                           " (n·k overflows)",
                           r->path, *n, *k);
-    if ((st = expect_size(r, &sec[SEC_FBAR - 1], nk_elems, sizeof(float), "n·k floats")) ||
+    if ((st = expect_size(r, &sec[SEC_FBAR - 1], nk_elems,
+                          dtype == DTYPE_F32 ? sizeof(float) : sizeof(uint16_t),
+                          dtype == DTYPE_F32 ? "n·k floats" : "n·k 16-bit values")) ||
+        (dtype != DTYPE_F32 &&
+         (st = expect_size(r, &sec[SEC_ROWSCALE - 1], *n, sizeof(float), "n floats"))) ||
         (st = expect_size(r, &sec[SEC_M - 1], kk_elems, 3 * sizeof(float), "3·k·k floats")))
         return st;
     if (sec[SEC_GEOMETRY - 1].size < GEOM_PREFIX)
@@ -603,11 +628,22 @@ static lrr_status check_values(struct reader *r, const lrr_operator *op)
     }
     /* A non-finite F̄ or M would turn every solve into silent NaN. */
     size_t nk = op->n * op->k;
+    /* binary16 and bfloat16 mark Inf/NaN by an all-ones exponent */
+    const uint16_t expmask = op->storage == LRR_STORAGE_F16 ? 0x7c00u : 0x7f80u;
     for (size_t i = 0; i < nk; i++)
-        if (!isfinite(op->fbar[i]))
+        if (op->fbar ? !isfinite(op->fbar[i]) : (op->fbar16[i] & expmask) == expmask)
             return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                               "file %s: section FBAR: entry (%zu, %zu) is not finite", r->path,
                               i / op->k, i % op->k);
+    for (size_t i = 0; op->row_scale && i < op->n; i++) {
+        int e;
+        if (!(op->row_scale[i] > 0) || !isfinite(op->row_scale[i]) ||
+            frexpf(op->row_scale[i], &e) != 0.5f)
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section ROWSCALE: row %zu has scale %g (must be a "
+                              "positive power of two)",
+                              r->path, i, (double)op->row_scale[i]);
+    }
     size_t kk = op->k * op->k;
     for (size_t i = 0; i < 3 * kk; i++)
         if (!isfinite(op->m[i]))
@@ -642,7 +678,8 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     r.file_size = (uint64_t)sb.st_size;
 
     uint64_t n = 0, k = 0, d = 0;
-    struct section sec[SEC_COUNT];
+    struct section sec[SEC_KNOWN];
+    uint32_t dtype = 0;
     unsigned char *geom_buf = NULL;
     lrr__geometry g;
     memset(&g, 0, sizeof g);
@@ -650,7 +687,7 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     unsigned char info[INFO_SIZE];
     int builtin = 0;
 
-    lrr_status st = read_layout(&r, &n, &k, &d, sec);
+    lrr_status st = read_layout(&r, &n, &k, &d, &dtype, sec);
     if (st)
         goto done;
     const struct section *gs = &sec[SEC_GEOMETRY - 1];
@@ -659,11 +696,13 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
         (st = parse_geometry(&r, geom_buf, gs->size, n, k, d, &g, &builtin)) ||
         (st = read_section(&r, &sec[SEC_INFO - 1], info)))
         goto done;
-    if ((st = lrr__operator_new(ctx, &g, &op)))
+    if ((st = lrr__operator_new(ctx, &g, (lrr_storage)dtype, &op)))
         goto done;
     if ((st = read_section(&r, &sec[SEC_RHO - 1], op->rho)) ||
         (st = read_section(&r, &sec[SEC_EMISSION - 1], op->emission)) ||
-        (st = read_section(&r, &sec[SEC_FBAR - 1], op->fbar)) ||
+        (st = read_section(&r, &sec[SEC_FBAR - 1],
+                           dtype == DTYPE_F32 ? (void *)op->fbar : (void *)op->fbar16)) ||
+        (dtype != DTYPE_F32 && (st = read_section(&r, &sec[SEC_ROWSCALE - 1], op->row_scale))) ||
         (st = read_section(&r, &sec[SEC_M - 1], op->m)) || (st = check_values(&r, op)))
         goto done;
     for (int c = 0; c < 3; c++)

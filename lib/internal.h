@@ -108,7 +108,10 @@ struct lrr_operator {
     float *emission;           /* n×3, the scene's own emission */
     float *area;               /* n */
     float *centre, *normal;    /* n×3, derived from geom (not stored in files) */
-    float *fbar;               /* n×k row-major, 64-byte aligned: F̄_ip = F_{i→p}/d */
+    lrr_storage storage;       /* which of fbar / fbar16 holds F̄ */
+    float *fbar;               /* n×k row-major, 64-byte aligned: F̄_ip = F_{i→p}/d (F32) */
+    uint16_t *fbar16;          /* n×k binary16 or bfloat16 (F16, BF16), F̄_ip / row_scale_i */
+    float *row_scale;          /* n powers of two (F16, BF16; all 1 for BF16) */
     float *m;                  /* 3×k×k row-major: M_c = G_c^{-1} */
     double cond[3];            /* dgecon estimates (1-norm) of G_c */
     double build_seconds;
@@ -116,9 +119,17 @@ struct lrr_operator {
     uint64_t seed;
 };
 
-/* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, fbar
- * and m are allocated (zeroed); area/centre/normal are filled from the geometry. */
-lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_operator **out);
+/* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, m and
+ * F̄ in the given storage (fbar, or fbar16 + row_scale) are allocated (zeroed);
+ * area/centre/normal are filled from the geometry. */
+lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
+                             lrr_operator **out);
+
+/* Round-to-nearest-even conversions (storage.c). */
+uint16_t lrr__f32_to_f16(float f);
+float lrr__f16_to_f32(uint16_t h);
+uint16_t lrr__f32_to_bf16(float f);
+float lrr__bf16_to_f32(uint16_t b);
 /* Recomputes m and cond from fbar and rho (double precision LAPACKE). */
 lrr_status lrr__operator_factor(lrr_operator *op);
 
@@ -148,6 +159,11 @@ typedef struct lrr__kernel {
     /* rows [i0, i1): B_c = E_c + rho_c ∘ (F̄ z_c), z 3×k channel-major */
     void (*fbar_rows)(const float *fbar, size_t i0, size_t i1, size_t k, const float *z,
                       const float *E, const float *rho, float *B);
+    /* the same with F̄ stored as binary16 / bfloat16, row i scaled by scale[i] */
+    void (*f16_rows)(const uint16_t *fbar, const float *scale, size_t i0, size_t i1, size_t k,
+                     const float *z, const float *E, const float *rho, float *B);
+    void (*bf16_rows)(const uint16_t *fbar, const float *scale, size_t i0, size_t i1,
+                      size_t k, const float *z, const float *E, const float *rho, float *B);
     /* rows [i0, i1) of y = A x, A row-major with k columns */
     void (*gemv_rows)(const float *a, size_t i0, size_t i1, size_t k, const float *x, float *y);
 } lrr__kernel;
@@ -156,9 +172,10 @@ typedef struct lrr__kernel {
 lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, const lrr__kernel **out);
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
 void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z);
-/* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ n×k row-major read once; E, rho, B n×3. */
-void lrr__fbar_apply(const lrr__kernel *kn, const float *fbar, size_t n, size_t k,
-                     const float *z, const float *E, const float *rho, float *B);
+/* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ n×k row-major read once, in the operator's storage;
+ * E, rho, B n×3. */
+void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
+                     const float *E, float *B);
 
 /* ------------------------------------------------------------ misc */
 double lrr__now(void);  /* monotonic seconds */

@@ -12,6 +12,7 @@
 
 #include <lapacke.h>
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -26,12 +27,15 @@ void lrr_operator_destroy(lrr_operator *op)
     lrr_aligned_free(op->centre);
     lrr_aligned_free(op->normal);
     lrr_aligned_free(op->fbar);
+    lrr_aligned_free(op->fbar16);
+    lrr_aligned_free(op->row_scale);
     lrr_aligned_free(op->m);
     lrr__context_release(op->ctx);
     free(op);
 }
 
-lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_operator **out)
+lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
+                             lrr_operator **out)
 {
     *out = NULL;
     lrr_operator *op = calloc(1, sizeof *op);
@@ -54,8 +58,15 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_opera
         (st = lrr__calloc(ctx, &op->area, g->n, sizeof(float), "subpatch areas")) ||
         (st = lrr__calloc(ctx, &op->centre, g->n, 3 * sizeof(float), "subpatch centres")) ||
         (st = lrr__calloc(ctx, &op->normal, g->n, 3 * sizeof(float), "subpatch normals")) ||
-        (st = lrr__calloc(ctx, &op->fbar, g->n, g->k * sizeof(float), "F̄ (n×k floats)")) ||
         (st = lrr__calloc(ctx, &op->m, kk, 3 * sizeof(float), "M (3×k×k floats)")))
+        goto fail;
+    op->storage = storage;
+    if (storage == LRR_STORAGE_F32)
+        st = lrr__calloc(ctx, &op->fbar, g->n, g->k * sizeof(float), "F̄ (n×k floats)");
+    else if (!(st = lrr__calloc(ctx, &op->fbar16, g->n, g->k * sizeof(uint16_t),
+                                "F̄ (n×k 16-bit)")))
+        st = lrr__calloc(ctx, &op->row_scale, g->n, sizeof(float), "F̄ row scales");
+    if (st)
         goto fail;
     lrr__subpatch_frames(&op->geom, op->centre, op->normal, op->area);
     *out = op;
@@ -80,18 +91,31 @@ lrr_status lrr__operator_factor(lrr_operator *op)
         lrr_aligned_free(G);
         return st;
     }
+    /* with 16-bit storage, rows are decoded into one scratch row per thread */
+    float *rowbuf = NULL;
+    int threads = omp_get_max_threads();
+    if (op->storage != LRR_STORAGE_F32 &&
+        (st = lrr__calloc(op->ctx, &rowbuf, (size_t)threads, k * sizeof(float),
+                          "decoded F̄ rows"))) {
+        lrr_aligned_free(G);
+        lrr_aligned_free(ipiv);
+        return st;
+    }
     for (int c = 0; c < 3; c++) {
         /* G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq: rows of G are independent segmented sums */
-        #pragma omp parallel for schedule(static)
+        #pragma omp parallel for schedule(static) num_threads(threads)
         for (size_t p = 0; p < k; p++) {
             double *gp = G + p * k;
+            float *scratch = rowbuf ? rowbuf + (size_t)omp_get_thread_num() * k : NULL;
             for (size_t q = 0; q < k; q++)
                 gp[q] = 0;
             for (size_t i = p * d; i < (p + 1) * d; i++) {
                 double r = op->rho[3 * i + c];
                 if (r == 0)
                     continue; /* black subpatches reflect nothing */
-                const float *fi = op->fbar + i * k;
+                const float *fi = op->fbar ? op->fbar + i * k : scratch;
+                if (!op->fbar)
+                    lrr_operator_fbar_row(op, i, scratch);
                 for (size_t q = 0; q < k; q++)
                     gp[q] -= r * fi[q];
             }
@@ -134,6 +158,7 @@ lrr_status lrr__operator_factor(lrr_operator *op)
     }
     lrr_aligned_free(G);
     lrr_aligned_free(ipiv);
+    lrr_aligned_free(rowbuf);
     return st;
 }
 
@@ -154,7 +179,7 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
         return lrr__error(ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0", o.threads);
     double t0 = lrr__now();
     lrr_operator *op;
-    lrr_status st = lrr__operator_new(ctx, &scene->geom, &op);
+    lrr_status st = lrr__operator_new(ctx, &scene->geom, LRR_STORAGE_F32, &op);
     if (st)
         return st;
     op->builtin = scene->builtin;
@@ -206,8 +231,10 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)
     info->build_seconds = op->build_seconds;
     info->hemicube_resolution = op->hemicube_resolution;
     info->seed = op->seed;
-    info->bytes = op->n * op->k * sizeof(float) + 3 * op->k * op->k * sizeof(float) +
-                  op->n * 13 * sizeof(float);
+    info->storage = op->storage;
+    info->bytes = op->n * op->k * (op->storage == LRR_STORAGE_F32 ? sizeof(float) : 2) +
+                  (op->row_scale ? op->n * sizeof(float) : 0) +
+                  3 * op->k * op->k * sizeof(float) + op->n * 13 * sizeof(float);
 }
 
 const float *lrr_operator_fbar(const lrr_operator *op) { return op->fbar; }

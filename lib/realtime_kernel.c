@@ -95,6 +95,43 @@ static void fbar_rows_c(const float *fbar, size_t i0, size_t i1, size_t k, const
     }
 }
 
+/* 16-bit rows, one at a time: decode into a short float block, then the float dot product */
+static void half_rows_c(const uint16_t *fbar, const float *scale, int bf16, size_t i0,
+                        size_t i1, size_t k, const float *z, const float *E, const float *rho,
+                        float *B)
+{
+    enum { BLK = 256 };
+    float buf[BLK];
+    for (size_t i = i0; i < i1; i++) {
+        const uint16_t *row = fbar + i * k;
+        float t[3] = {0, 0, 0};
+        for (size_t p0 = 0; p0 < k; p0 += BLK) {
+            size_t m = k - p0 < BLK ? k - p0 : BLK;
+            for (size_t q = 0; q < m; q++)
+                buf[q] = bf16 ? lrr__bf16_to_f32(row[p0 + q]) : lrr__f16_to_f32(row[p0 + q]);
+            float u[3];
+            dot3(buf, z + p0, z + k + p0, z + 2 * k + p0, m, u);
+            t[0] += u[0];
+            t[1] += u[1];
+            t[2] += u[2];
+        }
+        for (int c = 0; c < 3; c++)
+            B[3 * i + c] = E[3 * i + c] + rho[3 * i + c] * (scale[i] * t[c]);
+    }
+}
+
+static void f16_rows_c(const uint16_t *fbar, const float *scale, size_t i0, size_t i1,
+                       size_t k, const float *z, const float *E, const float *rho, float *B)
+{
+    half_rows_c(fbar, scale, 0, i0, i1, k, z, E, rho, B);
+}
+
+static void bf16_rows_c(const uint16_t *fbar, const float *scale, size_t i0, size_t i1,
+                        size_t k, const float *z, const float *E, const float *rho, float *B)
+{
+    half_rows_c(fbar, scale, 1, i0, i1, k, z, E, rho, B);
+}
+
 static void gemv_rows_c(const float *a, size_t i0, size_t i1, size_t k, const float *x,
                         float *y)
 {
@@ -164,6 +201,62 @@ __attribute__((target("avx2,fma"))) static void fbar_rows_avx2(const float *fbar
     if (i < i1)
         fbar_rows_c(fbar, i, i1, k, z, E, rho, B);
 }
+
+/* 16-bit F̄: 8 entries per step are widened to float (F16C for binary16, a 16-bit shift for
+ * bfloat16); two rows share each z load; the k % 8 tail is decoded in C. */
+#define DEFINE_HALF_ROWS_AVX2(NAME, LOAD8, BF16)                                                \
+    __attribute__((target("avx2,fma,f16c"))) static void NAME(                                  \
+        const uint16_t *fbar, const float *scale, size_t i0, size_t i1, size_t k,               \
+        const float *z, const float *E, const float *rho, float *B)                              \
+    {                                                                                           \
+        const float *zr = z, *zg = z + k, *zb = z + 2 * k;                                      \
+        const size_t kv = k & ~(size_t)7;                                                       \
+        size_t i = i0;                                                                          \
+        for (; i + 2 <= i1; i += 2) {                                                           \
+            const uint16_t *f0 = fbar + i * k, *f1 = f0 + k;                                    \
+            __m256 a0r = _mm256_setzero_ps(), a0g = a0r, a0b = a0r, a1r = a0r, a1g = a0r,       \
+                   a1b = a0r;                                                                   \
+            for (size_t p = 0; p < kv; p += 8) {                                                \
+                _mm_prefetch((const char *)(f0 + p) + PREFETCH, _MM_HINT_T0);                   \
+                _mm_prefetch((const char *)(f1 + p) + PREFETCH, _MM_HINT_T0);                   \
+                __m256 r = _mm256_loadu_ps(zr + p), g = _mm256_loadu_ps(zg + p),                \
+                       b = _mm256_loadu_ps(zb + p);                                             \
+                __m256 x0 = LOAD8(f0 + p), x1 = LOAD8(f1 + p);                                  \
+                a0r = _mm256_fmadd_ps(x0, r, a0r);                                              \
+                a0g = _mm256_fmadd_ps(x0, g, a0g);                                              \
+                a0b = _mm256_fmadd_ps(x0, b, a0b);                                              \
+                a1r = _mm256_fmadd_ps(x1, r, a1r);                                              \
+                a1g = _mm256_fmadd_ps(x1, g, a1g);                                              \
+                a1b = _mm256_fmadd_ps(x1, b, a1b);                                              \
+            }                                                                                   \
+            float t[6] = {hsum256(a0r), hsum256(a0g), hsum256(a0b),                             \
+                          hsum256(a1r), hsum256(a1g), hsum256(a1b)};                            \
+            for (size_t p = kv; p < k; p++) {                                                   \
+                float x0 = BF16 ? lrr__bf16_to_f32(f0[p]) : lrr__f16_to_f32(f0[p]);             \
+                float x1 = BF16 ? lrr__bf16_to_f32(f1[p]) : lrr__f16_to_f32(f1[p]);             \
+                t[0] += x0 * zr[p], t[1] += x0 * zg[p], t[2] += x0 * zb[p];                     \
+                t[3] += x1 * zr[p], t[4] += x1 * zg[p], t[5] += x1 * zb[p];                     \
+            }                                                                                   \
+            for (int j = 0; j < 6; j++)                                                         \
+                B[3 * i + j] = E[3 * i + j] + rho[3 * i + j] * (scale[i + j / 3] * t[j]);       \
+        }                                                                                       \
+        if (i < i1)                                                                             \
+            half_rows_c(fbar, scale, BF16, i, i1, k, z, E, rho, B);                             \
+    }
+
+__attribute__((target("avx2,fma,f16c"))) static inline __m256 load8_f16(const uint16_t *p)
+{
+    return _mm256_cvtph_ps(_mm_loadu_si128((const __m128i *)p));
+}
+
+__attribute__((target("avx2,fma,f16c"))) static inline __m256 load8_bf16(const uint16_t *p)
+{
+    return _mm256_castsi256_ps(
+        _mm256_slli_epi32(_mm256_cvtepu16_epi32(_mm_loadu_si128((const __m128i *)p)), 16));
+}
+
+DEFINE_HALF_ROWS_AVX2(f16_rows_avx2, load8_f16, 0)
+DEFINE_HALF_ROWS_AVX2(bf16_rows_avx2, load8_bf16, 1)
 
 __attribute__((target("avx2,fma"))) static void gemv_rows_avx2(const float *a, size_t i0,
                                                                size_t i1, size_t k,
@@ -245,6 +338,63 @@ __attribute__((target("avx512f"))) static void fbar_rows_avx512(const float *fba
         fbar_rows_c(fbar, i, i1, k, z, E, rho, B);
 }
 
+/* 16-bit F̄ with AVX-512: 16 entries per step widened to float, four rows per z load. */
+#define DEFINE_HALF_ROWS_AVX512(NAME, LOAD16, BF16)                                             \
+    __attribute__((target("avx512f"))) static void NAME(                                        \
+        const uint16_t *fbar, const float *scale, size_t i0, size_t i1, size_t k,               \
+        const float *z, const float *E, const float *rho, float *B)                              \
+    {                                                                                           \
+        const float *zr = z, *zg = z + k, *zb = z + 2 * k;                                      \
+        const size_t kv = k & ~(size_t)15;                                                      \
+        size_t i = i0;                                                                          \
+        for (; i + 4 <= i1; i += 4) {                                                           \
+            const uint16_t *f0 = fbar + i * k;                                                  \
+            __m512 acc[4][3];                                                                   \
+            for (int q = 0; q < 4; q++)                                                         \
+                acc[q][0] = acc[q][1] = acc[q][2] = _mm512_setzero_ps();                        \
+            for (size_t p = 0; p < kv; p += 16) {                                               \
+                __m512 r = _mm512_loadu_ps(zr + p), g = _mm512_loadu_ps(zg + p),               \
+                       b = _mm512_loadu_ps(zb + p);                                             \
+                for (int q = 0; q < 4; q++) {                                                   \
+                    _mm_prefetch((const char *)(f0 + q * k + p) + PREFETCH, _MM_HINT_T0);       \
+                    __m512 x = LOAD16(f0 + q * k + p);                                          \
+                    acc[q][0] = _mm512_fmadd_ps(x, r, acc[q][0]);                               \
+                    acc[q][1] = _mm512_fmadd_ps(x, g, acc[q][1]);                               \
+                    acc[q][2] = _mm512_fmadd_ps(x, b, acc[q][2]);                               \
+                }                                                                               \
+            }                                                                                   \
+            for (int q = 0; q < 4; q++) {                                                       \
+                float t[3] = {_mm512_reduce_add_ps(acc[q][0]), _mm512_reduce_add_ps(acc[q][1]), \
+                              _mm512_reduce_add_ps(acc[q][2])};                                 \
+                const uint16_t *fq = f0 + q * k;                                                \
+                for (size_t p = kv; p < k; p++) {                                               \
+                    float x = BF16 ? lrr__bf16_to_f32(fq[p]) : lrr__f16_to_f32(fq[p]);          \
+                    t[0] += x * zr[p], t[1] += x * zg[p], t[2] += x * zb[p];                    \
+                }                                                                               \
+                for (int c = 0; c < 3; c++) {                                                   \
+                    size_t j = 3 * (i + q) + c;                                                 \
+                    B[j] = E[j] + rho[j] * (scale[i + q] * t[c]);                               \
+                }                                                                               \
+            }                                                                                   \
+        }                                                                                       \
+        if (i < i1)                                                                             \
+            half_rows_c(fbar, scale, BF16, i, i1, k, z, E, rho, B);                             \
+    }
+
+__attribute__((target("avx512f"))) static inline __m512 load16_f16(const uint16_t *p)
+{
+    return _mm512_cvtph_ps(_mm256_loadu_si256((const __m256i *)p));
+}
+
+__attribute__((target("avx512f"))) static inline __m512 load16_bf16(const uint16_t *p)
+{
+    return _mm512_castsi512_ps(
+        _mm512_slli_epi32(_mm512_cvtepu16_epi32(_mm256_loadu_si256((const __m256i *)p)), 16));
+}
+
+DEFINE_HALF_ROWS_AVX512(f16_rows_avx512, load16_f16, 0)
+DEFINE_HALF_ROWS_AVX512(bf16_rows_avx512, load16_bf16, 1)
+
 __attribute__((target("avx512f"))) static void gemv_rows_avx512(const float *a, size_t i0,
                                                                  size_t i1, size_t k,
                                                                  const float *x, float *y)
@@ -277,10 +427,10 @@ __attribute__((target("avx512f"))) static void gemv_rows_avx512(const float *a, 
 /* ------------------------------------------------------------------ dispatch */
 
 static const lrr__kernel kernels[] = {
-    {"c", fbar_rows_c, gemv_rows_c},
+    {"c", fbar_rows_c, f16_rows_c, bf16_rows_c, gemv_rows_c},
 #ifdef LRR_X86
-    {"avx2", fbar_rows_avx2, gemv_rows_avx2},
-    {"avx512", fbar_rows_avx512, gemv_rows_avx512},
+    {"avx2", fbar_rows_avx2, f16_rows_avx2, bf16_rows_avx2, gemv_rows_avx2},
+    {"avx512", fbar_rows_avx512, f16_rows_avx512, bf16_rows_avx512, gemv_rows_avx512},
 #endif
 };
 
@@ -288,7 +438,8 @@ static int supported(const char *name)
 {
 #ifdef LRR_X86
     if (strcmp(name, "avx2") == 0)
-        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
+               __builtin_cpu_supports("f16c");
     if (strcmp(name, "avx512") == 0)
         return __builtin_cpu_supports("avx512f");
 #endif
@@ -333,13 +484,20 @@ void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float
     }
 }
 
-void lrr__fbar_apply(const lrr__kernel *kn, const float *fbar, size_t n, size_t k,
-                     const float *z, const float *E, const float *rho, float *B)
+void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
+                     const float *E, float *B)
 {
+    const size_t n = op->n, k = op->k;
     const size_t blocks = (n + ROW_BLOCK - 1) / ROW_BLOCK;
+    const lrr_storage storage = op->storage;
     #pragma omp parallel for schedule(static)
     for (size_t b = 0; b < blocks; b++) {
         size_t i0 = b * ROW_BLOCK, i1 = i0 + ROW_BLOCK < n ? i0 + ROW_BLOCK : n;
-        kn->fbar_rows(fbar, i0, i1, k, z, E, rho, B);
+        if (storage == LRR_STORAGE_F16)
+            kn->f16_rows(op->fbar16, op->row_scale, i0, i1, k, z, E, op->rho, B);
+        else if (storage == LRR_STORAGE_BF16)
+            kn->bf16_rows(op->fbar16, op->row_scale, i0, i1, k, z, E, op->rho, B);
+        else
+            kn->fbar_rows(op->fbar, i0, i1, k, z, E, op->rho, B);
     }
 }

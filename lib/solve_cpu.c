@@ -58,7 +58,7 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
 lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
 {
     const lrr_operator *op = s->op;
-    const size_t n = op->n, k = op->k, d = op->d;
+    const size_t k = op->k, d = op->d;
     if (E == B)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "emission and radiosity may not alias");
     /* w = Vᵀ E, validating E on the way (one pass) */
@@ -81,7 +81,7 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
                           "emission of subpatch %zu, channel %zu = %g (must be finite and >= 0)",
                           bad / 3, bad % 3, (double)E[bad]);
     lrr__smw_apply(s->kernel, op->m, k, s->w, s->z);
-    lrr__fbar_apply(s->kernel, op->fbar, n, k, s->z, E, op->rho, B);
+    lrr__fbar_apply(s->kernel, op, s->z, E, B);
     return LRR_OK;
 }
 

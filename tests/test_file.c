@@ -175,7 +175,7 @@ static lrr_operator *handmade_operator(lrr_context *ctx)
     assert_int_equal(g.k, 84);
     assert_int_equal(g.n, 336);
     lrr_operator *op;
-    LRR_CHECK(ctx, lrr__operator_new(ctx, &g, &op));
+    LRR_CHECK(ctx, lrr__operator_new(ctx, &g, LRR_STORAGE_F32, &op));
     lrr__geometry_free(&g);
     uint64_t s = 12345;
     for (size_t i = 0; i < op->n * 3; i++) {
@@ -481,10 +481,10 @@ static void test_foreign_files(void **state)
     spit(p, b, fx->len);
     expect_load_error(fx->ctx, p, LRR_ERR_VERSION, LRR_OK, "big-endian file");
     memcpy(b, fx->bytes, fx->len);
-    wr32(b + 48, 1); /* dtype float64 */
+    wr32(b + 48, 3); /* dtype 3: no such element type */
     fix_checksums(b);
     spit(p, b, fx->len);
-    expect_load_error(fx->ctx, p, LRR_ERR_VERSION, LRR_OK, "dtype 1");
+    expect_load_error(fx->ctx, p, LRR_ERR_VERSION, LRR_OK, "dtype 3");
     free(b);
     remove(p);
 }

@@ -313,9 +313,10 @@ static void test_progress_cancel(void **state)
     lrr_context_destroy(ctx);
 }
 
-/* The real-time kernels (realtime_kernel.c), every SIMD variant this CPU runs, against a
- * naive double-precision product on sizes that exercise the vector and row-group tails
- * (n = 1, 37; k = 1, 7, 8, 9, 13, 16, 17, 64, 217). */
+/* The real-time kernels (realtime_kernel.c), every SIMD variant this CPU runs and every
+ * storage (float, binary16, bfloat16 rows), against a naive double-precision product on
+ * sizes that exercise the vector and row-group tails (n = 1, 37; k = 1, 7, 8, 9, 13, 16,
+ * 17, 64, 217). */
 static void test_realtime_kernels(void **state)
 {
     (void)state;
@@ -367,18 +368,42 @@ static void test_realtime_kernels(void **state)
                         ASSERT_NEAR(z[c * k + p], ref, 1e-6 * mag + 1e-30,
                                     "%s: k %zu c %d p %zu\n", kn->name, k, c, p);
                     }
-                lrr__fbar_apply(kn, f, n, k, z, e, rho, b);
-                for (size_t i = 0; i < n; i++)
-                    for (int c = 0; c < 3; c++) {
-                        double dot = 0, mag = 0;
-                        for (size_t p = 0; p < k; p++) {
-                            dot += (double)f[i * k + p] * z[c * k + p];
-                            mag += fabs((double)f[i * k + p] * z[c * k + p]);
+                /* float rows, then binary16 and bfloat16 rows (with a row scale of 2^-3)
+                 * against the same product on the decoded values */
+                uint16_t *h = malloc(n * k * sizeof *h);
+                float *dec = malloc(n * k * sizeof *dec), scale[37];
+                for (int kind = 0; kind < 3; kind++) {
+                    const float *src = f;
+                    if (kind == 0) {
+                        kn->fbar_rows(f, 0, n, k, z, e, rho, b);
+                    } else {
+                        for (size_t i = 0; i < n; i++)
+                            scale[i] = 0.125f;
+                        for (size_t j = 0; j < n * k; j++) {
+                            h[j] = kind == 1 ? lrr__f32_to_f16(f[j] * 8)
+                                             : lrr__f32_to_bf16(f[j] * 8);
+                            dec[j] = (kind == 1 ? lrr__f16_to_f32(h[j])
+                                                : lrr__bf16_to_f32(h[j])) * 0.125f;
                         }
-                        double ref = e[3 * i + c] + (double)rho[3 * i + c] * dot;
-                        ASSERT_NEAR(b[3 * i + c], ref, 1e-6 * (mag + e[3 * i + c]) + 1e-30,
-                                    "%s: n %zu k %zu row %zu c %d\n", kn->name, n, k, i, c);
+                        (kind == 1 ? kn->f16_rows : kn->bf16_rows)(h, scale, 0, n, k, z, e,
+                                                                    rho, b);
+                        src = dec;
                     }
+                    for (size_t i = 0; i < n; i++)
+                        for (int c = 0; c < 3; c++) {
+                            double dot = 0, mag = 0;
+                            for (size_t p = 0; p < k; p++) {
+                                dot += (double)src[i * k + p] * z[c * k + p];
+                                mag += fabs((double)src[i * k + p] * z[c * k + p]);
+                            }
+                            double ref = e[3 * i + c] + (double)rho[3 * i + c] * dot;
+                            ASSERT_NEAR(b[3 * i + c], ref, 1e-6 * (mag + e[3 * i + c]) + 1e-30,
+                                        "%s (%s rows): n %zu k %zu row %zu c %d\n", kn->name,
+                                        kind == 0 ? "f32" : kind == 1 ? "f16" : "bf16", n, k,
+                                        i, c);
+                        }
+                }
+                free(h), free(dec);
                 free(m), free(w), free(z), free(f), free(e), free(rho), free(b);
             }
     }

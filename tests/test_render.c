@@ -26,7 +26,7 @@ static lrr_operator *make_op(lrr_context *ctx, size_t n_tri, const float *vert, 
     memcpy(g.vert, vert, n_tri * 9 * sizeof(float));
     LRR_CHECK(ctx, lrr__geometry_index(ctx, &g));
     lrr_operator *op = NULL;
-    LRR_CHECK(ctx, lrr__operator_new(ctx, &g, &op));
+    LRR_CHECK(ctx, lrr__operator_new(ctx, &g, LRR_STORAGE_F32, &op));
     op->builtin = builtin;
     lrr__geometry_free(&g);
     return op;
@@ -417,7 +417,7 @@ static lrr_operator *cornell_op(lrr_context *ctx, int closed)
     sub.levels = 0;
     LRR_CHECK(ctx, lrr_scene_subdivide(scene, &sub));
     lrr_operator *op = NULL;
-    LRR_CHECK(ctx, lrr__operator_new(ctx, &scene->geom, &op));
+    LRR_CHECK(ctx, lrr__operator_new(ctx, &scene->geom, LRR_STORAGE_F32, &op));
     op->builtin = scene->builtin;
     LRR_CHECK(ctx, lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission));
     lrr_scene_destroy(scene);

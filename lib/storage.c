@@ -1,0 +1,190 @@
+/* Reduced-precision storage of F̄ (IEEE binary16 and bfloat16) and its conversions.
+ *
+ * F̄'s entries are form factors divided by d: in [0, 1], often far below binary16's smallest
+ * normal number (2^-14 ≈ 6.1e-5; F̄ entries of 1e-7 are common at d = 1024). Each row i is
+ * therefore stored divided by a power of two s_i chosen so that the row's largest entry
+ * lands in [2^14, 2^15): entries down to 2^-29 of the row maximum stay normal, scaling is
+ * exact, and the kernels fold s_i into the dot product (one multiply per row and channel).
+ * bfloat16 has float's exponent range and needs no scale (s_i = 1).
+ *
+ * Conversions round to nearest, ties to even, in portable C; they run once per operator.
+ * The kernels decode with F16C/AVX-512 instructions (realtime_kernel.c).
+ */
+#include "config.h"
+#include "internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static uint32_t bits_of(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    return u;
+}
+
+static float float_of(uint32_t u)
+{
+    float f;
+    memcpy(&f, &u, 4);
+    return f;
+}
+
+uint16_t lrr__f32_to_f16(float f)
+{
+    uint32_t u = bits_of(f);
+    uint16_t sign = (uint16_t)((u >> 16) & 0x8000u);
+    uint32_t a = u & 0x7fffffffu;
+    if (a >= 0x7f800000u) /* Inf or NaN (NaN keeps a quiet payload bit) */
+        return (uint16_t)(sign | 0x7c00u | (a > 0x7f800000u ? 0x200u : 0));
+    if (a >= 0x477ff000u) /* rounds to >= 65520: overflow to Inf */
+        return (uint16_t)(sign | 0x7c00u);
+    if (a < 0x38800000u) { /* below 2^-14: subnormal or zero in binary16 */
+        if (a < 0x33000000u) /* below half the smallest subnormal 2^-25: zero */
+            return sign;
+        uint32_t mant = (a & 0x7fffffu) | 0x800000u;
+        int shift = 126 - (int)(a >> 23); /* 14..24 */
+        uint32_t half = mant >> shift, rest = mant & ((1u << shift) - 1), mid = 1u << (shift - 1);
+        if (rest > mid || (rest == mid && (half & 1u)))
+            half++;
+        return (uint16_t)(sign | half);
+    }
+    /* normal: rebias the exponent (127 → 15) and round 23 → 10 mantissa bits */
+    uint32_t h = ((a >> 13) - ((127u - 15u) << 10));
+    uint32_t rest = a & 0x1fffu;
+    if (rest > 0x1000u || (rest == 0x1000u && (h & 1u)))
+        h++; /* a carry into the exponent is still the right answer */
+    return (uint16_t)(sign | h);
+}
+
+float lrr__f16_to_f32(uint16_t h)
+{
+    uint32_t sign = (uint32_t)(h & 0x8000u) << 16;
+    uint32_t e = (h >> 10) & 0x1fu, m = h & 0x3ffu;
+    if (e == 0x1f)
+        return float_of(sign | 0x7f800000u | (m << 13));
+    if (e == 0) { /* zero or subnormal: m · 2^-24 exactly */
+        float v = ldexpf((float)m, -24);
+        return sign ? -v : v;
+    }
+    return float_of(sign | ((e + 127u - 15u) << 23) | (m << 13));
+}
+
+uint16_t lrr__f32_to_bf16(float f)
+{
+    uint32_t u = bits_of(f);
+    if ((u & 0x7fffffffu) > 0x7f800000u) /* NaN: keep it a NaN */
+        return (uint16_t)((u >> 16) | 0x40u);
+    uint32_t rest = u & 0xffffu, b = u >> 16;
+    if (rest > 0x8000u || (rest == 0x8000u && (b & 1u)))
+        b++;
+    return (uint16_t)b;
+}
+
+float lrr__bf16_to_f32(uint16_t b)
+{
+    return float_of((uint32_t)b << 16);
+}
+
+static const char *const storage_names[] = {"f32", "f16", "bf16"};
+
+const char *lrr_storage_name(lrr_storage s)
+{
+    return (unsigned)s < 3 ? storage_names[s] : NULL;
+}
+
+lrr_status lrr_storage_from_name(const char *name, lrr_storage *out)
+{
+    for (int i = 0; i < 3; i++)
+        if (strcmp(name, storage_names[i]) == 0) {
+            *out = (lrr_storage)i;
+            return LRR_OK;
+        }
+    return LRR_ERR_INVALID_ARG;
+}
+
+/* The power of two s with max/s in [2^14, 2^15) (1 for an empty row). */
+static float f16_row_scale(const float *row, size_t k)
+{
+    float mx = 0;
+    for (size_t q = 0; q < k; q++)
+        mx = fmaxf(mx, row[q]);
+    if (!(mx > 0))
+        return 1.0f;
+    int e;
+    frexpf(mx, &e); /* mx = f·2^e, f in [0.5, 1) */
+    return ldexpf(1.0f, e - 15);
+}
+
+void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
+{
+    const size_t k = op->k;
+    if (op->storage == LRR_STORAGE_F32) {
+        memcpy(out, op->fbar + i * k, k * sizeof(float));
+        return;
+    }
+    const uint16_t *row = op->fbar16 + i * k;
+    const float s = op->row_scale[i];
+    for (size_t q = 0; q < k; q++)
+        out[q] = s * (op->storage == LRR_STORAGE_F16 ? lrr__f16_to_f32(row[q])
+                                                     : lrr__bf16_to_f32(row[q]));
+}
+
+lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
+{
+    lrr_context *ctx = op->ctx;
+    if (!lrr_storage_name(storage))
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "unknown storage %d", (int)storage);
+    if (storage == op->storage)
+        return LRR_OK;
+    const size_t n = op->n, k = op->k;
+    float *f32 = NULL, *scale = NULL;
+    uint16_t *f16 = NULL;
+    lrr_status st;
+    if (storage == LRR_STORAGE_F32) {
+        if ((st = lrr__calloc(ctx, &f32, n, k * sizeof(float), "F̄ (n×k floats)")))
+            return st;
+        #pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < n; i++)
+            lrr_operator_fbar_row(op, i, f32 + i * k);
+    } else {
+        if ((st = lrr__calloc(ctx, &f16, n, k * sizeof(uint16_t), "F̄ (n×k 16-bit)")) ||
+            (st = lrr__calloc(ctx, &scale, n, sizeof(float), "F̄ row scales"))) {
+            lrr_aligned_free(f16);
+            return st;
+        }
+        float *tmp = NULL;
+        if (op->storage != LRR_STORAGE_F32 &&
+            (st = lrr__calloc(ctx, &tmp, n, k * sizeof(float), "F̄ (n×k floats)"))) {
+            lrr_aligned_free(f16);
+            lrr_aligned_free(scale);
+            return st;
+        }
+        if (tmp) {
+            #pragma omp parallel for schedule(static)
+            for (size_t i = 0; i < n; i++)
+                lrr_operator_fbar_row(op, i, tmp + i * k);
+        }
+        const float *src = tmp ? tmp : op->fbar;
+        #pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < n; i++) {
+            const float *row = src + i * k;
+            float s = storage == LRR_STORAGE_F16 ? f16_row_scale(row, k) : 1.0f;
+            scale[i] = s;
+            for (size_t q = 0; q < k; q++)
+                f16[i * k + q] = storage == LRR_STORAGE_F16 ? lrr__f32_to_f16(row[q] / s)
+                                                            : lrr__f32_to_bf16(row[q]);
+        }
+        lrr_aligned_free(tmp);
+    }
+    lrr_aligned_free(op->fbar);
+    lrr_aligned_free(op->fbar16);
+    lrr_aligned_free(op->row_scale);
+    op->fbar = f32;
+    op->fbar16 = f16;
+    op->row_scale = scale;
+    op->storage = storage;
+    /* M must invert I − Vᵀ R F̄ for the F̄ the kernels now read */
+    return lrr__operator_factor(op);
+}
