@@ -270,9 +270,38 @@ LRR_API void lrr_solver_destroy(lrr_solver *solver);
 LRR_API const char *lrr_solver_kernel(const lrr_solver *solver) LRR_NONNULL(1);
 
 /* B = E + rho ∘ (F̄ · (M · (Vᵀ E))) per channel. emission and radiosity are n×3 row-major
- * (they may not alias). Emission must be finite and >= 0. */
+ * (they may not alias). Emission must be finite and >= 0.
+ * Each frame takes the cheapest of three paths (see lrr_solver_set_path): a pass over F̄; or,
+ * when few patches emit, a sum of cached columns of F̄ M_c (each new emitting patch costs one
+ * extra pass the first time); or, when few patches changed since the previous frame, an
+ * update of the previous B. All give the same B up to float rounding. */
 LRR_API LRR_NODISCARD lrr_status lrr_solve(lrr_solver *solver, const float *emission,
                                            float *radiosity) LRR_NONNULL(1, 2, 3);
+
+/* count frames at once (animation frames, light presets): emission and radiosity are
+ * count×n×3, frame after frame. With float storage and count > 1 this is three small sgemm
+ * and one n×k×3·count sgemm (OpenBLAS), which is compute-bound rather than memory-bound. */
+LRR_API LRR_NODISCARD lrr_status lrr_solve_batch(lrr_solver *solver, size_t count,
+                                                 const float *emission, float *radiosity)
+    LRR_NONNULL(1, 3, 4);
+
+typedef enum lrr_path {
+    LRR_PATH_AUTO = 0,       /* choose per frame from the number of patches involved */
+    LRR_PATH_FULL = 1,       /* one pass over F̄ (and M) */
+    LRR_PATH_SPARSE = 2,     /* cached columns of F̄ M_c for the emitting patches */
+    LRR_PATH_INCREMENTAL = 3 /* previous B plus the columns of the patches that changed */
+} lrr_path;
+
+/* Forces a path (for measurements and tests); a path that cannot serve a frame (nothing to
+ * increment from, more columns than the cache holds) falls back to LRR_PATH_FULL. */
+LRR_API LRR_NODISCARD lrr_status lrr_solver_set_path(lrr_solver *solver, lrr_path path)
+    LRR_NONNULL(1);
+/* The path the last frame took. */
+LRR_API lrr_path lrr_solver_last_path(const lrr_solver *solver) LRR_NONNULL(1);
+/* Memory for cached columns (n×3 floats each; default a quarter of F̄'s bytes; 0 disables
+ * the sparse and incremental paths). Empties the cache. */
+LRR_API LRR_NODISCARD lrr_status lrr_solver_set_cache(lrr_solver *solver, size_t max_bytes)
+    LRR_NONNULL(1);
 
 /* ---------------------------------------------------------------- reference solvers */
 /* The full n×n form-factor matrix F (subpatch to subpatch) and classic solvers of

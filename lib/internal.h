@@ -173,9 +173,9 @@ lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, const lrr__ke
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
 void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z);
 /* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ n×k row-major read once, in the operator's storage;
- * E, rho, B n×3. */
+ * E, rho, B n×3 (rho is usually op->rho). */
 void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
-                     const float *E, float *B);
+                     const float *E, const float *rho, float *B);
 
 /* ------------------------------------------------------------ misc */
 double lrr__now(void);  /* monotonic seconds */

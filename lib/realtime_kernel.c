@@ -485,7 +485,7 @@ void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float
 }
 
 void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
-                     const float *E, float *B)
+                     const float *E, const float *rho, float *B)
 {
     const size_t n = op->n, k = op->k;
     const size_t blocks = (n + ROW_BLOCK - 1) / ROW_BLOCK;
@@ -493,11 +493,19 @@ void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float 
     #pragma omp parallel for schedule(static)
     for (size_t b = 0; b < blocks; b++) {
         size_t i0 = b * ROW_BLOCK, i1 = i0 + ROW_BLOCK < n ? i0 + ROW_BLOCK : n;
+        /* black subpatches reflect nothing: a block of them needs no pass over its rows */
+        int black = 1;
+        for (size_t j = 3 * i0; j < 3 * i1 && black; j++)
+            black = rho[j] == 0.0f;
+        if (black) {
+            memcpy(B + 3 * i0, E + 3 * i0, 3 * (i1 - i0) * sizeof(float));
+            continue;
+        }
         if (storage == LRR_STORAGE_F16)
-            kn->f16_rows(op->fbar16, op->row_scale, i0, i1, k, z, E, op->rho, B);
+            kn->f16_rows(op->fbar16, op->row_scale, i0, i1, k, z, E, rho, B);
         else if (storage == LRR_STORAGE_BF16)
-            kn->bf16_rows(op->fbar16, op->row_scale, i0, i1, k, z, E, op->rho, B);
+            kn->bf16_rows(op->fbar16, op->row_scale, i0, i1, k, z, E, rho, B);
         else
-            kn->fbar_rows(op->fbar, i0, i1, k, z, E, op->rho, B);
+            kn->fbar_rows(op->fbar, i0, i1, k, z, E, rho, B);
     }
 }

@@ -3,20 +3,53 @@
  *     z_c = M_c w_c            k×k products, all channels in one pass
  *     B_c = E_c + rho_c ∘ (F̄ z_c)   F̄ read once for all channels, epilogue fused
  * The products live in realtime_kernel.c (why not BLAS: see there).
+ *
+ * B is linear in w, and w only has entries for patches that emit. With Y_c = F̄ M_c (n×k,
+ * never formed whole), B_c = E_c + rho_c ∘ Σ_p Y_c[:, p] w_cp, so a frame in which m ≪ k
+ * patches emit costs 3·n·m multiply-adds over cached columns Y[:, p] instead of a pass over
+ * F̄ (the sparse path), and a frame in which only m patches changed since the previous one
+ * costs B = B_prev + ΔE + rho ∘ Σ_p Y[:, p] Δw_p (the incremental path). A column costs one
+ * pass over F̄ the first time its patch is needed, and the cache has a memory limit.
+ * The incremental path re-anchors with a full frame every INCREMENTAL_LIMIT frames so that
+ * rounding cannot accumulate.
+ *
+ * Batches of frames (lrr_solve_batch) are compute-bound and go to OpenBLAS sgemm.
  */
 #include "config.h"
 #include "internal.h"
 
+#include <cblas.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
+#define INCREMENTAL_LIMIT 64
+#define NO_SLOT SIZE_MAX
+
 struct lrr_solver {
     const lrr_operator *op;
     lrr_backend backend;
-    float *w;   /* 3×k, channel-major */
-    float *z;   /* 3×k, channel-major: the right-hand sides of the n×k product */
     const lrr__kernel *kernel; /* SIMD variant, chosen once (environment LRR_SIMD forces one) */
+    float *w;      /* 3×k, channel-major */
+    float *z;      /* 3×k, channel-major: the right-hand sides of the n×k product */
+    lrr_path path; /* requested path (LRR_PATH_AUTO chooses per frame) */
+    lrr_path last; /* path of the last frame */
+    /* column cache: Y[:, p] for a few patches, n×3 each */
+    size_t cache_bytes;
+    size_t cap;          /* columns that fit in cache_bytes */
+    size_t used;         /* columns filled */
+    size_t *slot;        /* k: slot of patch p, or NO_SLOT */
+    float *cols;         /* cap × n×3 */
+    float *ones, *zeros; /* n×3 each: the epilogue's rho and E when computing a column */
+    unsigned char *nz;   /* k: patch emits in this frame */
+    unsigned char *ch;   /* k: patch's emission changed since the previous frame */
+    /* the previous frame, for the incremental path */
+    float *e_prev, *b_prev, *dw; /* n×3, n×3, 3×k */
+    int have_prev;
+    unsigned since_full;
+    /* batch workspace, grown on demand */
+    float *bw, *bz, *bt;
+    size_t batch_cap;
 };
 
 void lrr_solver_destroy(lrr_solver *s)
@@ -25,7 +58,24 @@ void lrr_solver_destroy(lrr_solver *s)
         return;
     lrr_aligned_free(s->w);
     lrr_aligned_free(s->z);
+    lrr_aligned_free(s->slot);
+    lrr_aligned_free(s->cols);
+    lrr_aligned_free(s->ones);
+    lrr_aligned_free(s->zeros);
+    lrr_aligned_free(s->nz);
+    lrr_aligned_free(s->ch);
+    lrr_aligned_free(s->e_prev);
+    lrr_aligned_free(s->b_prev);
+    lrr_aligned_free(s->dw);
+    lrr_aligned_free(s->bw);
+    lrr_aligned_free(s->bz);
+    lrr_aligned_free(s->bt);
     free(s);
+}
+
+static size_t fbar_bytes(const lrr_operator *op)
+{
+    return op->n * op->k * (op->storage == LRR_STORAGE_F32 ? 4 : 2);
 }
 
 lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_solver **out)
@@ -46,8 +96,14 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
     s->op = op;
     s->kernel = kernel;
     s->backend = backend;
+    s->path = LRR_PATH_AUTO;
+    s->last = LRR_PATH_FULL;
     if ((st = lrr__calloc(op->ctx, &s->w, op->k, 3 * sizeof(float), "solver w (3×k)")) ||
-        (st = lrr__calloc(op->ctx, &s->z, op->k, 3 * sizeof(float), "solver z (3×k)"))) {
+        (st = lrr__calloc(op->ctx, &s->z, op->k, 3 * sizeof(float), "solver z (3×k)")) ||
+        (st = lrr__calloc(op->ctx, &s->nz, op->k, 1, "solver patch flags")) ||
+        (st = lrr__calloc(op->ctx, &s->ch, op->k, 1, "solver patch flags")) ||
+        (st = lrr__calloc(op->ctx, &s->dw, op->k, 3 * sizeof(float), "solver Δw (3×k)")) ||
+        (st = lrr_solver_set_cache(s, fbar_bytes(op) / 4))) {
         lrr_solver_destroy(s);
         return st;
     }
@@ -55,37 +111,317 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
     return LRR_OK;
 }
 
-lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
+const char *lrr_solver_kernel(const lrr_solver *s)
+{
+    return s->kernel->name;
+}
+
+lrr_status lrr_solver_set_cache(lrr_solver *s, size_t max_bytes)
+{
+    const lrr_operator *op = s->op;
+    lrr_aligned_free(s->cols);
+    lrr_aligned_free(s->slot);
+    s->cols = NULL;
+    s->slot = NULL;
+    s->used = 0;
+    s->cache_bytes = max_bytes;
+    size_t per = op->n * 3 * sizeof(float); /* n×3 fits: the operator holds such arrays */
+    s->cap = max_bytes / per;
+    if (s->cap > op->k)
+        s->cap = op->k;
+    if (s->cap == 0)
+        return LRR_OK;
+    lrr_status st;
+    if ((st = lrr__calloc(op->ctx, &s->slot, op->k, sizeof(size_t), "column slots")) ||
+        (st = lrr__calloc(op->ctx, &s->cols, s->cap, per, "column cache"))) {
+        lrr_aligned_free(s->slot);
+        s->slot = NULL;
+        s->cap = 0;
+        return st;
+    }
+    for (size_t p = 0; p < op->k; p++)
+        s->slot[p] = NO_SLOT;
+    return LRR_OK;
+}
+
+lrr_status lrr_solver_set_path(lrr_solver *s, lrr_path path)
+{
+    if (path < LRR_PATH_AUTO || path > LRR_PATH_INCREMENTAL)
+        return lrr__error(s->op->ctx, LRR_ERR_INVALID_ARG, "unknown path %d", (int)path);
+    s->path = path;
+    return LRR_OK;
+}
+
+lrr_path lrr_solver_last_path(const lrr_solver *s)
+{
+    return s->last;
+}
+
+/* w = Vᵀ E (3×k), validating E; nz[p] = 1 where w_p ≠ 0 (m_emit of them). With prev, also
+ * ch[p] = 1 where the patch's emission changed (m_changed) and dw = Vᵀ(E − prev). */
+static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
+                               size_t *m_emit, size_t *m_changed)
 {
     const lrr_operator *op = s->op;
     const size_t k = op->k, d = op->d;
-    if (E == B)
-        return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "emission and radiosity may not alias");
-    /* w = Vᵀ E, validating E on the way (one pass) */
-    size_t bad = SIZE_MAX;
-    #pragma omp parallel for schedule(static) reduction(min : bad)
+    size_t bad = SIZE_MAX, me = 0, mc = 0;
+    #pragma omp parallel for schedule(static) reduction(min : bad) reduction(+ : me, mc)
     for (size_t p = 0; p < k; p++) {
-        double acc[3] = {0, 0, 0};
+        double acc[3] = {0, 0, 0}, dacc[3] = {0, 0, 0};
+        int changed = 0;
         for (size_t i = p * d; i < (p + 1) * d; i++)
             for (int c = 0; c < 3; c++) {
                 float e = E[3 * i + c];
                 if (!(e >= 0.0f) || !isfinite(e))
                     bad = bad < 3 * i + c ? bad : 3 * i + c;
                 acc[c] += e;
+                if (prev && e != prev[3 * i + c]) {
+                    changed = 1;
+                    dacc[c] += (double)e - prev[3 * i + c];
+                }
             }
-        for (int c = 0; c < 3; c++)
+        for (int c = 0; c < 3; c++) {
             s->w[c * k + p] = (float)acc[c];
+            s->dw[c * k + p] = (float)dacc[c];
+        }
+        s->nz[p] = acc[0] != 0 || acc[1] != 0 || acc[2] != 0;
+        s->ch[p] = (unsigned char)changed;
+        me += s->nz[p];
+        mc += s->ch[p];
     }
     if (bad != SIZE_MAX)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG,
                           "emission of subpatch %zu, channel %zu = %g (must be finite and >= 0)",
                           bad / 3, bad % 3, (double)E[bad]);
-    lrr__smw_apply(s->kernel, op->m, k, s->w, s->z);
-    lrr__fbar_apply(s->kernel, op, s->z, E, B);
+    *m_emit = me;
+    *m_changed = mc;
     return LRR_OK;
 }
 
-const char *lrr_solver_kernel(const lrr_solver *s)
+/* Fills cache columns for the flagged patches that lack one. Returns 0 when they do not
+ * fit (nothing is cached then). */
+static int ensure_columns(lrr_solver *s, const unsigned char *flag)
 {
-    return s->kernel->name;
+    const lrr_operator *op = s->op;
+    const size_t n = op->n, k = op->k;
+    size_t missing = 0;
+    for (size_t p = 0; p < k; p++)
+        missing += flag[p] && (!s->slot || s->slot[p] == NO_SLOT);
+    if (missing == 0)
+        return 1;
+    if (!s->slot)
+        return 0;
+    if (s->used + missing > s->cap) {
+        /* a new set of emitters: start over if it fits on its own */
+        size_t need = 0;
+        for (size_t p = 0; p < k; p++)
+            need += flag[p];
+        if (need > s->cap)
+            return 0;
+        for (size_t p = 0; p < k; p++)
+            s->slot[p] = NO_SLOT;
+        s->used = 0;
+    }
+    if (!s->ones) {
+        if (lrr__calloc(op->ctx, &s->ones, n, 3 * sizeof(float), "solver ones") ||
+            lrr__calloc(op->ctx, &s->zeros, n, 3 * sizeof(float), "solver zeros")) {
+            lrr_aligned_free(s->ones);
+            s->ones = NULL;
+            return 0;
+        }
+        for (size_t j = 0; j < 3 * n; j++)
+            s->ones[j] = 1.0f;
+    }
+    for (size_t p = 0; p < k; p++) {
+        if (!flag[p] || s->slot[p] != NO_SLOT)
+            continue;
+        /* Y_c[:, p] = F̄ M_c[:, p]: the fused kernel with z = column p of each M_c */
+        for (int c = 0; c < 3; c++)
+            for (size_t q = 0; q < k; q++)
+                s->z[c * k + q] = op->m[(size_t)c * k * k + q * k + p];
+        size_t slot = s->used++;
+        lrr__fbar_apply(s->kernel, op, s->z, s->zeros, s->ones, s->cols + slot * n * 3);
+        s->slot[p] = slot;
+    }
+    return 1;
+}
+
+/* out = base + rho ∘ Σ_{flagged p} Y[:, p] ∘ coef_p (coef 3×k channel-major), plus add
+ * (n×3, may be NULL). base and out are n×3 and may alias. */
+static void combine_columns(const lrr_solver *s, const unsigned char *flag, const float *base,
+                            const float *add, const float *coef, float *out)
+{
+    const lrr_operator *op = s->op;
+    const size_t n = op->n, k = op->k;
+    size_t list_len = 0;
+    for (size_t p = 0; p < k; p++)
+        list_len += flag[p];
+    #pragma omp parallel for schedule(static)
+    for (size_t b = 0; b < (n + 255) / 256; b++) {
+        size_t i0 = b * 256, i1 = i0 + 256 < n ? i0 + 256 : n;
+        float t[256 * 3];
+        memset(t, 0, sizeof t);
+        for (size_t p = 0; p < k && list_len; p++) {
+            if (!flag[p])
+                continue;
+            const float *y = s->cols + s->slot[p] * n * 3;
+            const float cr = coef[p], cg = coef[k + p], cb = coef[2 * k + p];
+            for (size_t i = i0; i < i1; i++) {
+                t[3 * (i - i0)] += y[3 * i] * cr;
+                t[3 * (i - i0) + 1] += y[3 * i + 1] * cg;
+                t[3 * (i - i0) + 2] += y[3 * i + 2] * cb;
+            }
+        }
+        for (size_t j = 3 * i0; j < 3 * i1; j++) {
+            float v = base[j] + op->rho[j] * t[j - 3 * i0];
+            out[j] = add ? v + add[j] : v;
+        }
+    }
+}
+
+lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
+{
+    const lrr_operator *op = s->op;
+    const size_t n = op->n, k = op->k;
+    if (E == B)
+        return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "emission and radiosity may not alias");
+    const int want_prev = s->path == LRR_PATH_AUTO || s->path == LRR_PATH_INCREMENTAL;
+    if (want_prev && !s->e_prev) {
+        lrr_status st;
+        if ((st = lrr__calloc(op->ctx, &s->e_prev, n, 3 * sizeof(float), "previous E")) ||
+            (st = lrr__calloc(op->ctx, &s->b_prev, n, 3 * sizeof(float), "previous B")))
+            return st;
+    }
+    const int can_incr = want_prev && s->have_prev && s->since_full < INCREMENTAL_LIMIT;
+    size_t m_emit = 0, m_changed = 0;
+    lrr_status st = segment_sums(s, E, can_incr ? s->e_prev : NULL, &m_emit, &m_changed);
+    if (st)
+        return st;
+    /* bytes each path reads: a full frame F̄ and M; a column path 12 bytes per subpatch per
+     * patch involved (+ previous E and B for the incremental one) */
+    const double full = (double)fbar_bytes(op) + 12.0 * k * k;
+    const double sparse = 12.0 * n * (double)m_emit;
+    const double incr = can_incr ? 12.0 * n * (double)m_changed + 24.0 * n : INFINITY;
+    lrr_path path = s->path;
+    if (path == LRR_PATH_AUTO) {
+        /* a column path must at least halve the bytes, and its columns must fit */
+        path = LRR_PATH_FULL;
+        double best = full / 2;
+        if (m_emit <= s->cap && sparse < best) {
+            path = LRR_PATH_SPARSE;
+            best = sparse;
+        }
+        if (m_changed <= s->cap && incr < best)
+            path = LRR_PATH_INCREMENTAL;
+    }
+    if (path == LRR_PATH_INCREMENTAL && !can_incr)
+        path = LRR_PATH_FULL; /* nothing to increment from yet (or time to re-anchor) */
+    if (path == LRR_PATH_SPARSE && !ensure_columns(s, s->nz))
+        path = LRR_PATH_FULL;
+    if (path == LRR_PATH_INCREMENTAL && !ensure_columns(s, s->ch))
+        path = LRR_PATH_FULL;
+
+    if (path == LRR_PATH_INCREMENTAL) {
+        /* B = B_prev + (E − E_prev) + rho ∘ Σ Y Δw; the ΔE term is added per entry */
+        float *delta = s->e_prev; /* becomes E − E_prev, then is overwritten by E below */
+        for (size_t j = 0; j < 3 * n; j++)
+            delta[j] = E[j] - delta[j];
+        combine_columns(s, s->ch, s->b_prev, delta, s->dw, B);
+        s->since_full++;
+    } else if (path == LRR_PATH_SPARSE) {
+        combine_columns(s, s->nz, E, NULL, s->w, B);
+        s->since_full = 0;
+    } else {
+        lrr__smw_apply(s->kernel, op->m, k, s->w, s->z);
+        lrr__fbar_apply(s->kernel, op, s->z, E, op->rho, B);
+        s->since_full = 0;
+    }
+    s->last = path;
+    if (want_prev) {
+        memcpy(s->e_prev, E, 3 * n * sizeof(float));
+        memcpy(s->b_prev, B, 3 * n * sizeof(float));
+        s->have_prev = 1;
+    }
+    return LRR_OK;
+}
+
+/* ------------------------------------------------------------------ batches */
+
+lrr_status lrr_solve_batch(lrr_solver *s, size_t count, const float *E, float *B)
+{
+    const lrr_operator *op = s->op;
+    lrr_context *ctx = op->ctx;
+    const size_t n = op->n, k = op->k, d = op->d;
+    if (count == 0)
+        return LRR_OK;
+    size_t frame = 3 * n, total;
+    if (!lrr__mul_size(frame, count, &total) || count > INT32_MAX / 3)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW, "a batch of %zu frames of n = %zu overflows",
+                          count, n);
+    if ((const void *)E < (const void *)(B + total) && (const void *)B < (const void *)(E + total))
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "emission and radiosity may not overlap");
+    if (count == 1 || op->storage != LRR_STORAGE_F32) {
+        /* one frame is a pass over F̄ anyway; 16-bit F̄ cannot go to sgemm */
+        for (size_t f = 0; f < count; f++) {
+            lrr_status st = lrr_solve(s, E + f * frame, B + f * frame);
+            if (st)
+                return st;
+        }
+        return LRR_OK;
+    }
+    if (count > s->batch_cap) {
+        lrr_aligned_free(s->bw);
+        lrr_aligned_free(s->bz);
+        lrr_aligned_free(s->bt);
+        s->bw = s->bz = s->bt = NULL;
+        s->batch_cap = 0;
+        lrr_status st;
+        if ((st = lrr__calloc(ctx, &s->bw, k, 3 * count * sizeof(float), "batch W")) ||
+            (st = lrr__calloc(ctx, &s->bz, k, 3 * count * sizeof(float), "batch Z")) ||
+            (st = lrr__calloc(ctx, &s->bt, n, 3 * count * sizeof(float), "batch T")))
+            return st;
+        s->batch_cap = count;
+    }
+    /* W_c (k×count, channel-major blocks): segmented sums, validating every frame */
+    size_t bad = SIZE_MAX;
+    #pragma omp parallel for schedule(static) reduction(min : bad)
+    for (size_t p = 0; p < k; p++)
+        for (size_t f = 0; f < count; f++) {
+            const float *e = E + f * frame;
+            double acc[3] = {0, 0, 0};
+            for (size_t i = p * d; i < (p + 1) * d; i++)
+                for (int c = 0; c < 3; c++) {
+                    float v = e[3 * i + c];
+                    if (!(v >= 0.0f) || !isfinite(v))
+                        bad = bad < f * frame + 3 * i + c ? bad : f * frame + 3 * i + c;
+                    acc[c] += v;
+                }
+            for (int c = 0; c < 3; c++)
+                s->bw[((size_t)c * k + p) * count + f] = (float)acc[c];
+        }
+    if (bad != SIZE_MAX)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "frame %zu: emission of subpatch %zu, channel %zu = %g (must be "
+                          "finite and >= 0)",
+                          bad / frame, bad % frame / 3, bad % 3, (double)E[bad]);
+    /* Z (k × 3·count, row p = [r of every frame, g of every frame, b of every frame])
+     * = M_c W_c: one sgemm per channel writing its third of each row (ldc = 3·count) */
+    const int ki = (int)k, ni = (int)n, cnt = (int)count;
+    for (int c = 0; c < 3; c++)
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, ki, cnt, ki, 1.0f,
+                    op->m + (size_t)c * k * k, ki, s->bw + (size_t)c * k * count, cnt, 0.0f,
+                    s->bz + (size_t)c * count, 3 * cnt);
+    /* T = F̄ Z (n × 3·count): compute-bound once count is large */
+    cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, ni, 3 * cnt, ki, 1.0f, op->fbar, ki,
+                s->bz, 3 * cnt, 0.0f, s->bt, 3 * cnt);
+    #pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < n; i++)
+        for (size_t f = 0; f < count; f++)
+            for (int c = 0; c < 3; c++) {
+                size_t j = f * frame + 3 * i + c;
+                B[j] = E[j] + op->rho[3 * i + c] * s->bt[(i * 3 + c) * count + f];
+            }
+    s->have_prev = 0; /* the single-frame history no longer describes the last frame */
+    s->last = LRR_PATH_FULL;
+    return LRR_OK;
 }
