@@ -352,7 +352,8 @@ typedef struct lrr_reference_stats {
 } lrr_reference_stats;
 
 /* Solves (I − R F) B = E for each channel, accumulating in double. Iterative methods stop
- * when the relative residual is <= tol (0 = 1e-6) or after max_iterations (0 = a default
+ * when the relative residual is <= tol (0 = 1e-6; otherwise 1e-13 <= tol < 1, since double
+ * rounding cannot promise less) or after max_iterations (0 = a default
  * large enough for rho up to 0.999), then return LRR_NOT_CONVERGED with B holding the last
  * iterate. emission and radiosity are n×3 (no aliasing); emission finite and >= 0.
  * stats may be NULL. Thread safety: any thread; many solves may share one reference. */

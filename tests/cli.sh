@@ -68,6 +68,9 @@ help_mentions preprocess -o --hemicube --seed --threads --progress --patches --l
 help_mentions solve --csv --emission-scale --repeat
 help_mentions render -o --width --height --exposure --emission-scale
 help_mentions demo --out
+help_mentions reference --method jacobi gauss-seidel southwell direct --tol --max-iterations \
+    --memory-budget --csv --hemicube --seed --threads --progress --patches --levels
+help_mentions compare rel_l2 max_rel mean_abs
 
 # ---------------------------------------------------------------- command-line errors
 run info cornell --bogus-option
@@ -116,6 +119,20 @@ run solve nothing.lrr --emission-scale nan
 expect_rc 2 "--emission-scale nan is rejected"
 run solve nothing.lrr --repeat 0
 expect_rc 2 "--repeat 0 is rejected"
+run reference cornell
+expect_rc 2 "reference without --method is rejected"
+run reference cornell --method newton
+if [ "$rc" -eq 2 ] && grep -q 'newton' "$T/err" && grep -q 'jacobi, gauss-seidel, southwell, direct' "$T/err"; then
+    pass "--method newton: exit 2 listing the four methods"
+else
+    fail "--method newton: exit $rc, stderr: $(cat "$T/err")"
+fi
+run reference cornell --method jacobi --tol 1
+expect_rc 2 "--tol 1 is rejected"
+run reference cornell --method direct --memory-budget 0
+expect_rc 2 "--memory-budget 0 is rejected"
+run compare only-one.csv
+expect_rc 2 "compare with one file is rejected"
 
 # ---------------------------------------------------------------- info
 run info cornell --patches 50 --levels 1
@@ -233,6 +250,208 @@ if [ "$rc" -eq 1 ] && grep -q 'no-such.lrr' "$T/err"; then
     pass "missing .lrr: exit 1 naming it"
 else
     fail "missing .lrr: exit $rc, stderr: $(cat "$T/err")"
+fi
+
+# ---------------------------------------------------------------- reference
+# Every method on the same tiny scene: the CSV has the columns of `lrr solve --csv`, n rows.
+SMALL="cornell --patches 24 --levels 1 --hemicube 32"
+for m in jacobi gauss-seidel southwell direct; do
+    # shellcheck disable=SC2086 # SMALL is a list of arguments
+    run reference $SMALL --method "$m" --tol 1e-9 --csv "$T/ref-$m.csv"
+    rn=$(value n)
+    [ -f "$T/ref-$m.csv" ] || : >"$T/ref-$m.csv"
+    rrows=$(($(wc -l <"$T/ref-$m.csv") - 1))
+    if [ "$rc" -eq 0 ] && [ "$(value method)" = "$m" ] && [ -n "$rn" ] && [ "$rn" -gt 0 ] &&
+        [ "$(head -n 1 "$T/ref-$m.csv")" = "$header" ] && [ "$rrows" = "$rn" ] &&
+        [ -n "$(value residual)" ] && [ -n "$(value mean_b_r)" ]; then
+        pass "reference --method $m: n = $rn, $(value iterations) iterations, residual $(value residual), CSV of n rows"
+    else
+        fail "reference --method $m (exit $rc): n '$rn', method '$(value method)', CSV rows $rrows, header '$(head -n 1 "$T/ref-$m.csv")'"
+        show_err
+    fi
+done
+leftover=""
+for f in "$T"/*tmp*; do [ -e "$f" ] && leftover="$leftover $f"; done
+if [ -n "$leftover" ]; then fail "reference left temporary files:$leftover"; else pass "reference left no temporary file"; fi
+
+# shellcheck disable=SC2086
+run reference $SMALL --method jacobi --max-iterations 2 --csv "$T/ref-unconverged.csv"
+if [ "$rc" -eq 3 ] && grep -q 'did not converge' "$T/err" && grep -q 'residual' "$T/err" &&
+    grep -q 'after 2 iterations' "$T/err" && [ "$(value iterations)" = 2 ] &&
+    [ "$(($(wc -l <"$T/ref-unconverged.csv") - 1))" = "$(value n)" ]; then
+    pass "reference not converged: exit 3, warning, CSV still written"
+else
+    fail "reference --max-iterations 2: exit $rc, stderr: $(cat "$T/err")"
+fi
+
+# n = 552 (cornell, 138 patches x 4): F alone takes n^2 x 4 bytes = 1.2 MB > 1 MiB.
+run reference cornell --patches 150 --levels 1 --hemicube 32 --method jacobi --memory-budget 1
+if [ "$rc" -eq 1 ] && grep -q 'budget' "$T/err" && grep -q 'n = 552' "$T/err"; then
+    pass "--memory-budget 1: exit 1, $(head -n 1 "$T/err")"
+else
+    fail "--memory-budget 1: exit $rc, stderr: $(cat "$T/err")"
+fi
+run reference cornell --patches 150 --levels 1 --hemicube 32 --method direct --memory-budget 3
+if [ "$rc" -eq 1 ] && grep -q 'budget' "$T/err" && grep -q 'LU' "$T/err"; then
+    pass "--memory-budget 3 with direct (F fits, its LU does not): exit 1"
+else
+    fail "--memory-budget 3 --method direct: exit $rc, stderr: $(cat "$T/err")"
+fi
+
+# ---------------------------------------------------------------- compare
+# num_le VALUE LIMIT: VALUE is a plain number (not inf or nan) <= LIMIT.
+num_le() {
+    awk -v v="$1" -v l="$2" 'BEGIN { exit !(v ~ /^[-+]?[0-9.]+([eE][-+]?[0-9]+)?$/ && v + 0 <= l + 0) }'
+}
+# num_near VALUE WANT TOL: VALUE is a plain number and |VALUE - WANT| <= TOL.
+num_near() {
+    awk -v v="$1" -v w="$2" -v t="$3" 'BEGIN { d = v - w; if (d < 0) d = -d
+        exit !(v ~ /^[-+]?[0-9.]+([eE][-+]?[0-9]+)?$/ && d <= t + 0) }'
+}
+
+REF="$T/ref-direct.csv"
+run compare "$REF" "$REF"
+if [ "$rc" -eq 0 ] && [ "$(value rel_l2)" = 0 ] && [ "$(value max_rel)" = 0 ] &&
+    [ "$(value mean_abs)" = 0 ] && [ "$(value n)" = "$(($(wc -l <"$REF") - 1))" ]; then
+    pass "compare X X: rel_l2 0, max_rel 0, mean_abs 0"
+else
+    fail "compare X X (exit $rc): rel_l2 '$(value rel_l2)', max_rel '$(value max_rel)', mean_abs '$(value mean_abs)'"
+    show_err
+fi
+
+# Every radiosity x 1.01: relative errors of exactly 0.01; mean_abs recomputed with awk.
+awk -F, -v OFS=, 'NR > 1 { for (i = 10; i <= 12; i++) $i = sprintf("%.9g", $i * 1.01) } { print }' \
+    "$REF" >"$T/scaled.csv"
+want_mean_abs=$(awk -F, '
+    NR == FNR { if (FNR > 1) { a[FNR] = $10; b[FNR] = $11; c[FNR] = $12 } next }
+    FNR > 1 {
+        d = 0
+        x = a[FNR] - $10; d += x < 0 ? -x : x
+        x = b[FNR] - $11; d += x < 0 ? -x : x
+        x = c[FNR] - $12; d += x < 0 ? -x : x
+        s += $3 * d; area += $3
+    }
+    END { printf "%.12g", s / (3 * area) }' "$T/scaled.csv" "$REF")
+run compare "$T/scaled.csv" "$REF"
+got_mean_abs=$(value mean_abs)
+if [ "$rc" -eq 0 ] && num_near "$(value rel_l2)" 0.01 1e-4 && num_near "$(value max_rel)" 0.01 1e-4 &&
+    num_near "$(value rel_l2_g)" 0.01 1e-4 && num_near "$(value max_rel_b)" 0.01 1e-4 &&
+    awk -v g="$got_mean_abs" -v w="$want_mean_abs" \
+        'BEGIN { d = g - w; if (d < 0) d = -d; exit !(g != "" && w > 0 && d <= 1e-6 * w) }'; then
+    pass "compare 1.01 B vs B: rel_l2 $(value rel_l2), max_rel $(value max_rel), mean_abs $got_mean_abs (awk: $want_mean_abs)"
+else
+    fail "compare 1.01 B vs B (exit $rc): rel_l2 '$(value rel_l2)', max_rel '$(value max_rel)', mean_abs '$got_mean_abs' (awk: '$want_mean_abs')"
+    show_err
+fi
+
+# The four methods solve the same system: they agree far below the low-rank error.
+worst=0
+bad_pairs=""
+pairs=0
+for pair in jacobi/gauss-seidel jacobi/southwell jacobi/direct gauss-seidel/southwell \
+    gauss-seidel/direct southwell/direct; do
+    run compare "$T/ref-${pair%/*}.csv" "$T/ref-${pair#*/}.csv"
+    r=$(value rel_l2)
+    pairs=$((pairs + 1))
+    if [ "$rc" -ne 0 ] || ! num_le "$r" 1e-5; then
+        bad_pairs="$bad_pairs $pair=${r:-exit $rc}"
+    elif ! num_le "$r" "$worst"; then
+        worst=$r
+    fi
+done
+if [ -z "$bad_pairs" ]; then
+    pass "the four methods agree: rel_l2 <= $worst for all $pairs pairs"
+else
+    fail "methods disagree (rel_l2 > 1e-5):$bad_pairs"
+fi
+
+# With d = 1 the low-rank model is exact: `lrr solve` matches the direct reference.
+run preprocess cornell --patches 24 --levels 0 --hemicube 32 -o "$T/d1.lrr"
+if [ "$rc" -eq 0 ] && ! grep -q 'warning' "$T/err"; then
+    pass "preprocess of the Cornell box: no condition warning"
+else
+    fail "preprocess d = 1 (exit $rc), stderr: $(cat "$T/err")"
+fi
+run solve "$T/d1.lrr" --csv "$T/d1-solve.csv" --repeat 1
+run reference cornell --patches 24 --levels 0 --hemicube 32 --method direct --csv "$T/d1-ref.csv"
+run compare "$T/d1-solve.csv" "$T/d1-ref.csv"
+if [ "$rc" -eq 0 ] && num_le "$(value rel_l2)" 1e-5; then
+    pass "d = 1: lrr solve vs direct reference, rel_l2 $(value rel_l2), max_rel $(value max_rel)"
+else
+    fail "d = 1: compare solve vs reference (exit $rc): rel_l2 '$(value rel_l2)'"
+    show_err
+fi
+
+# Damaged or mismatched CSVs: exit 1 and a message naming the file.
+size=$(wc -c <"$REF" | tr -d ' ')
+head -c $((size / 2)) "$REF" >"$T/half.csv"
+run compare "$T/half.csv" "$REF"
+if [ "$rc" -eq 1 ] && grep -q 'half.csv' "$T/err"; then
+    pass "truncated CSV: exit 1, $(head -n 1 "$T/err")"
+else
+    fail "truncated CSV: exit $rc, stderr: $(cat "$T/err")"
+fi
+head -n 20 "$REF" >"$T/short.csv"
+run compare "$REF" "$T/short.csv"
+if [ "$rc" -eq 1 ] && grep -q 'short.csv' "$T/err" && grep -q 'rows' "$T/err"; then
+    pass "CSV cut at a line end: exit 1, rows counted"
+else
+    fail "short CSV: exit $rc, stderr: $(cat "$T/err")"
+fi
+sed '1s/b_g/B_G/' "$REF" >"$T/header.csv"
+run compare "$T/header.csv" "$REF"
+if [ "$rc" -eq 1 ] && grep -q "header.csv' line 1" "$T/err"; then
+    pass "CSV header mismatch: exit 1 naming the file"
+else
+    fail "CSV header mismatch: exit $rc, stderr: $(cat "$T/err")"
+fi
+awk -F, -v OFS=, 'NR == 5 { $11 = "nan" } { print }' "$REF" >"$T/nan.csv"
+run compare "$REF" "$T/nan.csv"
+if [ "$rc" -eq 1 ] && grep -q "nan.csv' line 5" "$T/err"; then
+    pass "NaN in a CSV: exit 1 naming file and line"
+else
+    fail "NaN in a CSV: exit $rc, stderr: $(cat "$T/err")"
+fi
+awk -F, -v OFS=, 'NR == 7 { $4 = "12x" } { print }' "$REF" >"$T/alpha.csv"
+run compare "$T/alpha.csv" "$REF"
+if [ "$rc" -eq 1 ] && grep -q "alpha.csv' line 7" "$T/err"; then
+    pass "non-numeric CSV field: exit 1 naming file and line"
+else
+    fail "non-numeric CSV field: exit $rc, stderr: $(cat "$T/err")"
+fi
+run compare "$T/d1-ref.csv" "$REF"
+if [ "$rc" -eq 1 ] && grep -q 'different subdivisions' "$T/err"; then
+    pass "CSVs of different subdivisions: exit 1"
+else
+    fail "different subdivisions: exit $rc, stderr: $(cat "$T/err")"
+fi
+run compare "$REF" "$T/no-such.csv"
+if [ "$rc" -eq 1 ] && grep -q 'no-such.csv' "$T/err"; then
+    pass "missing CSV: exit 1 naming it"
+else
+    fail "missing CSV: exit $rc, stderr: $(cat "$T/err")"
+fi
+
+# ---------------------------------------------------------------- condition warning
+# A closed cube of reflectance 0.99999: cond(I - R F) ~ 1e5, too much for a float M_c.
+printf '%s\n' 'newmtl white' 'Kd 0.99999 0.99999 0.99999' 'newmtl light' \
+    'Kd 0.99999 0.99999 0.99999' 'Ke 1 1 1' >"$T/cube.mtl"
+{
+    echo 'mtllib cube.mtl'
+    for v in '0 0 0' '1 0 0' '1 1 0' '0 1 0' '0 0 1' '1 0 1' '1 1 1' '0 1 1'; do echo "v $v"; done
+    echo 'usemtl white'
+    for f in '1 2 3' '1 3 4' '1 6 2' '1 5 6' '4 3 7' '4 7 8' '1 4 8' '1 8 5' '2 6 7' '2 7 3'; do
+        echo "f $f"
+    done
+    echo 'usemtl light'
+    echo 'f 5 7 6'
+    echo 'f 5 8 7'
+} >"$T/cube.obj"
+run preprocess "$T/cube.obj" -o "$T/cube.lrr" --patches 12 --levels 1 --hemicube 32
+if [ "$rc" -eq 0 ] && [ -s "$T/cube.lrr" ] && grep -q 'warning: condition estimate' "$T/err"; then
+    pass "ill-conditioned scene: exit 0 with a warning (cond_r $(value cond_r))"
+else
+    fail "ill-conditioned scene: exit $rc, cond_r '$(value cond_r)', stderr: $(cat "$T/err")"
 fi
 
 # ---------------------------------------------------------------- summary

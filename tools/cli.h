@@ -11,8 +11,9 @@
 
 #include "lrr.h"
 
-/* Exit statuses: 1 for a failure while working, 2 for a malformed command line. */
-enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2 };
+/* Exit statuses: 1 for a failure while working, 2 for a malformed command line, 3 when an
+ * iterative reference solve stopped before its tolerance (its result is still written). */
+enum { CLI_EXIT_OK = 0, CLI_EXIT_FAIL = 1, CLI_EXIT_USAGE = 2, CLI_EXIT_NOT_CONVERGED = 3 };
 
 /* ------------------------------------------------------------------ messages */
 /* "PROG: message\n" on stderr (PROG is e.g. "lrr info"). */
@@ -77,10 +78,54 @@ int cli_outfile_commit(cli_outfile *out);
 /* Discards an open output without touching `path`. */
 void cli_outfile_abort(cli_outfile *out);
 
-/* Writes the per-subpatch CSV for a solved operator:
- *   subpatch,patch,area,cx,cy,cz,nx,ny,nz,b_r,b_g,b_b
- * numbers with %.9g, atomically. Returns CLI_EXIT_OK or CLI_EXIT_FAIL (message printed). */
+/* The per-subpatch CSV written by `lrr solve --csv` and `lrr reference --csv` and read by
+ * `lrr compare`: this header line, then one row per subpatch, numbers with %.9g. */
+#define CLI_CSV_HEADER "subpatch,patch,area,cx,cy,cz,nx,ny,nz,b_r,b_g,b_b"
+
+/* Writes the CSV atomically for n subpatches, d per patch (patch = subpatch / d): area n,
+ * centre, normal and radiosity n×3. Returns CLI_EXIT_OK or CLI_EXIT_FAIL (message printed). */
+int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const float *area,
+                           const float *centre, const float *normal, const float *radiosity);
+/* The same for a solved operator, with its stored geometry. */
 int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const float *radiosity);
+
+/* ------------------------------------------------------------------ CSV comparison (compare.c) */
+typedef struct cli_csv_row {
+    size_t subpatch, patch;
+    double area, centre[3], normal[3], b[3];
+} cli_csv_row;
+
+typedef struct cli_csv_table {
+    size_t n;          /* data rows (the header is line 1, row i is line i + 2) */
+    cli_csv_row *rows;
+} cli_csv_table;
+
+/* Reads a CSV in the format above. The header must match exactly; every row must have 12
+ * fields, non-negative integers for subpatch and patch, finite numbers elsewhere and an area
+ * > 0; the last line must end with a newline (else the file is truncated). On failure prints
+ * "lrr: ...: 'PATH' line L: what" and returns CLI_EXIT_FAIL with *out empty. */
+int cli_read_radiosity_csv(const char *path, cli_csv_table *out);
+void cli_csv_table_free(cli_csv_table *t);
+
+/* Differences of A against the reference B, area-weighted with B's areas, over the three
+ * channels together and per channel (index 0..2 = r, g, b):
+ *   rel_l2   = sqrt(Σ a_i Σ_c ΔB_ic²) / sqrt(Σ a_i Σ_c B_ic²)
+ *   max_rel  = max |ΔB_ic| / |B_ic| over the entries with |B_ic| > 1e-3 · max |B| (one
+ *              threshold for all channels, so max_rel is the largest max_rel_c)
+ *   mean_abs = Σ a_i Σ_c |ΔB_ic| / (3 Σ a_i) */
+typedef struct cli_comparison {
+    size_t n;
+    double rel_l2, max_rel, mean_abs;
+    int have_max_rel;        /* 0 when B has no non-negligible entry (B = 0 everywhere) */
+    size_t max_rel_subpatch; /* the subpatch column of the row with max_rel */
+    double rel_l2_c[3], max_rel_c[3], mean_abs_c[3];
+} cli_comparison;
+
+/* The rows must agree one by one: same count, same subpatch index, areas within 1e-6
+ * relative and centres within 1e-5 of the scene's size, else a message naming both files and
+ * the line ("different subdivisions") and CLI_EXIT_FAIL. a_path/b_path name them. */
+int cli_compare_radiosity(const cli_csv_table *a, const char *a_path, const cli_csv_table *b,
+                          const char *b_path, cli_comparison *out);
 
 /* ------------------------------------------------------------------ misc */
 /* n×3 float array with an overflow-checked size; NULL on failure (message printed). */

@@ -275,24 +275,17 @@ void cli_outfile_abort(cli_outfile *out)
     outfile_release(out);
 }
 
-int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const float *radiosity)
+int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const float *area,
+                           const float *centre, const float *normal, const float *radiosity)
 {
-    lrr_operator_info info;
-    lrr_operator_get_info(op, &info);
-    const float *area = lrr_operator_area(op);
-    const float *centre = lrr_operator_centre(op);
-    const float *normal = lrr_operator_normal(op);
-    if (!area || !centre || !normal)
-        return cli_fail(LRR_ERR_INVALID_ARG, "%s: the operator has no per-subpatch geometry",
-                        path);
-    size_t d = info.d ? info.d : 1;
-
+    if (d == 0)
+        d = 1;
     cli_outfile out;
     if (cli_outfile_open(&out, path) != 0)
         return cli_fail(LRR_ERR_IO, "cannot create a temporary file for '%s': %s", path,
                         strerror(errno));
-    fputs("subpatch,patch,area,cx,cy,cz,nx,ny,nz,b_r,b_g,b_b\n", out.f);
-    for (size_t i = 0; i < info.n; i++) {
+    fputs(CLI_CSV_HEADER "\n", out.f);
+    for (size_t i = 0; i < n; i++) {
         const float *c = centre + 3 * i, *nr = normal + 3 * i, *b = radiosity + 3 * i;
         if (fprintf(out.f, "%zu,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", i,
                     i / d, (double)area[i], (double)c[0], (double)c[1], (double)c[2],
@@ -303,6 +296,19 @@ int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const floa
     if (cli_outfile_commit(&out) != 0)
         return cli_fail(LRR_ERR_IO, "cannot write '%s': %s", path, strerror(errno));
     return CLI_EXIT_OK;
+}
+
+int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const float *radiosity)
+{
+    lrr_operator_info info;
+    lrr_operator_get_info(op, &info);
+    const float *area = lrr_operator_area(op);
+    const float *centre = lrr_operator_centre(op);
+    const float *normal = lrr_operator_normal(op);
+    if (!area || !centre || !normal)
+        return cli_fail(LRR_ERR_INVALID_ARG, "%s: the operator has no per-subpatch geometry",
+                        path);
+    return cli_write_subpatch_csv(path, info.n, info.d, area, centre, normal, radiosity);
 }
 
 /* ------------------------------------------------------------------ misc */

@@ -5,12 +5,15 @@
  *   lrr preprocess SCENE  build and save the operator (F̄, M_c)
  *   lrr solve FILE.lrr    solve for the stored emission, time it, write a CSV
  *   lrr render FILE.lrr   solve and draw a PNG
+ *   lrr reference SCENE   the full n×n form factors and a classic solver, for comparison
+ *   lrr compare A B       error measures of one radiosity CSV against another
  *   lrr demo              the Cornell box from start to picture
  *
  * Exit status: 0 success, 1 a failure while working (library error, I/O), 2 a malformed
- * command line. Uses only the public API (lrr.h).
+ * command line, 3 a reference solve that did not converge. Uses only the public API (lrr.h).
  */
 #include <errno.h>
+#include <float.h>
 #include <getopt.h>
 #include <math.h>
 #include <stdio.h>
@@ -28,6 +31,12 @@
 #define DEFAULT_HEMICUBE 128u
 #define DEFAULT_SEED 1u
 #define DEFAULT_REPEAT 10u
+#define DEFAULT_TOL 1e-6
+#define DEFAULT_BUDGET_MB 4096u
+
+/* lrr preprocess warns when cond × FLT_EPSILON exceeds this: M_c is stored in float, so a
+ * larger condition number leaves less than ~0.1% of accuracy in the solution. */
+#define COND_WARN_ERROR 1e-3
 
 /* Long-only options get codes above the char range. */
 enum {
@@ -45,7 +54,11 @@ enum {
     OPT_HEIGHT,
     OPT_EXPOSURE,
     OPT_CAMERA,
-    OPT_OUT
+    OPT_OUT,
+    OPT_METHOD,
+    OPT_TOL,
+    OPT_MAX_ITERATIONS,
+    OPT_MEMORY_BUDGET
 };
 
 /* ------------------------------------------------------------------ help texts */
@@ -58,13 +71,16 @@ static const char main_help[] =
     "  preprocess SCENE     build the operator and save it to an .lrr file\n"
     "  solve FILE.lrr       solve for the stored emission, time it, optionally write a CSV\n"
     "  render FILE.lrr      solve and draw a PNG\n"
+    "  reference SCENE      full n×n form factors and a classic solver, to measure against\n"
+    "  compare A.csv B.csv  errors of the radiosity in A against the reference B\n"
     "  demo                 the Cornell box from scene to picture\n"
     "\n"
     "Options:\n"
     "  -h, --help           show this help (COMMAND --help: help on a command)\n"
     "  -V, --version        print the library version\n"
     "\n"
-    "Exit status: 0 success, 1 failure, 2 bad command line.\n";
+    "Exit status: 0 success, 1 failure, 2 bad command line, 3 a reference solve that did\n"
+    "not converge.\n";
 
 #define SUBDIV_HELP                                                                           \
     "Subdivision (default when neither --max-patch-area nor --patches is given:\n"           \
@@ -84,18 +100,22 @@ static const char info_help[] =
     "subpatches, d, area, emitters, max_patch_area, bounds_min, bounds_max).\n"
     "\n" SCENE_HELP "\n" SUBDIV_HELP "  -h, --help           show this help\n";
 
+#define BUILD_HELP                                                                            \
+    "  --hemicube R         hemicube resolution: even, 8..4096 (default 128)\n"                \
+    "  --seed S             seed of the random hemicube rotations (default 1)\n"               \
+    "  --threads T          OpenMP threads, 0 = OpenMP's default (default 0)\n"                \
+    "  --progress           draw a progress bar on stderr even when it is not a terminal\n"
+
 static const char preprocess_help[] =
     "Usage: lrr preprocess SCENE -o FILE.lrr [OPTIONS]\n"
     "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
     "saves it atomically. Prints 'key: value' lines: n, k, d, hemicube, seed,\n"
-    "build_seconds, cond_r, cond_g, cond_b, memory_mb, output.\n"
+    "build_seconds, cond_r, cond_g, cond_b, memory_mb, output. Warns on stderr when a\n"
+    "condition estimate is so large (cond × FLT_EPSILON > 1e-3) that M_c, stored in single\n"
+    "precision, may not carry the solution to 0.1%.\n"
     "\n" SCENE_HELP "\n"
     "Options:\n"
-    "  -o, --output FILE    where to write the operator (required)\n"
-    "  --hemicube R         hemicube resolution: even, 8..4096 (default 128)\n"
-    "  --seed S             seed of the random hemicube rotations (default 1)\n"
-    "  --threads T          OpenMP threads, 0 = OpenMP's default (default 0)\n"
-    "  --progress           draw a progress bar on stderr even when it is not a terminal\n"
+    "  -o, --output FILE    where to write the operator (required)\n" BUILD_HELP
     "  -h, --help           show this help\n" SUBDIV_HELP;
 
 static const char solve_help[] =
@@ -110,6 +130,52 @@ static const char solve_help[] =
     "  --emission-scale S   multiply the stored emission by S (finite, >= 0; default 1)\n"
     "  --repeat N           number of timed runs (1..1000000, default 10)\n"
     "  -h, --help           show this help\n";
+
+static const char reference_help[] =
+    "Usage: lrr reference SCENE --method M [OPTIONS]\n"
+    "Builds the full n×n subpatch-to-subpatch form-factor matrix F from the same hemicubes\n"
+    "as 'lrr preprocess' with the same options, and solves (I − R F) B = E for the scene's\n"
+    "emission with a classic method, to measure the low-rank operator against (see\n"
+    "'lrr compare'). Prints 'key: value' lines: n, method, iterations, residual\n"
+    "(max over channels of ||E − (I − R F) B|| / ||E||), build_seconds, solve_seconds,\n"
+    "mean_b_r, mean_b_g, mean_b_b (area-weighted mean radiosity), max_b.\n"
+    "\n" SCENE_HELP "\n"
+    "Options:\n"
+    "  --method M           jacobi, gauss-seidel, southwell (progressive refinement) or\n"
+    "                       direct (LU of I − R F per channel) (required)\n"
+    "  --tol T              relative residual at which the iterative methods stop\n"
+    "                       (1e-13 <= T < 1, default 1e-6; the direct method ignores it)\n"
+    "  --max-iterations N   most sweeps (shots for southwell); 0 = the library's default,\n"
+    "                       enough for reflectances up to 0.999 (default 0)\n"
+    "  --memory-budget MB   the most memory F may take, in MiB (default 4096); the direct\n"
+    "                       method counts its 8·n² bytes of LU too. Larger scenes are\n"
+    "                       refused before anything is computed.\n"
+    "  --csv OUT.csv        write one row per subpatch, the columns of 'lrr solve --csv':\n"
+    "                       " CLI_CSV_HEADER "\n" BUILD_HELP
+    "  -h, --help           show this help\n" SUBDIV_HELP
+    "\n"
+    "Exit status: 0 success, 1 failure, 2 bad command line, 3 the iterative method stopped\n"
+    "at --max-iterations before --tol (a warning names the iterations and the residual; the\n"
+    "results, and the CSV, are those of the last iterate).\n";
+
+static const char compare_help[] =
+    "Usage: lrr compare A.csv B.csv\n"
+    "Compares the radiosity in A with the reference B, both written by 'lrr solve --csv' or\n"
+    "'lrr reference --csv' for the same subdivision (same rows, same order, same areas).\n"
+    "Prints 'key: value' lines, area-weighted with B's areas a_i, ΔB = B_A − B_B:\n"
+    "  n                    subpatches\n"
+    "  rel_l2               sqrt(Σ_i a_i Σ_c ΔB_ic²) / sqrt(Σ_i a_i Σ_c B_ic²)\n"
+    "  max_rel              max |ΔB_ic| / |B_ic| over the entries with |B_ic| > 1e-3 max |B|\n"
+    "  max_rel_subpatch     the subpatch where max_rel occurs ('none' if B is all zero)\n"
+    "  mean_abs             Σ_i a_i Σ_c |ΔB_ic| / (3 Σ_i a_i)\n"
+    "  rel_l2_r, rel_l2_g, rel_l2_b, max_rel_r, max_rel_g, max_rel_b, mean_abs_r,\n"
+    "  mean_abs_g, mean_abs_b  the same per channel (max_rel_c with the same threshold)\n"
+    "\n"
+    "Options:\n"
+    "  -h, --help           show this help\n"
+    "\n"
+    "Exit status: 0 success, 1 a file that cannot be read or parsed (the message names the\n"
+    "file and line) or files of different subdivisions, 2 bad command line.\n";
 
 static const char render_help[] =
     "Usage: lrr render FILE.lrr -o OUT.png [OPTIONS]\n"
@@ -151,6 +217,17 @@ static int bad_option(const char *prog, int c, char *const argv[])
     fprintf(stderr, "Try '%s --help'.\n", prog);
     return CLI_EXIT_USAGE;
 }
+
+/* getopt_long entries of the shared option groups, for the commands' longopts tables. */
+#define SUBDIV_LONGOPTS                                                                       \
+    {"max-patch-area", required_argument, NULL, OPT_MAX_PATCH_AREA},                          \
+    {"patches", required_argument, NULL, OPT_PATCHES},                                        \
+    {"levels", required_argument, NULL, OPT_LEVELS}
+#define BUILD_LONGOPTS                                                                        \
+    {"hemicube", required_argument, NULL, OPT_HEMICUBE},                                      \
+    {"seed", required_argument, NULL, OPT_SEED},                                              \
+    {"threads", required_argument, NULL, OPT_THREADS},                                        \
+    {"progress", no_argument, NULL, OPT_PROGRESS}
 
 static void start_getopt(void)
 {
@@ -198,6 +275,58 @@ static int subdiv_finish(subdiv_args *s, const char *prog)
     if (!s->have_area && !s->have_patches)
         s->sub.target_patches = DEFAULT_PATCHES;
     return 0;
+}
+
+/* Options of the hemicube build, shared by preprocess and reference. */
+typedef struct build_args {
+    unsigned hemicube, threads;
+    uint64_t seed;
+    int force_progress;
+} build_args;
+
+static void build_init(build_args *b)
+{
+    b->hemicube = DEFAULT_HEMICUBE;
+    b->threads = 0;
+    b->seed = DEFAULT_SEED;
+    b->force_progress = 0;
+}
+
+/* Returns 1 if c was a build option, 0 if not, -1 on a bad value. */
+static int build_option(build_args *b, const char *prog, int c, const char *arg)
+{
+    switch (c) {
+    case OPT_HEMICUBE:
+        if (cli_parse_unsigned(prog, "--hemicube", arg, 8, 4096, &b->hemicube) != 0)
+            return -1;
+        if (b->hemicube % 2 != 0) {
+            cli_usage_error(prog, "--hemicube: %u is odd (the side faces are R×R/2)",
+                            b->hemicube);
+            return -1;
+        }
+        return 1;
+    case OPT_SEED:
+        return cli_parse_u64(prog, "--seed", arg, 0, UINT64_MAX, &b->seed) == 0 ? 1 : -1;
+    case OPT_THREADS:
+        return cli_parse_unsigned(prog, "--threads", arg, 0, 4096, &b->threads) == 0 ? 1 : -1;
+    case OPT_PROGRESS:
+        b->force_progress = 1;
+        return 1;
+    default:
+        return 0;
+    }
+}
+
+/* The library's options, with a progress bar (drawn on a terminal or with --progress). */
+static lrr_build_options build_start(const build_args *b, cli_progress *bar)
+{
+    cli_progress_init(bar, "hemicubes", b->force_progress || isatty(STDERR_FILENO));
+    lrr_build_options bo = {.hemicube_resolution = b->hemicube,
+                            .seed = b->seed,
+                            .threads = (int)b->threads,
+                            .progress = cli_progress_cb,
+                            .progress_user = bar};
+    return bo;
 }
 
 /* Takes exactly one positional argument; returns it or NULL after a usage message. */
@@ -379,13 +508,11 @@ static int timed_solve(lrr_context *ctx, const lrr_operator *op, const float *e,
     return check_finite(b, oi.n);
 }
 
-static void print_solution_summary(const lrr_operator *op, const float *b)
+/* mean_b_r/g/b (area-weighted; plain means without areas) and max_b of n subpatches. */
+static void print_radiosity_summary(size_t n, const float *area, const float *b)
 {
-    lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
-    const float *area = lrr_operator_area(op);
     double sum[3] = {0, 0, 0}, total = 0.0, maxb = 0.0;
-    for (size_t i = 0; i < oi.n; i++) {
+    for (size_t i = 0; i < n; i++) {
         double a = area ? (double)area[i] : 1.0;
         total += a;
         for (int c = 0; c < 3; c++) {
@@ -400,16 +527,38 @@ static void print_solution_summary(const lrr_operator *op, const float *b)
     printf("max_b: %.9g\n", maxb);
 }
 
+static void print_solution_summary(const lrr_operator *op, const float *b)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    print_radiosity_summary(oi.n, lrr_operator_area(op), b);
+}
+
+/* M_c is stored in float: a condition number κ costs about log10(κ) of its ~7 digits. */
+static void warn_condition(const lrr_operator *op)
+{
+    static const char ch[3] = {'r', 'g', 'b'};
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    for (int c = 0; c < 3; c++) {
+        double cond = oi.condition[c];
+        if (!(cond * FLT_EPSILON > COND_WARN_ERROR))
+            continue;
+        fprintf(stderr,
+                "lrr: warning: condition estimate %.3g of channel %c: single-precision M_%c may "
+                "lose about %.1f of its %.1f significant digits (relative error up to ~%.2g)\n",
+                cond, ch[c], ch[c], log10(cond), -log10((double)FLT_EPSILON),
+                cond * FLT_EPSILON);
+    }
+}
+
 /* ------------------------------------------------------------------ lrr info */
 static int cmd_info(int argc, char *argv[])
 {
     static const char prog[] = "lrr info";
-    static const struct option longopts[] = {
-        {"max-patch-area", required_argument, NULL, OPT_MAX_PATCH_AREA},
-        {"patches", required_argument, NULL, OPT_PATCHES},
-        {"levels", required_argument, NULL, OPT_LEVELS},
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0}};
+    static const struct option longopts[] = {SUBDIV_LONGOPTS,
+                                             {"help", no_argument, NULL, 'h'},
+                                             {NULL, 0, NULL, 0}};
     subdiv_args sa;
     subdiv_init(&sa);
     start_getopt();
@@ -452,25 +601,21 @@ static int cmd_preprocess(int argc, char *argv[])
     static const char prog[] = "lrr preprocess";
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'},
-        {"max-patch-area", required_argument, NULL, OPT_MAX_PATCH_AREA},
-        {"patches", required_argument, NULL, OPT_PATCHES},
-        {"levels", required_argument, NULL, OPT_LEVELS},
-        {"hemicube", required_argument, NULL, OPT_HEMICUBE},
-        {"seed", required_argument, NULL, OPT_SEED},
-        {"threads", required_argument, NULL, OPT_THREADS},
-        {"progress", no_argument, NULL, OPT_PROGRESS},
+        SUBDIV_LONGOPTS,
+        BUILD_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     subdiv_args sa;
     subdiv_init(&sa);
+    build_args ba;
+    build_init(&ba);
     const char *output = NULL;
-    unsigned hemicube = DEFAULT_HEMICUBE, threads = 0;
-    uint64_t seed = DEFAULT_SEED;
-    int force_progress = 0;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
         int r = subdiv_option(&sa, prog, c, optarg);
+        if (r == 0)
+            r = build_option(&ba, prog, c, optarg);
         if (r < 0)
             return CLI_EXIT_USAGE;
         if (r > 0)
@@ -481,26 +626,6 @@ static int cmd_preprocess(int argc, char *argv[])
             return CLI_EXIT_OK;
         case 'o':
             output = optarg;
-            break;
-        case OPT_HEMICUBE:
-            if (cli_parse_unsigned(prog, "--hemicube", optarg, 8, 4096, &hemicube) != 0)
-                return CLI_EXIT_USAGE;
-            if (hemicube % 2 != 0) {
-                cli_usage_error(prog, "--hemicube: %u is odd (the side faces are R×R/2)",
-                                hemicube);
-                return CLI_EXIT_USAGE;
-            }
-            break;
-        case OPT_SEED:
-            if (cli_parse_u64(prog, "--seed", optarg, 0, UINT64_MAX, &seed) != 0)
-                return CLI_EXIT_USAGE;
-            break;
-        case OPT_THREADS:
-            if (cli_parse_unsigned(prog, "--threads", optarg, 0, 4096, &threads) != 0)
-                return CLI_EXIT_USAGE;
-            break;
-        case OPT_PROGRESS:
-            force_progress = 1;
             break;
         default:
             return bad_option(prog, c, argv);
@@ -529,16 +654,13 @@ static int cmd_preprocess(int argc, char *argv[])
         rc = open_subdivided_scene(ctx, name, &sa, &scene);
     if (rc == CLI_EXIT_OK) {
         cli_progress bar;
-        cli_progress_init(&bar, "hemicubes", force_progress || isatty(STDERR_FILENO));
-        lrr_build_options bo = {.hemicube_resolution = hemicube,
-                                .seed = seed,
-                                .threads = (int)threads,
-                                .progress = cli_progress_cb,
-                                .progress_user = &bar};
+        lrr_build_options bo = build_start(&ba, &bar);
         s = lrr_operator_build(scene, &bo, &op);
         cli_progress_finish(&bar);
-        if (s == LRR_OK)
+        if (s == LRR_OK) {
+            warn_condition(op);
             s = lrr_operator_save(op, output);
+        }
         if (s != LRR_OK)
             rc = cli_lib_error(ctx, s);
     }
@@ -728,6 +850,254 @@ static int cmd_render(int argc, char *argv[])
     return rc;
 }
 
+/* ------------------------------------------------------------------ lrr reference */
+static int cmd_reference(int argc, char *argv[])
+{
+    static const char prog[] = "lrr reference";
+    static const struct option longopts[] = {
+        SUBDIV_LONGOPTS,
+        BUILD_LONGOPTS,
+        {"method", required_argument, NULL, OPT_METHOD},
+        {"tol", required_argument, NULL, OPT_TOL},
+        {"max-iterations", required_argument, NULL, OPT_MAX_ITERATIONS},
+        {"memory-budget", required_argument, NULL, OPT_MEMORY_BUDGET},
+        {"csv", required_argument, NULL, OPT_CSV},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    subdiv_args sa;
+    subdiv_init(&sa);
+    build_args ba;
+    build_init(&ba);
+    const char *csv = NULL;
+    lrr_method method = LRR_METHOD_DIRECT;
+    int have_method = 0;
+    double tol = DEFAULT_TOL;
+    size_t max_iterations = 0, budget_mb = DEFAULT_BUDGET_MB;
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        int r = subdiv_option(&sa, prog, c, optarg);
+        if (r == 0)
+            r = build_option(&ba, prog, c, optarg);
+        if (r < 0)
+            return CLI_EXIT_USAGE;
+        if (r > 0)
+            continue;
+        switch (c) {
+        case 'h':
+            fputs(reference_help, stdout);
+            return CLI_EXIT_OK;
+        case OPT_METHOD:
+            if (lrr_method_from_name(optarg, &method) != LRR_OK) {
+                cli_usage_error(prog,
+                                "--method: '%s' is not one of jacobi, gauss-seidel, southwell, "
+                                "direct",
+                                optarg);
+                return CLI_EXIT_USAGE;
+            }
+            have_method = 1;
+            break;
+        case OPT_TOL:
+            /* the library's range: 1e-13 <= tol < 1 */
+            if (cli_parse_double(prog, "--tol", optarg, 1e-13, 0, 1.0, &tol) != 0)
+                return CLI_EXIT_USAGE;
+            if (tol >= 1.0) {
+                cli_usage_error(prog, "--tol: '%s' is out of range (it must be less than 1)",
+                                optarg);
+                return CLI_EXIT_USAGE;
+            }
+            break;
+        case OPT_MAX_ITERATIONS:
+            if (cli_parse_size(prog, "--max-iterations", optarg, 0, SIZE_MAX, &max_iterations) !=
+                0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_MEMORY_BUDGET:
+            if (cli_parse_size(prog, "--memory-budget", optarg, 1, SIZE_MAX >> 20, &budget_mb) !=
+                0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_CSV:
+            csv = optarg;
+            break;
+        default:
+            return bad_option(prog, c, argv);
+        }
+    }
+    const char *name = one_positional(prog, "SCENE", argc, argv);
+    if (!name)
+        return CLI_EXIT_USAGE;
+    if (!have_method) {
+        cli_usage_error(prog, "--method is required (jacobi, gauss-seidel, southwell, direct)");
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return CLI_EXIT_USAGE;
+    }
+    if (csv && !csv[0]) {
+        cli_usage_error(prog, "--csv: the file name is empty");
+        return CLI_EXIT_USAGE;
+    }
+    int rc = subdiv_finish(&sa, prog);
+    if (rc)
+        return rc;
+
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return cli_lib_error(NULL, s);
+    lrr_scene *scene = NULL;
+    lrr_reference *ref = NULL;
+    float *b = NULL, *centre = NULL, *normal = NULL, *area = NULL;
+    size_t budget = budget_mb << 20, n = 0, d = 1;
+    lrr_reference_stats st = {0, 0.0, 0.0};
+    lrr_status solved = LRR_OK;
+    double build_seconds = 0.0;
+    /* Fail before the build, not after it, when the CSV cannot be written. */
+    rc = csv ? check_writable_dir(csv) : CLI_EXIT_OK;
+    if (rc == CLI_EXIT_OK)
+        rc = open_subdivided_scene(ctx, name, &sa, &scene);
+    if (rc == CLI_EXIT_OK) {
+        lrr_scene_info si;
+        lrr_scene_get_info(scene, &si);
+        n = si.subpatches;
+        d = si.d ? si.d : 1;
+        /* The library checks F against the budget; the LU of the direct method comes on top
+         * while it runs, so refuse here, before the hemicubes, when only that breaks it. */
+        double f_bytes = (double)lrr_reference_bytes(n);
+        double lu_bytes = 8.0 * (double)n * (double)n;
+        if (method == LRR_METHOD_DIRECT && f_bytes <= (double)budget &&
+            f_bytes + lu_bytes > (double)budget)
+            rc = cli_fail(LRR_ERR_BUDGET,
+                          "the direct method on %zu subpatches needs %.1f MiB (%.1f MiB for F, "
+                          "%.1f MiB for the LU of I − R F), more than --memory-budget %zu MiB",
+                          n, (f_bytes + lu_bytes) / 1048576.0, f_bytes / 1048576.0,
+                          lu_bytes / 1048576.0, budget_mb);
+    }
+    if (rc == CLI_EXIT_OK) {
+        cli_progress bar;
+        lrr_build_options bo = build_start(&ba, &bar);
+        double t0 = cli_now();
+        s = lrr_reference_build(scene, &bo, budget, &ref);
+        build_seconds = cli_now() - t0;
+        cli_progress_finish(&bar);
+        if (s != LRR_OK) {
+            rc = cli_lib_error(ctx, s);
+            if (s == LRR_ERR_BUDGET)
+                fprintf(stderr, "%s: --memory-budget is %zu MiB: raise it or use fewer "
+                                "subpatches\n", prog, budget_mb);
+        } else if (lrr_reference_size(ref) != n) {
+            rc = cli_fail(LRR_ERR_DIM, "the reference has %zu subpatches, the scene %zu",
+                          lrr_reference_size(ref), n);
+        }
+    }
+    if (rc == CLI_EXIT_OK) {
+        b = cli_alloc_rgb(n);
+        centre = b ? cli_alloc_rgb(n) : NULL;
+        normal = centre ? cli_alloc_rgb(n) : NULL;
+        area = normal ? calloc(n, sizeof *area) : NULL; /* n × 3 floats fit: so do n */
+        if (!area)
+            rc = normal ? cli_fail(LRR_ERR_NOMEM, "cannot allocate %zu areas", n)
+                        : CLI_EXIT_FAIL;
+    }
+    if (rc == CLI_EXIT_OK) {
+        s = lrr_scene_subpatches(scene, centre, normal, area, NULL, NULL);
+        if (s != LRR_OK)
+            rc = cli_lib_error(ctx, s);
+    }
+    if (rc == CLI_EXIT_OK) {
+        const float *e = lrr_reference_emission(ref);
+        solved = e ? lrr_reference_solve(ref, method, tol, max_iterations, e, b, &st)
+                   : LRR_ERR_INVALID_ARG;
+        if (!e) {
+            rc = cli_fail(LRR_ERR_INVALID_ARG, "the reference has no emission");
+        } else if (solved == LRR_NOT_CONVERGED) {
+            fprintf(stderr,
+                    "lrr: warning: %s did not converge: relative residual %.3g after %zu "
+                    "iterations (--tol %g); the results are those of the last iterate\n",
+                    lrr_method_name(method), st.residual, st.iterations, tol);
+        } else if (solved != LRR_OK) {
+            rc = cli_lib_error(ctx, solved);
+        }
+    }
+    if (rc == CLI_EXIT_OK)
+        rc = check_finite(b, n);
+    if (rc == CLI_EXIT_OK && csv)
+        rc = cli_write_subpatch_csv(csv, n, d, area, centre, normal, b);
+    if (rc == CLI_EXIT_OK) {
+        printf("n: %zu\n", n);
+        printf("method: %s\n", lrr_method_name(method));
+        printf("iterations: %zu\n", st.iterations);
+        printf("residual: %.6g\n", st.residual);
+        printf("build_seconds: %.3f\n", build_seconds);
+        printf("solve_seconds: %.6f\n", st.seconds);
+        print_radiosity_summary(n, area, b);
+        if (csv)
+            printf("csv: %s\n", csv);
+        if (solved == LRR_NOT_CONVERGED)
+            rc = CLI_EXIT_NOT_CONVERGED;
+    }
+    free(area);
+    free(normal);
+    free(centre);
+    free(b);
+    lrr_reference_destroy(ref);
+    lrr_scene_destroy(scene);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ lrr compare */
+static int cmd_compare(int argc, char *argv[])
+{
+    static const char prog[] = "lrr compare";
+    static const struct option longopts[] = {{"help", no_argument, NULL, 'h'},
+                                             {NULL, 0, NULL, 0}};
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        if (c == 'h') {
+            fputs(compare_help, stdout);
+            return CLI_EXIT_OK;
+        }
+        return bad_option(prog, c, argv);
+    }
+    if (argc - optind != 2) {
+        if (argc - optind > 2)
+            cli_usage_error(prog, "unexpected argument '%s'", argv[optind + 2]);
+        else
+            cli_usage_error(prog, "missing %s", optind == argc ? "A.csv and B.csv" : "B.csv");
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return CLI_EXIT_USAGE;
+    }
+    const char *path_a = argv[optind], *path_b = argv[optind + 1];
+    cli_csv_table a = {0, NULL}, b = {0, NULL};
+    cli_comparison cmp;
+    int rc = cli_read_radiosity_csv(path_a, &a);
+    if (rc == CLI_EXIT_OK)
+        rc = cli_read_radiosity_csv(path_b, &b);
+    if (rc == CLI_EXIT_OK)
+        rc = cli_compare_radiosity(&a, path_a, &b, path_b, &cmp);
+    if (rc == CLI_EXIT_OK) {
+        static const char ch[3] = {'r', 'g', 'b'};
+        printf("n: %zu\n", cmp.n);
+        printf("rel_l2: %.9g\n", cmp.rel_l2);
+        printf("max_rel: %.9g\n", cmp.max_rel);
+        if (cmp.have_max_rel)
+            printf("max_rel_subpatch: %zu\n", cmp.max_rel_subpatch);
+        else
+            printf("max_rel_subpatch: none\n");
+        printf("mean_abs: %.9g\n", cmp.mean_abs);
+        for (int k = 0; k < 3; k++)
+            printf("rel_l2_%c: %.9g\n", ch[k], cmp.rel_l2_c[k]);
+        for (int k = 0; k < 3; k++)
+            printf("max_rel_%c: %.9g\n", ch[k], cmp.max_rel_c[k]);
+        for (int k = 0; k < 3; k++)
+            printf("mean_abs_%c: %.9g\n", ch[k], cmp.mean_abs_c[k]);
+    }
+    cli_csv_table_free(&a);
+    cli_csv_table_free(&b);
+    return rc;
+}
+
 /* ------------------------------------------------------------------ lrr demo */
 /* mkdir -p: creates each missing component of dir. */
 static int make_dirs(const char *dir)
@@ -866,7 +1236,7 @@ static int cmd_demo(int argc, char *argv[])
     int rc = make_dirs(dir);
     if (rc)
         return rc;
-    char *lrr_path = join_path(dir, "cornell.lrr"), *png_path = join_path(dir, "cornell.png");
+    char *op_path = join_path(dir, "cornell.lrr"), *png_path = join_path(dir, "cornell.png");
     lrr_context *ctx = NULL;
     lrr_scene *scene = NULL;
     lrr_operator *op = NULL;
@@ -883,7 +1253,7 @@ static int cmd_demo(int argc, char *argv[])
     double ms = 0.0;
     lrr_render_options ro = {.width = 512, .height = 512, .exposure = 0.0,
                              .use_cornell_camera = 1};
-    if (!lrr_path || !png_path) {
+    if (!op_path || !png_path) {
         rc = cli_fail(LRR_ERR_NOMEM, "cannot build the output paths");
         goto done;
     }
@@ -908,20 +1278,20 @@ static int cmd_demo(int argc, char *argv[])
     s = lrr_operator_build(scene, &bo, &op);
     cli_progress_finish(&bar);
     if (s == LRR_OK)
-        s = lrr_operator_save(op, lrr_path);
+        s = lrr_operator_save(op, op_path);
     if (s != LRR_OK) {
         rc = cli_lib_error(ctx, s);
         goto done;
     }
     print_operator_info(op);
-    printf("output: %s\n", lrr_path);
+    printf("output: %s\n", op_path);
 
     /* Solve from the saved file, as `lrr solve` would: the demo checks the round trip too. */
     lrr_operator_get_info(op, &built);
     lrr_operator_destroy(op);
     op = NULL;
     printf("\n== 3. solve (CPU)\n");
-    rc = load_operator(ctx, lrr_path, &op);
+    rc = load_operator(ctx, op_path, &op);
     if (rc)
         goto done;
     b = cli_alloc_rgb(built.n);
@@ -951,7 +1321,7 @@ done:
     lrr_operator_destroy(op);
     lrr_scene_destroy(scene);
     lrr_context_destroy(ctx);
-    free(lrr_path);
+    free(op_path);
     free(png_path);
     return rc;
 }
@@ -978,6 +1348,8 @@ int main(int argc, char *argv[])
                     {"preprocess", cmd_preprocess},
                     {"solve", cmd_solve},
                     {"render", cmd_render},
+                    {"reference", cmd_reference},
+                    {"compare", cmd_compare},
                     {"demo", cmd_demo}};
     if (argc < 2) {
         fputs(main_help, stderr);
