@@ -64,8 +64,8 @@ help_mentions() {
     fi
 }
 help_mentions info --max-patch-area --patches --levels cornell
-help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels
-help_mentions solve --csv --emission-scale --repeat
+help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage
+help_mentions solve --csv --emission-scale --repeat --path
 help_mentions render -o --width --height --exposure --emission-scale
 help_mentions demo --out
 help_mentions reference --method jacobi gauss-seidel southwell direct --tol --max-iterations \
@@ -223,6 +223,45 @@ if [ "$rc" -eq 1 ] && grep -q 'no-such-dir/b.csv' "$T/err"; then
 else
     fail "unwritable CSV: exit $rc, stderr: $(cat "$T/err")"
 fi
+
+# Every path gives the same answer; the path and the SIMD kernel are reported.
+for p in full sparse incremental auto; do
+    run solve "$LRRFILE" --path "$p" --repeat 2
+    m=$(value mean_b_r)
+    if [ "$rc" -eq 0 ] && [ -n "$(value kernel)" ] && awk -v a="$mean1" -v b="$m" \
+        'BEGIN { r = b - a; if (r < 0) r = -r; exit !(a > 0 && r <= 1e-5 * a) }'; then
+        pass "solve --path $p: took $(value path), kernel $(value kernel), mean_b_r = $m"
+    else
+        fail "solve --path $p: mean_b_r '$m' vs '$mean1' (exit $rc)"
+        show_err
+    fi
+done
+run solve "$LRRFILE" --path sideways
+expect_rc 2 "solve --path sideways is a usage error"
+LRR_SIMD=c "$LRR" solve "$LRRFILE" --repeat 1 >"$T/out" 2>"$T/err"
+rc=$?
+if [ "$rc" -eq 0 ] && [ "$(value kernel)" = c ]; then pass "LRR_SIMD=c forces the portable kernel"; else fail "LRR_SIMD=c: exit $rc, kernel '$(value kernel)'"; fi
+
+# 16-bit storage: half the bytes of F̄ on disk, the same radiosity to the rounding of F̄.
+for st in f16 bf16; do
+    run preprocess cornell --patches 24 --levels 1 --hemicube 32 --storage "$st" -o "$T/$st.lrr"
+    if [ "$rc" -eq 0 ] && [ "$(value storage)" = "$st" ] &&
+        [ "$(wc -c <"$T/$st.lrr")" -lt "$(wc -c <"$LRRFILE")" ]; then
+        run solve "$T/$st.lrr" --repeat 1
+        m=$(value mean_b_r)
+        if [ "$rc" -eq 0 ] && [ "$(value storage)" = "$st" ] && awk -v a="$mean1" -v b="$m" \
+            'BEGIN { r = b - a; if (r < 0) r = -r; exit !(a > 0 && r <= 1e-3 * a) }'; then
+            pass "--storage $st: smaller file, mean_b_r = $m vs $mean1"
+        else
+            fail "--storage $st solve: mean_b_r '$m' vs '$mean1' (exit $rc)"
+        fi
+    else
+        fail "preprocess --storage $st (exit $rc)"
+        show_err
+    fi
+done
+run preprocess cornell --storage f8 -o "$T/f8.lrr"
+expect_rc 2 "preprocess --storage f8 is a usage error"
 
 # ---------------------------------------------------------------- render
 PNG="$T/b.png"

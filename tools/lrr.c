@@ -50,6 +50,8 @@ enum {
     OPT_CSV,
     OPT_EMISSION_SCALE,
     OPT_REPEAT,
+    OPT_PATH,
+    OPT_STORAGE,
     OPT_WIDTH,
     OPT_HEIGHT,
     OPT_EXPOSURE,
@@ -110,12 +112,15 @@ static const char preprocess_help[] =
     "Usage: lrr preprocess SCENE -o FILE.lrr [OPTIONS]\n"
     "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
     "saves it atomically. Prints 'key: value' lines: n, k, d, hemicube, seed,\n"
-    "build_seconds, cond_r, cond_g, cond_b, memory_mb, output. Warns on stderr when a\n"
+    "build_seconds, cond_r, cond_g, cond_b, storage, memory_mb, output. Warns on stderr when a\n"
     "condition estimate is so large (cond × FLT_EPSILON > 1e-3) that M_c, stored in single\n"
     "precision, may not carry the solution to 0.1%.\n"
     "\n" SCENE_HELP "\n"
     "Options:\n"
-    "  -o, --output FILE    where to write the operator (required)\n" BUILD_HELP
+    "  -o, --output FILE    where to write the operator (required)\n"
+    "  --storage S          f32 (default), f16 or bf16: how F̄ is stored. 16-bit halves the\n"
+    "                       file, the memory and the bytes each frame reads; f16 rows carry\n"
+    "                       a power-of-two scale, and M is recomputed from the rounded F̄\n" BUILD_HELP
     "  -h, --help           show this help\n" SUBDIV_HELP;
 
 static const char solve_help[] =
@@ -129,7 +134,13 @@ static const char solve_help[] =
     "                       subpatch,patch,area,cx,cy,cz,nx,ny,nz,b_r,b_g,b_b\n"
     "  --emission-scale S   multiply the stored emission by S (finite, >= 0; default 1)\n"
     "  --repeat N           number of timed runs (1..1000000, default 10)\n"
-    "  -h, --help           show this help\n";
+    "  --path P             auto, full (default), sparse or incremental: which real-time\n"
+    "                       path to time (see lrr_solver_set_path). auto picks per frame;\n"
+    "                       repeating one emission then takes the incremental path with\n"
+    "                       nothing changed, so its time is bookkeeping only\n"
+    "  -h, --help           show this help\n"
+    "Also prints storage (of F̄), path (that the last run took) and kernel (the SIMD\n"
+    "variant; the environment variable LRR_SIMD=c|avx2|avx512 forces one).\n";
 
 static const char reference_help[] =
     "Usage: lrr reference SCENE --method M [OPTIONS]\n"
@@ -416,6 +427,7 @@ static void print_operator_info(const lrr_operator *op)
     printf("cond_r: %.6g\n", oi.condition[0]);
     printf("cond_g: %.6g\n", oi.condition[1]);
     printf("cond_b: %.6g\n", oi.condition[2]);
+    printf("storage: %s\n", lrr_storage_name(oi.storage));
     printf("memory_mb: %.3f\n", (double)oi.bytes / (1024.0 * 1024.0));
 }
 
@@ -478,13 +490,33 @@ static int check_finite(const float *b, size_t n)
 }
 
 /* Solves once to warm up, then `repeat` timed runs; *median_ms gets their median. */
+static const char *const path_names[] = {"auto", "full", "sparse", "incremental"};
+
+static int parse_path(const char *prog, const char *arg, lrr_path *out)
+{
+    for (int i = 0; i < 4; i++)
+        if (strcmp(arg, path_names[i]) == 0) {
+            *out = (lrr_path)i;
+            return 0;
+        }
+    cli_usage_error(prog, "--path: '%s' is not one of auto, full, sparse, incremental", arg);
+    return -1;
+}
+
+/* Times `repeat` solves of the same emission on the given path after one warm-up, and
+ * reports the path the last one took and the kernel variant. */
 static int timed_solve(lrr_context *ctx, const lrr_operator *op, const float *e, float *b,
-                       unsigned repeat, double *median_ms)
+                       unsigned repeat, lrr_path path, double *median_ms, lrr_path *used,
+                       const char **kernel)
 {
     lrr_solver *solver = NULL;
     lrr_status s = lrr_solver_create(op, LRR_BACKEND_CPU, &solver);
-    if (s != LRR_OK)
+    if (s == LRR_OK)
+        s = lrr_solver_set_path(solver, path);
+    if (s != LRR_OK) {
+        lrr_solver_destroy(solver);
         return cli_lib_error(ctx, s);
+    }
     double *t = calloc(repeat ? repeat : 1, sizeof *t);
     if (!t) {
         lrr_solver_destroy(solver);
@@ -496,6 +528,10 @@ static int timed_solve(lrr_context *ctx, const lrr_operator *op, const float *e,
         s = lrr_solve(solver, e, b);
         t[r] = 1e3 * (cli_now() - t0);
     }
+    if (used)
+        *used = lrr_solver_last_path(solver);
+    if (kernel)
+        *kernel = lrr_solver_kernel(solver);
     lrr_solver_destroy(solver);
     if (s != LRR_OK) {
         free(t);
@@ -601,6 +637,7 @@ static int cmd_preprocess(int argc, char *argv[])
     static const char prog[] = "lrr preprocess";
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'},
+        {"storage", required_argument, NULL, OPT_STORAGE},
         SUBDIV_LONGOPTS,
         BUILD_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
@@ -610,9 +647,17 @@ static int cmd_preprocess(int argc, char *argv[])
     build_args ba;
     build_init(&ba);
     const char *output = NULL;
+    lrr_storage storage = LRR_STORAGE_F32;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
+        if (c == OPT_STORAGE) {
+            if (lrr_storage_from_name(optarg, &storage) != LRR_OK) {
+                cli_usage_error(prog, "--storage: '%s' is not one of f32, f16, bf16", optarg);
+                return CLI_EXIT_USAGE;
+            }
+            continue;
+        }
         int r = subdiv_option(&sa, prog, c, optarg);
         if (r == 0)
             r = build_option(&ba, prog, c, optarg);
@@ -657,6 +702,8 @@ static int cmd_preprocess(int argc, char *argv[])
         lrr_build_options bo = build_start(&ba, &bar);
         s = lrr_operator_build(scene, &bo, &op);
         cli_progress_finish(&bar);
+        if (s == LRR_OK)
+            s = lrr_operator_set_storage(op, storage);
         if (s == LRR_OK) {
             warn_condition(op);
             s = lrr_operator_save(op, output);
@@ -682,11 +729,13 @@ static int cmd_solve(int argc, char *argv[])
         {"csv", required_argument, NULL, OPT_CSV},
         {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
         {"repeat", required_argument, NULL, OPT_REPEAT},
+        {"path", required_argument, NULL, OPT_PATH},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     const char *csv = NULL;
     double scale = 1.0;
     unsigned repeat = DEFAULT_REPEAT;
+    lrr_path path = LRR_PATH_FULL;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
@@ -705,12 +754,16 @@ static int cmd_solve(int argc, char *argv[])
             if (cli_parse_unsigned(prog, "--repeat", optarg, 1, 1000000, &repeat) != 0)
                 return CLI_EXIT_USAGE;
             break;
+        case OPT_PATH:
+            if (parse_path(prog, optarg, &path) != 0)
+                return CLI_EXIT_USAGE;
+            break;
         default:
             return bad_option(prog, c, argv);
         }
     }
-    const char *path = one_positional(prog, "FILE.lrr", argc, argv);
-    if (!path)
+    const char *file = one_positional(prog, "FILE.lrr", argc, argv);
+    if (!file)
         return CLI_EXIT_USAGE;
     if (csv && !csv[0]) {
         cli_usage_error(prog, "--csv: the file name is empty");
@@ -724,14 +777,16 @@ static int cmd_solve(int argc, char *argv[])
     lrr_operator *op = NULL;
     float *e = NULL, *b = NULL;
     double ms = 0.0;
-    int rc = load_operator(ctx, path, &op);
+    lrr_path used = LRR_PATH_FULL;
+    const char *kernel = "";
+    int rc = load_operator(ctx, file, &op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(op, scale, &e);
     if (rc == CLI_EXIT_OK) {
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi);
         b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, e, b, repeat, &ms) : CLI_EXIT_FAIL;
+        rc = b ? timed_solve(ctx, op, e, b, repeat, path, &ms, &used, &kernel) : CLI_EXIT_FAIL;
     }
     if (rc == CLI_EXIT_OK && csv)
         rc = cli_write_radiosity_csv(csv, op, b);
@@ -741,6 +796,9 @@ static int cmd_solve(int argc, char *argv[])
         printf("n: %zu\n", oi.n);
         printf("k: %zu\n", oi.k);
         printf("d: %zu\n", oi.d);
+        printf("storage: %s\n", lrr_storage_name(oi.storage));
+        printf("path: %s\n", path_names[used]);
+        printf("kernel: %s\n", kernel);
         printf("solve_ms: %.4f\n", ms);
         print_solution_summary(op, b);
         if (csv)
@@ -834,7 +892,7 @@ static int cmd_render(int argc, char *argv[])
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi);
         b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, e, b, 0, &ms) : CLI_EXIT_FAIL;
+        rc = b ? timed_solve(ctx, op, e, b, 0, LRR_PATH_AUTO, &ms, NULL, NULL) : CLI_EXIT_FAIL;
     }
     if (rc == CLI_EXIT_OK) {
         s = lrr_render_png(op, b, &ro, output);
@@ -1299,10 +1357,19 @@ static int cmd_demo(int argc, char *argv[])
         rc = CLI_EXIT_FAIL;
         goto done;
     }
-    rc = timed_solve(ctx, op, lrr_operator_emission(op), b, DEFAULT_REPEAT, &ms);
+    const char *kernel = "";
+    double sparse_ms = 0;
+    rc = timed_solve(ctx, op, lrr_operator_emission(op), b, DEFAULT_REPEAT, LRR_PATH_SPARSE,
+                     &sparse_ms, NULL, NULL);
+    if (rc == CLI_EXIT_OK)
+        rc = timed_solve(ctx, op, lrr_operator_emission(op), b, DEFAULT_REPEAT, LRR_PATH_FULL,
+                         &ms, NULL, &kernel);
     if (rc)
         goto done;
-    printf("solve_ms: %.4f (median of %u)\n", ms, DEFAULT_REPEAT);
+    printf("solve_ms: %.4f (one pass over F̄, %s kernel, median of %u)\n", ms, kernel,
+           DEFAULT_REPEAT);
+    printf("solve_ms_sparse: %.4f (only the light's patches emit: cached columns)\n",
+           sparse_ms);
     print_solution_summary(op, b);
     print_wall_table(op, b);
 
