@@ -178,6 +178,11 @@ void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float 
                      const float *E, const float *rho, float *B);
 
 /* ------------------------------------------------------------ misc */
+/* Below about this many multiply-adds (or bytes touched) a parallel region costs more than it
+ * saves: waking the OpenMP team takes microseconds when idle, and milliseconds on a loaded
+ * machine where a worker is descheduled (measured: Jacobi sweeps at n = 112 took 4 ms each
+ * with two threads under load, 9 µs with one). */
+#define LRR__PARALLEL_MIN ((size_t)1 << 16)
 double lrr__now(void);  /* monotonic seconds */
 
 #endif

@@ -476,7 +476,7 @@ lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, const lrr__ke
 void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z)
 {
     const size_t blocks = (k + ROW_BLOCK - 1) / ROW_BLOCK;
-    #pragma omp parallel for schedule(static) if (k >= 128)
+    #pragma omp parallel for schedule(static) if (3 * k * k >= LRR__PARALLEL_MIN)
     for (size_t b = 0; b < 3 * blocks; b++) {
         size_t c = b / blocks, i0 = (b % blocks) * ROW_BLOCK;
         size_t i1 = i0 + ROW_BLOCK < k ? i0 + ROW_BLOCK : k;
@@ -490,7 +490,7 @@ void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float 
     const size_t n = op->n, k = op->k;
     const size_t blocks = (n + ROW_BLOCK - 1) / ROW_BLOCK;
     const lrr_storage storage = op->storage;
-    #pragma omp parallel for schedule(static)
+    #pragma omp parallel for schedule(static) if (n * k >= LRR__PARALLEL_MIN)
     for (size_t b = 0; b < blocks; b++) {
         size_t i0 = b * ROW_BLOCK, i1 = i0 + ROW_BLOCK < n ? i0 + ROW_BLOCK : n;
         /* black subpatches reflect nothing: a block of them needs no pass over its rows */

@@ -129,7 +129,7 @@ lrr_status lrr_method_from_name(const char *name, lrr_method *out)
 static void f_times(const lrr_reference *ref, const double *x, double *y)
 {
     const size_t n = ref->n;
-    #pragma omp parallel for schedule(static)
+    #pragma omp parallel for schedule(static) if (3 * n * n >= LRR__PARALLEL_MIN)
     for (size_t i = 0; i < n; i++) {
         const float *row = ref->f + i * n;
         double a0 = 0, a1 = 0, a2 = 0;

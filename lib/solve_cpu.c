@@ -165,7 +165,8 @@ static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
     const lrr_operator *op = s->op;
     const size_t k = op->k, d = op->d;
     size_t bad = SIZE_MAX, me = 0, mc = 0;
-    #pragma omp parallel for schedule(static) reduction(min : bad) reduction(+ : me, mc)
+    #pragma omp parallel for schedule(static) reduction(min : bad) reduction(+ : me, mc) \
+        if (3 * op->n >= LRR__PARALLEL_MIN)
     for (size_t p = 0; p < k; p++) {
         double acc[3] = {0, 0, 0}, dacc[3] = {0, 0, 0};
         int changed = 0;
@@ -256,7 +257,7 @@ static void combine_columns(const lrr_solver *s, const unsigned char *flag, cons
     size_t list_len = 0;
     for (size_t p = 0; p < k; p++)
         list_len += flag[p];
-    #pragma omp parallel for schedule(static)
+    #pragma omp parallel for schedule(static) if (3 * n * list_len >= LRR__PARALLEL_MIN)
     for (size_t b = 0; b < (n + 255) / 256; b++) {
         size_t i0 = b * 256, i1 = i0 + 256 < n ? i0 + 256 : n;
         float t[256 * 3];

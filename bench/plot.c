@@ -1,0 +1,629 @@
+/* Log-log scatter plots for lrr-bench: see plot.h.
+ *
+ * Everything is drawn by hand into an RGB buffer: axes, a grid at every decade (and at 2..9
+ * times it, lighter), tick labels, titles, a legend in the emptiest corner and a label
+ * beside each point, placed where it overlaps nothing drawn before. Text uses the 5×7 font
+ * below (one byte per row, bit 4 = leftmost column), written for this file; g, p, q and y
+ * are stored from their x-height down and drawn DESCENT rows lower. */
+#include "plot.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* stb_image_write with every function static: no symbol can clash with another copy (Debian's
+ * libstb, which liblrr links for its own PNGs). */
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#define STB_IMAGE_WRITE_STATIC
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-function"
+#pragma GCC diagnostic ignored "-Wmissing-prototypes"
+#pragma GCC diagnostic ignored "-Wshadow"
+#pragma GCC diagnostic ignored "-Wsign-compare"
+#include <stb_image_write.h>
+#pragma GCC diagnostic pop
+
+/* ------------------------------------------------------------------ font */
+#define GLYPH_W 5
+#define GLYPH_H 7
+#define CELL_W 6
+/* g, p, q and y are drawn this many rows lower: their bodies sit at the x-height */
+#define DESCENT 2
+
+/* ASCII 32..126, then '×' (index 95) */
+static const uint8_t font5x7[96][GLYPH_H] = {
+    {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}, /* ' ' */
+    {0x04, 0x04, 0x04, 0x04, 0x04, 0x00, 0x04}, /* ! */
+    {0x0A, 0x0A, 0x0A, 0x00, 0x00, 0x00, 0x00}, /* " */
+    {0x0A, 0x0A, 0x1F, 0x0A, 0x1F, 0x0A, 0x0A}, /* # */
+    {0x04, 0x0F, 0x14, 0x0E, 0x05, 0x1E, 0x04}, /* $ */
+    {0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03}, /* % */
+    {0x0C, 0x12, 0x14, 0x08, 0x15, 0x12, 0x0D}, /* & */
+    {0x0C, 0x04, 0x08, 0x00, 0x00, 0x00, 0x00}, /* ' */
+    {0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02}, /* ( */
+    {0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08}, /* ) */
+    {0x00, 0x04, 0x15, 0x0E, 0x15, 0x04, 0x00}, /* * */
+    {0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00}, /* + */
+    {0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08}, /* , */
+    {0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00}, /* - */
+    {0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C}, /* . */
+    {0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00}, /* / */
+    {0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E}, /* 0 */
+    {0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E}, /* 1 */
+    {0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F}, /* 2 */
+    {0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E}, /* 3 */
+    {0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02}, /* 4 */
+    {0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E}, /* 5 */
+    {0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E}, /* 6 */
+    {0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08}, /* 7 */
+    {0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E}, /* 8 */
+    {0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C}, /* 9 */
+    {0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00}, /* : */
+    {0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x04, 0x08}, /* ; */
+    {0x02, 0x04, 0x08, 0x10, 0x08, 0x04, 0x02}, /* < */
+    {0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00}, /* = */
+    {0x08, 0x04, 0x02, 0x01, 0x02, 0x04, 0x08}, /* > */
+    {0x0E, 0x11, 0x01, 0x02, 0x04, 0x00, 0x04}, /* ? */
+    {0x0E, 0x11, 0x01, 0x0D, 0x15, 0x15, 0x0E}, /* @ */
+    {0x0E, 0x11, 0x11, 0x11, 0x1F, 0x11, 0x11}, /* A */
+    {0x1E, 0x11, 0x11, 0x1E, 0x11, 0x11, 0x1E}, /* B */
+    {0x0E, 0x11, 0x10, 0x10, 0x10, 0x11, 0x0E}, /* C */
+    {0x1C, 0x12, 0x11, 0x11, 0x11, 0x12, 0x1C}, /* D */
+    {0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F}, /* E */
+    {0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x10}, /* F */
+    {0x0E, 0x11, 0x10, 0x17, 0x11, 0x11, 0x0F}, /* G */
+    {0x11, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11}, /* H */
+    {0x0E, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E}, /* I */
+    {0x07, 0x02, 0x02, 0x02, 0x02, 0x12, 0x0C}, /* J */
+    {0x11, 0x12, 0x14, 0x18, 0x14, 0x12, 0x11}, /* K */
+    {0x10, 0x10, 0x10, 0x10, 0x10, 0x10, 0x1F}, /* L */
+    {0x11, 0x1B, 0x15, 0x15, 0x11, 0x11, 0x11}, /* M */
+    {0x11, 0x11, 0x19, 0x15, 0x13, 0x11, 0x11}, /* N */
+    {0x0E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E}, /* O */
+    {0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10}, /* P */
+    {0x0E, 0x11, 0x11, 0x11, 0x15, 0x12, 0x0D}, /* Q */
+    {0x1E, 0x11, 0x11, 0x1E, 0x14, 0x12, 0x11}, /* R */
+    {0x0F, 0x10, 0x10, 0x0E, 0x01, 0x01, 0x1E}, /* S */
+    {0x1F, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04}, /* T */
+    {0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E}, /* U */
+    {0x11, 0x11, 0x11, 0x11, 0x11, 0x0A, 0x04}, /* V */
+    {0x11, 0x11, 0x11, 0x15, 0x15, 0x15, 0x0A}, /* W */
+    {0x11, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x11}, /* X */
+    {0x11, 0x11, 0x11, 0x0A, 0x04, 0x04, 0x04}, /* Y */
+    {0x1F, 0x01, 0x02, 0x04, 0x08, 0x10, 0x1F}, /* Z */
+    {0x0E, 0x08, 0x08, 0x08, 0x08, 0x08, 0x0E}, /* [ */
+    {0x00, 0x10, 0x08, 0x04, 0x02, 0x01, 0x00}, /* \ */
+    {0x0E, 0x02, 0x02, 0x02, 0x02, 0x02, 0x0E}, /* ] */
+    {0x04, 0x0A, 0x11, 0x00, 0x00, 0x00, 0x00}, /* ^ */
+    {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1F}, /* _ */
+    {0x08, 0x04, 0x02, 0x00, 0x00, 0x00, 0x00}, /* ` */
+    {0x00, 0x00, 0x0E, 0x01, 0x0F, 0x11, 0x0F}, /* a */
+    {0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x1E}, /* b */
+    {0x00, 0x00, 0x0E, 0x10, 0x10, 0x11, 0x0E}, /* c */
+    {0x01, 0x01, 0x0D, 0x13, 0x11, 0x11, 0x0F}, /* d */
+    {0x00, 0x00, 0x0E, 0x11, 0x1F, 0x10, 0x0E}, /* e */
+    {0x06, 0x09, 0x08, 0x1C, 0x08, 0x08, 0x08}, /* f */
+    {0x0F, 0x11, 0x11, 0x0F, 0x01, 0x11, 0x0E}, /* g */
+    {0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x11}, /* h */
+    {0x04, 0x00, 0x0C, 0x04, 0x04, 0x04, 0x0E}, /* i */
+    {0x02, 0x00, 0x06, 0x02, 0x02, 0x12, 0x0C}, /* j */
+    {0x10, 0x10, 0x12, 0x14, 0x18, 0x14, 0x12}, /* k */
+    {0x0C, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E}, /* l */
+    {0x00, 0x00, 0x1A, 0x15, 0x15, 0x11, 0x11}, /* m */
+    {0x00, 0x00, 0x16, 0x19, 0x11, 0x11, 0x11}, /* n */
+    {0x00, 0x00, 0x0E, 0x11, 0x11, 0x11, 0x0E}, /* o */
+    {0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10}, /* p */
+    {0x0F, 0x11, 0x11, 0x0F, 0x01, 0x01, 0x01}, /* q */
+    {0x00, 0x00, 0x16, 0x19, 0x10, 0x10, 0x10}, /* r */
+    {0x00, 0x00, 0x0E, 0x10, 0x0E, 0x01, 0x1E}, /* s */
+    {0x08, 0x08, 0x1C, 0x08, 0x08, 0x09, 0x06}, /* t */
+    {0x00, 0x00, 0x11, 0x11, 0x11, 0x13, 0x0D}, /* u */
+    {0x00, 0x00, 0x11, 0x11, 0x11, 0x0A, 0x04}, /* v */
+    {0x00, 0x00, 0x11, 0x11, 0x15, 0x15, 0x0A}, /* w */
+    {0x00, 0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11}, /* x */
+    {0x11, 0x11, 0x11, 0x0F, 0x01, 0x11, 0x0E}, /* y */
+    {0x00, 0x00, 0x1F, 0x02, 0x04, 0x08, 0x1F}, /* z */
+    {0x02, 0x04, 0x04, 0x08, 0x04, 0x04, 0x02}, /* { */
+    {0x04, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04}, /* | */
+    {0x08, 0x04, 0x04, 0x02, 0x04, 0x04, 0x08}, /* } */
+    {0x00, 0x00, 0x08, 0x15, 0x02, 0x00, 0x00}, /* ~ */
+    {0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x00}, /* × */
+};
+
+/* Next glyph index from UTF-8 text (advances *s); '?' for anything the font lacks. */
+static int next_glyph(const char **s)
+{
+    const unsigned char *p = (const unsigned char *)*s;
+    if (p[0] < 0x80) {
+        *s += 1;
+        return p[0] >= 32 && p[0] <= 126 ? p[0] - 32 : '?' - 32;
+    }
+    if (p[0] == 0xC3 && p[1] == 0x97) { /* U+00D7 × */
+        *s += 2;
+        return 95;
+    }
+    /* skip one whole UTF-8 sequence */
+    size_t len = 1;
+    while (p[len] && (p[len] & 0xC0) == 0x80)
+        len++;
+    *s += len;
+    return '?' - 32;
+}
+
+static int text_chars(const char *text)
+{
+    int n = 0;
+    while (*text) {
+        (void)next_glyph(&text);
+        n++;
+    }
+    return n;
+}
+
+static int text_width(const char *text, int scale)
+{
+    int n = text_chars(text);
+    return n ? (n * CELL_W - 1) * scale : 0;
+}
+
+/* ------------------------------------------------------------------ canvas */
+typedef struct canvas {
+    unsigned char *px;
+    int w, h;
+} canvas;
+
+static void put(canvas *c, int x, int y, const unsigned char col[3])
+{
+    if (x < 0 || y < 0 || x >= c->w || y >= c->h)
+        return;
+    unsigned char *p = c->px + 3 * ((size_t)y * (size_t)c->w + (size_t)x);
+    p[0] = col[0];
+    p[1] = col[1];
+    p[2] = col[2];
+}
+
+static void fill_rect(canvas *c, int x0, int y0, int x1, int y1, const unsigned char col[3])
+{
+    for (int y = y0; y <= y1; y++)
+        for (int x = x0; x <= x1; x++)
+            put(c, x, y, col);
+}
+
+static void rect_outline(canvas *c, int x0, int y0, int x1, int y1, const unsigned char col[3])
+{
+    fill_rect(c, x0, y0, x1, y0, col);
+    fill_rect(c, x0, y1, x1, y1, col);
+    fill_rect(c, x0, y0, x0, y1, col);
+    fill_rect(c, x1, y0, x1, y1, col);
+}
+
+int plot_text(unsigned char *rgb, unsigned width, unsigned height, int x, int y,
+              const char *text, int scale, int vertical, const unsigned char colour[3])
+{
+    canvas c = {rgb, (int)width, (int)height};
+    int pos = 0;
+    while (*text) {
+        int g = next_glyph(&text);
+        int drop = (g == 'g' - 32 || g == 'p' - 32 || g == 'q' - 32 || g == 'y' - 32) ? DESCENT : 0;
+        for (int gy = 0; gy < GLYPH_H; gy++)
+            for (int gx = 0; gx < GLYPH_W; gx++) {
+                if (!(font5x7[g][gy] & (0x10 >> gx)))
+                    continue;
+                int u = (pos + gx) * scale, v = (gy + drop) * scale;
+                for (int sy = 0; sy < scale; sy++)
+                    for (int sx = 0; sx < scale; sx++) {
+                        if (vertical) /* 90° counter-clockwise: reads bottom to top */
+                            put(&c, x + v + sy, y - u - sx, colour);
+                        else
+                            put(&c, x + u + sx, y + v + sy, colour);
+                    }
+            }
+        pos += CELL_W;
+    }
+    return pos ? (pos - 1) * scale : 0;
+}
+
+/* Bresenham, one pixel wide */
+static void line(canvas *c, int x0, int y0, int x1, int y1, const unsigned char col[3])
+{
+    int dx = abs(x1 - x0), dy = -abs(y1 - y0);
+    int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1, err = dx + dy;
+    for (;;) {
+        put(c, x0, y0, col);
+        if (x0 == x1 && y0 == y1)
+            break;
+        int e2 = 2 * err;
+        if (e2 >= dy) {
+            err += dy;
+            x0 += sx;
+        }
+        if (e2 <= dx) {
+            err += dx;
+            y0 += sy;
+        }
+    }
+}
+
+static void draw_marker(canvas *c, int cx, int cy, int marker, int r,
+                        const unsigned char fill[3], const unsigned char edge[3])
+{
+    for (int dy = -r - 1; dy <= r + 1; dy++)
+        for (int dx = -r - 1; dx <= r + 1; dx++) {
+            double fx = dx, fy = dy;
+            int in, in_inner;
+            switch (marker) {
+            case PLOT_SQUARE:
+                in = abs(dx) <= r && abs(dy) <= r;
+                in_inner = abs(dx) <= r - 1 && abs(dy) <= r - 1;
+                break;
+            case PLOT_DIAMOND:
+                in = abs(dx) + abs(dy) <= r + 1;
+                in_inner = abs(dx) + abs(dy) <= r - 1;
+                break;
+            case PLOT_TRIANGLE: {
+                /* apex up: |dx| <= (dy + r) / 2 · 1.15, within dy in [-r, r] */
+                in = fy >= -r && fy <= r && fabs(fx) <= (fy + r) * 0.58 + 0.5;
+                in_inner = fy >= -r + 2 && fy <= r - 1 && fabs(fx) <= (fy + r - 2) * 0.58 - 0.3;
+                break;
+            }
+            default: /* circle */
+                in = fx * fx + fy * fy <= (r + 0.5) * (r + 0.5);
+                in_inner = fx * fx + fy * fy <= (r - 0.7) * (r - 0.7);
+                break;
+            }
+            if (in)
+                put(c, cx + dx, cy + dy, in_inner ? fill : edge);
+        }
+}
+
+/* ------------------------------------------------------------------ axes */
+typedef struct axis {
+    double lo, hi; /* log10 of the range shown */
+    int p0, p1;    /* pixel positions of lo and hi */
+} axis;
+
+static int axis_px(const axis *a, double v)
+{
+    double t = (log10(v) - a->lo) / (a->hi - a->lo);
+    return (int)lround(a->p0 + t * (a->p1 - a->p0));
+}
+
+/* Decades covering [vmin, vmax] with a little room: at least one whole decade. */
+static void axis_range(axis *a, double vmin, double vmax)
+{
+    double l0 = log10(vmin), l1 = log10(vmax);
+    double pad = 0.08 * (l1 - l0 > 0.5 ? l1 - l0 : 0.5);
+    a->lo = floor(l0 - pad);
+    a->hi = ceil(l1 + pad);
+    if (a->hi - a->lo < 1)
+        a->hi = a->lo + 1;
+}
+
+static void tick_label(double v, char *buf, size_t len)
+{
+    double e = log10(v);
+    if (e >= -4 && e <= 5)
+        snprintf(buf, len, "%g", v);
+    else {
+        double m = v / pow(10, floor(e + 1e-9));
+        if (fabs(m - 1) < 1e-9)
+            snprintf(buf, len, "1e%d", (int)floor(e + 1e-9));
+        else
+            snprintf(buf, len, "%ge%d", m, (int)floor(e + 1e-9));
+    }
+}
+
+typedef struct box {
+    int x0, y0, x1, y1;
+} box;
+
+static int boxes_overlap(const box *a, const box *b)
+{
+    return a->x0 <= b->x1 && b->x0 <= a->x1 && a->y0 <= b->y1 && b->y0 <= a->y1;
+}
+
+static int point_ok(const plot_series *s, size_t i)
+{
+    return isfinite(s->x[i]) && isfinite(s->y[i]) && s->x[i] > 0 && s->y[i] > 0;
+}
+
+/* ------------------------------------------------------------------ the plot */
+int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
+                unsigned *h_out)
+{
+    static const unsigned char white[3] = {255, 255, 255}, black[3] = {0, 0, 0},
+                               grid_major[3] = {215, 215, 215}, grid_minor[3] = {238, 238, 238},
+                               grey[3] = {90, 90, 90};
+    unsigned W = spec->width ? spec->width : 960, H = spec->height ? spec->height : 680;
+    if (W < 200 || H < 150 || W > 8192 || H > 8192) {
+        errno = EINVAL;
+        return -1;
+    }
+    double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+    size_t points = 0;
+    for (size_t s = 0; s < spec->n_series; s++) {
+        const plot_series *se = &spec->series[s];
+        for (size_t i = 0; i < se->count; i++) {
+            if (!point_ok(se, i))
+                continue;
+            points++;
+            xmin = fmin(xmin, se->x[i]);
+            xmax = fmax(xmax, se->x[i]);
+            ymin = fmin(ymin, se->y[i]);
+            ymax = fmax(ymax, se->y[i]);
+        }
+    }
+    if (points == 0) {
+        errno = EINVAL;
+        return -1;
+    }
+    unsigned char *px = malloc((size_t)W * H * 3);
+    if (!px) {
+        errno = ENOMEM;
+        return -1;
+    }
+    memset(px, 255, (size_t)W * H * 3);
+    canvas c = {px, (int)W, (int)H};
+    const int S = 2; /* text scale */
+    const int left = 118, right = (int)W - 28, top = 62, bottom = (int)H - 92;
+
+    axis ax, ay;
+    axis_range(&ax, xmin, xmax);
+    axis_range(&ay, ymin, ymax);
+    ax.p0 = left;
+    ax.p1 = right;
+    ay.p0 = bottom; /* y grows downwards on the canvas */
+    ay.p1 = top;
+
+    /* grid: minor lines at 2..9 × 10^e, major at decades */
+    int xdec = (int)(ax.hi - ax.lo), ydec = (int)(ay.hi - ay.lo);
+    for (int pass = 0; pass < 2; pass++)
+        for (int e = (int)ax.lo; e <= (int)ax.hi; e++)
+            for (int m = 1; m <= 9; m++) {
+                double v = m * pow(10, e);
+                if (log10(v) > ax.hi + 1e-9 || (pass == 0) != (m > 1))
+                    continue;
+                int x = axis_px(&ax, v);
+                fill_rect(&c, x, top, x, bottom, m == 1 ? grid_major : grid_minor);
+            }
+    for (int pass = 0; pass < 2; pass++)
+        for (int e = (int)ay.lo; e <= (int)ay.hi; e++)
+            for (int m = 1; m <= 9; m++) {
+                double v = m * pow(10, e);
+                if (log10(v) > ay.hi + 1e-9 || (pass == 0) != (m > 1))
+                    continue;
+                int y = axis_px(&ay, v);
+                fill_rect(&c, left, y, right, y, m == 1 ? grid_major : grid_minor);
+            }
+    rect_outline(&c, left, top, right, bottom, black);
+
+    /* ticks and labels: every decade (every other one past 8 decades), plus 2 and 5 when
+     * the axis spans a single decade */
+    char buf[32];
+    for (int e = (int)ax.lo; e <= (int)ax.hi; e++)
+        for (int m = 1; m <= 9; m++) {
+            double v = m * pow(10, e);
+            if (log10(v) > ax.hi + 1e-9)
+                continue;
+            int x = axis_px(&ax, v);
+            int major = m == 1;
+            fill_rect(&c, x, bottom - (major ? 7 : 4), x, bottom, black);
+            fill_rect(&c, x, top, x, top + (major ? 7 : 4), black);
+            int labelled = (major && (xdec <= 8 || (e - (int)ax.lo) % 2 == 0)) ||
+                           (xdec == 1 && (m == 2 || m == 5));
+            if (labelled) {
+                tick_label(v, buf, sizeof buf);
+                plot_text(px, W, H, x - text_width(buf, S) / 2, bottom + 10, buf, S, 0, black);
+            }
+        }
+    for (int e = (int)ay.lo; e <= (int)ay.hi; e++)
+        for (int m = 1; m <= 9; m++) {
+            double v = m * pow(10, e);
+            if (log10(v) > ay.hi + 1e-9)
+                continue;
+            int y = axis_px(&ay, v);
+            int major = m == 1;
+            fill_rect(&c, left, y, left + (major ? 7 : 4), y, black);
+            fill_rect(&c, right - (major ? 7 : 4), y, right, y, black);
+            int labelled = (major && (ydec <= 8 || (e - (int)ay.lo) % 2 == 0)) ||
+                           (ydec == 1 && (m == 2 || m == 5));
+            if (labelled) {
+                tick_label(v, buf, sizeof buf);
+                plot_text(px, W, H, left - 10 - text_width(buf, S), y - GLYPH_H * S / 2, buf, S,
+                          0, black);
+            }
+        }
+
+    /* titles */
+    if (spec->title)
+        plot_text(px, W, H, ((int)W - text_width(spec->title, S)) / 2, 20, spec->title, S, 0,
+                  black);
+    if (spec->x_title)
+        plot_text(px, W, H, (left + right - text_width(spec->x_title, S)) / 2, (int)H - 40,
+                  spec->x_title, S, 0, black);
+    if (spec->y_title)
+        plot_text(px, W, H, 16, (top + bottom + text_width(spec->y_title, S)) / 2,
+                  spec->y_title, S, 1, black);
+
+    /* links between the two series' points of the same index, under the markers */
+    if (spec->link_first_two && spec->n_series >= 2) {
+        static const unsigned char link[3] = {150, 150, 150};
+        const plot_series *a = &spec->series[0], *b = &spec->series[1];
+        for (size_t i = 0; i < a->count && i < b->count; i++)
+            if (point_ok(a, i) && point_ok(b, i))
+                line(&c, axis_px(&ax, a->x[i]), axis_px(&ay, a->y[i]), axis_px(&ax, b->x[i]),
+                     axis_px(&ay, b->y[i]), link);
+    }
+
+    /* markers; their boxes are obstacles for the labels placed afterwards */
+    enum { R_MARK = 6 };
+    size_t nbox = 0, cap = points * 2 + 8;
+    box *taken = calloc(cap, sizeof *taken);
+    if (!taken) {
+        free(px);
+        errno = ENOMEM;
+        return -1;
+    }
+    for (size_t s = 0; s < spec->n_series; s++) {
+        const plot_series *se = &spec->series[s];
+        unsigned char edge[3] = {(unsigned char)(se->rgb[0] * 0.55),
+                                 (unsigned char)(se->rgb[1] * 0.55),
+                                 (unsigned char)(se->rgb[2] * 0.55)};
+        for (size_t i = 0; i < se->count; i++) {
+            if (!point_ok(se, i))
+                continue;
+            int x = axis_px(&ax, se->x[i]), y = axis_px(&ay, se->y[i]);
+            draw_marker(&c, x, y, se->marker, R_MARK, se->rgb, edge);
+            taken[nbox++] = (box){x - R_MARK - 1, y - R_MARK - 1, x + R_MARK + 1, y + R_MARK + 1};
+        }
+    }
+
+    /* legend in the corner holding the fewest points */
+    int lw = 0, lh = 0;
+    for (size_t s = 0; s < spec->n_series; s++) {
+        int tw = text_width(spec->series[s].name ? spec->series[s].name : "", S);
+        lw = tw > lw ? tw : lw;
+    }
+    lw += 48;
+    lh = (int)spec->n_series * 24 + 12;
+    box corners[4] = {{right - lw - 10, top + 10, right - 10, top + 10 + lh},
+                      {left + 10, top + 10, left + 10 + lw, top + 10 + lh},
+                      {right - lw - 10, bottom - 10 - lh, right - 10, bottom - 10},
+                      {left + 10, bottom - 10 - lh, left + 10 + lw, bottom - 10}};
+    int best = 0;
+    size_t best_hits = SIZE_MAX;
+    for (int k = 0; k < 4; k++) {
+        size_t hits = 0;
+        for (size_t b = 0; b < nbox; b++)
+            hits += (size_t)boxes_overlap(&corners[k], &taken[b]);
+        if (hits < best_hits) {
+            best_hits = hits;
+            best = k;
+        }
+    }
+    if (spec->n_series > 0) {
+        box L = corners[best];
+        fill_rect(&c, L.x0, L.y0, L.x1, L.y1, white);
+        rect_outline(&c, L.x0, L.y0, L.x1, L.y1, grey);
+        for (size_t s = 0; s < spec->n_series; s++) {
+            const plot_series *se = &spec->series[s];
+            unsigned char edge[3] = {(unsigned char)(se->rgb[0] * 0.55),
+                                     (unsigned char)(se->rgb[1] * 0.55),
+                                     (unsigned char)(se->rgb[2] * 0.55)};
+            int y = L.y0 + 18 + (int)s * 24;
+            draw_marker(&c, L.x0 + 18, y, se->marker, R_MARK, se->rgb, edge);
+            plot_text(px, W, H, L.x0 + 36, y - GLYPH_H * S / 2, se->name ? se->name : "", S, 0,
+                      black);
+        }
+        taken[nbox++] = L;
+    }
+
+    /* point labels: the first free spot of eight around the marker, else skip */
+    for (size_t s = 0; s < spec->n_series; s++) {
+        const plot_series *se = &spec->series[s];
+        if (!se->labels)
+            continue;
+        for (size_t i = 0; i < se->count; i++) {
+            if (!point_ok(se, i) || !se->labels[i] || !se->labels[i][0])
+                continue;
+            int x = axis_px(&ax, se->x[i]), y = axis_px(&ay, se->y[i]);
+            int tw = text_width(se->labels[i], S), th = GLYPH_H * S;
+            const int g = R_MARK + 4;
+            int cand[8][2] = {{x + g, y - g - th}, {x + g, y + g},   {x - g - tw, y - g - th},
+                              {x - g - tw, y + g}, {x + g, y - th / 2}, {x - g - tw, y - th / 2},
+                              {x - tw / 2, y - g - th}, {x - tw / 2, y + g}};
+            for (int k = 0; k < 8; k++) {
+                box b = {cand[k][0] - 1, cand[k][1] - 1, cand[k][0] + tw + 1, cand[k][1] + th + 1};
+                if (b.x0 < left + 2 || b.x1 > right - 2 || b.y0 < top + 2 || b.y1 > bottom - 2)
+                    continue;
+                int clash = 0;
+                for (size_t o = 0; o < nbox && !clash; o++)
+                    clash = boxes_overlap(&b, &taken[o]);
+                if (clash)
+                    continue;
+                plot_text(px, W, H, cand[k][0], cand[k][1], se->labels[i], S, 0, grey);
+                if (nbox < cap)
+                    taken[nbox++] = b;
+                break;
+            }
+        }
+    }
+    free(taken);
+    *rgb_out = px;
+    *w_out = W;
+    *h_out = H;
+    return 0;
+}
+
+/* ------------------------------------------------------------------ PNG output */
+typedef struct png_sink {
+    FILE *f;
+    int failed;
+} png_sink;
+
+static void sink_write(void *ctx, void *data, int size)
+{
+    png_sink *s = ctx;
+    if (size > 0 && fwrite(data, 1, (size_t)size, s->f) != (size_t)size)
+        s->failed = 1;
+}
+
+int plot_write_png(const plot_spec *spec, const char *path)
+{
+    unsigned char *rgb = NULL;
+    unsigned W = 0, H = 0;
+    if (plot_render(spec, &rgb, &W, &H) != 0)
+        return -1;
+    static const char suffix[] = ".tmpXXXXXX";
+    size_t len = strlen(path);
+    char *tmp = malloc(len + sizeof suffix);
+    if (!tmp) {
+        free(rgb);
+        errno = ENOMEM;
+        return -1;
+    }
+    memcpy(tmp, path, len);
+    memcpy(tmp + len, suffix, sizeof suffix);
+    int fd = mkstemp(tmp); /* next to the target, so rename() stays on one file system */
+    if (fd < 0) {
+        int e = errno;
+        free(tmp);
+        free(rgb);
+        errno = e;
+        return -1;
+    }
+    mode_t mask = umask(0);
+    umask(mask);
+    (void)fchmod(fd, 0666 & ~mask);
+    int e = 0;
+    png_sink sink = {fdopen(fd, "wb"), 0};
+    if (!sink.f) {
+        e = errno;
+        close(fd);
+    } else {
+        if (!stbi_write_png_to_func(sink_write, &sink, (int)W, (int)H, 3, rgb, (int)(3 * W)))
+            e = ENOMEM;
+        else if (sink.failed || fflush(sink.f) != 0)
+            e = errno ? errno : EIO;
+        else if (fsync(fileno(sink.f)) != 0)
+            e = errno;
+        if (fclose(sink.f) != 0 && !e)
+            e = errno ? errno : EIO;
+        if (!e && rename(tmp, path) != 0)
+            e = errno;
+    }
+    if (e)
+        unlink(tmp);
+    free(tmp);
+    free(rgb);
+    if (e) {
+        errno = e;
+        return -1;
+    }
+    return 0;
+}

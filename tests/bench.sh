@@ -1,0 +1,179 @@
+#!/bin/sh
+# Tests of the `lrr-bench` benchmark driver, run by `make check`.
+# Environment: LRR_BENCH_BIN (the built lrr-bench; default ./lrr-bench), LRR_TEST_TMP (a
+# writable directory). Prints one line per check; exits 0 when all pass, 1 otherwise.
+set -u
+
+BENCH=${LRR_BENCH_BIN:-./lrr-bench}
+TMPROOT=${LRR_TEST_TMP:-${TMPDIR:-/tmp}}
+if [ ! -x "$BENCH" ]; then
+    echo "FAIL: LRR_BENCH_BIN='$BENCH' is not an executable"
+    exit 1
+fi
+T=$(mktemp -d "$TMPROOT/bench.XXXXXX") || { echo "FAIL: cannot create a directory in $TMPROOT"; exit 1; }
+
+failures=0
+checks=0
+pass() { checks=$((checks + 1)); echo "PASS: $1"; }
+fail() { checks=$((checks + 1)); failures=$((failures + 1)); echo "FAIL: $1"; }
+
+# run ARGS...: stdout in $T/out, stderr in $T/err, exit status in $rc.
+run() {
+    "$BENCH" "$@" >"$T/out" 2>"$T/err"
+    rc=$?
+}
+show_err() { sed 's/^/    stderr: /' "$T/err" | tail -n 8; }
+
+# ---------------------------------------------------------------- help
+run --help
+if [ "$rc" -eq 0 ] && grep -q 'table' "$T/out" && grep -q 'stress' "$T/out" &&
+    grep -q 'hemicube' "$T/out"; then
+    pass "lrr-bench --help lists table, stress, hemicube"
+else
+    fail "lrr-bench --help (exit $rc)"
+fi
+
+# help_mentions COMMAND OPTION...: COMMAND --help exits 0 and names every OPTION.
+help_mentions() {
+    cmd=$1
+    shift
+    run "$cmd" --help
+    missing=""
+    for opt in "$@"; do
+        grep -q -- "$opt" "$T/out" || missing="$missing $opt"
+    done
+    if [ "$rc" -eq 0 ] && [ -z "$missing" ]; then
+        pass "lrr-bench $cmd --help mentions $*"
+    else
+        fail "lrr-bench $cmd --help (exit $rc), missing:$missing"
+    fi
+}
+help_mentions table --scene --cells --hemicube --csv --plot --memory-budget --repeat 'MB = 10^6'
+help_mentions stress --csv --hemicube --quick
+help_mentions hemicube --csv --seeds rotation
+
+# ---------------------------------------------------------------- command-line errors
+run frobnicate
+if [ "$rc" -eq 2 ] && grep -q frobnicate "$T/err"; then pass "unknown command: exit 2"; else fail "unknown command: exit $rc"; fi
+run table --cells bogus
+if [ "$rc" -eq 2 ] && grep -q -- '--cells' "$T/err"; then pass "--cells bogus: exit 2"; else fail "--cells bogus: exit $rc"; fi
+run table --cells 100/10/3
+if [ "$rc" -eq 2 ] && grep -q 'power of 4' "$T/err"; then pass "--cells with d = 3: exit 2"; else fail "--cells 100/10/3: exit $rc"; fi
+run table --hemicube 7
+if [ "$rc" -eq 2 ]; then pass "--hemicube 7: exit 2"; else fail "--hemicube 7: exit $rc"; fi
+run table --repeat 0
+if [ "$rc" -eq 2 ]; then pass "--repeat 0: exit 2"; else fail "--repeat 0: exit $rc"; fi
+run stress --bogus
+if [ "$rc" -eq 2 ] && grep -q -- '--bogus' "$T/err"; then pass "stress --bogus: exit 2"; else fail "stress --bogus: exit $rc"; fi
+
+# ---------------------------------------------------------------- a tiny table
+CSV="$T/table.csv"
+PNG="$T/table.png"
+start=$(date +%s)
+run table --cells tiny --hemicube 32 --repeat 5 --csv "$CSV" --plot "$PNG"
+secs=$(($(date +%s) - start))
+if [ "$rc" -eq 0 ]; then
+    pass "table --cells tiny (${secs} s)"
+else
+    fail "table --cells tiny: exit $rc"
+    show_err
+fi
+header='n,k,d,mem_mb,mem_mb_paper,preprocess_s,rt_ms_ours,rt_ms_paper,rt_ms_3sgemv,floor_ms,rel_l2,max_rel'
+if [ -f "$CSV" ] && head -n 1 "$CSV" | grep -q "^$header\(,\|\$\)"; then
+    pass "table CSV header starts with the required columns"
+else
+    fail "table CSV header: '$(head -n 1 "$CSV" 2>/dev/null)'"
+fi
+[ -f "$CSV" ] || : >"$CSV"
+rows=$(($(wc -l <"$CSV") - 1))
+if [ "$rows" -eq 2 ]; then pass "table CSV has 2 rows"; else fail "table CSV has $rows rows, expected 2"; fi
+# first tiny cell (d = 16): 0 < rel_l2 < 0.2; second (d = 1, exact model): rel_l2 < 1e-3
+check=$(awk -F, '
+    NR == 2 { if (!($11 ~ /^[0-9.eE+-]+$/ && $11 + 0 > 0 && $11 + 0 < 0.2)) print "d=" $3 " rel_l2 " $11;
+              if (!($7 + 0 > 0 && $8 + 0 > 0 && $9 + 0 > 0)) print "times " $7 " " $8 " " $9;
+              if ($4 + 0 <= 0 || $5 + 0 <= 0 || $6 + 0 <= 0) print "mem/preprocess " $4 " " $5 " " $6 }
+    NR == 3 { if (!($11 ~ /^[0-9.eE+-]+$/ && $11 + 0 < 1e-3)) print "d=" $3 " rel_l2 " $11 }' "$CSV")
+if [ -z "$check" ] && [ "$rows" -eq 2 ]; then
+    pass "tiny cells: rel_l2 $(awk -F, 'NR==2{print $11}' "$CSV") (d = 16) and $(awk -F, 'NR==3{print $11}' "$CSV") (d = 1)"
+else
+    fail "tiny cells: $check"
+fi
+sig=$(od -An -tx1 -N8 "$PNG" 2>/dev/null | tr -d ' \n')
+if [ "$sig" = 89504e470d0a1a0a ]; then
+    pass "plot is a PNG ($(wc -c <"$PNG" | tr -d ' ') bytes)"
+else
+    fail "plot: signature '$sig'"
+fi
+if grep -q '^read_bandwidth_gbs: [0-9]' "$T/out" && grep -q '^cpu: ' "$T/out"; then
+    pass "table prints the CPU and the bandwidth"
+else
+    fail "table does not print cpu/read_bandwidth_gbs"
+fi
+leftover=""
+for f in "$T"/*tmp*; do [ -e "$f" ] && leftover="$leftover $f"; done
+if [ -z "$leftover" ]; then pass "no temporary file left"; else fail "temporary files left:$leftover"; fi
+
+# a budget too small for the n×n reference: n/a in the table, nan in the CSV
+run table --cells 576/36/16 --hemicube 16 --repeat 2 --memory-budget 1 --csv "$T/nobudget.csv"
+if [ "$rc" -eq 0 ] && grep -q 'n/a' "$T/out" && grep -q 'budget' "$T/out" &&
+    [ "$(awk -F, 'NR==2{print $11 "," $12}' "$T/nobudget.csv")" = "nan,nan" ]; then
+    pass "a reference over the budget: n/a with the reason, nan in the CSV"
+else
+    fail "--memory-budget 1: exit $rc, CSV '$(sed -n 2p "$T/nobudget.csv" 2>/dev/null)'"
+    show_err
+fi
+
+# ---------------------------------------------------------------- stress
+SCSV="$T/stress.csv"
+start=$(date +%s)
+# One thread: the check is about accuracy; Jacobi's thousands of short parallel sweeps crawl
+# when a loaded machine preempts an OpenMP worker (seen: 56 s instead of 0.1 s on 2 cores).
+OMP_NUM_THREADS=1
+export OMP_NUM_THREADS
+run stress --quick --csv "$SCSV"
+secs=$(($(date +%s) - start))
+if [ "$rc" -eq 0 ] && [ -f "$SCSV" ]; then
+    pass "stress --quick (${secs} s, $(($(wc -l <"$SCSV") - 1)) rows)"
+else
+    fail "stress --quick: exit $rc"
+    show_err
+fi
+[ -f "$SCSV" ] || : >"$SCSV"
+# operator <= 1% for rho <= 0.99 and <= 5% at 0.999; reference solvers <= 1%; no NaN
+bad=$(awk -F, '
+    NR == 1 { next }
+    {
+        rho = $5 + 0; m = $6; err = $7
+        if (err !~ /^[0-9.eE+-]+$/) { print $1 " rho " $5 " " m ": max_rel " err; next }
+        lim = (m == "lrr" && rho > 0.995) ? 0.05 : 0.01
+        if (err + 0 > lim) print $1 " rho " $5 " " m ": max_rel " err " > " lim
+        if ($13 + 0 != 0) print $1 " rho " $5 " " m ": " $13 " non-finite values"
+        if ($12 != "ok") print $1 " rho " $5 " " m ": status " $12
+    }
+    END { if (NR != 41) print "rows: " NR - 1 " (expected 40)" }' "$SCSV")
+if [ -z "$bad" ]; then
+    pass "stress: operator <= 1% (5% at rho 0.999), references <= 1%, all finite"
+else
+    fail "stress bounds:"
+    echo "$bad" | sed 's/^/    /'
+fi
+
+# ---------------------------------------------------------------- hemicube
+HCSV="$T/hemicube.csv"
+run hemicube --quick --csv "$HCSV"
+if [ "$rc" -eq 0 ] && [ -f "$HCSV" ] && [ "$(($(wc -l <"$HCSV") - 1))" -eq 2 ] &&
+    awk -F, 'NR > 1 { for (i = 5; i <= 11; i++) if ($i !~ /^[-+0-9.eE]+$/) exit 1 }' "$HCSV"; then
+    pass "hemicube --quick: 2 rows of finite numbers"
+else
+    fail "hemicube --quick: exit $rc"
+    show_err
+fi
+
+# ---------------------------------------------------------------- summary
+if [ "$failures" -eq 0 ]; then
+    rm -rf "$T"
+    echo "all $checks checks passed"
+    exit 0
+fi
+echo "$failures of $checks checks failed (files kept in $T)"
+exit 1
