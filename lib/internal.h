@@ -168,8 +168,10 @@ typedef struct lrr__kernel {
     void (*gemv_rows)(const float *a, size_t i0, size_t i1, size_t k, const float *x, float *y);
 } lrr__kernel;
 
-/* The widest variant this CPU runs, or the one named by force (LRR_SIMD: c, avx2, avx512). */
-lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, const lrr__kernel **out);
+/* The fastest variant this CPU runs for rows of k entries, or the one named by force
+ * (LRR_SIMD: c, avx2, avx512). */
+lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, size_t k,
+                              const lrr__kernel **out);
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
 void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z);
 /* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ n×k row-major read once, in the operator's storage;

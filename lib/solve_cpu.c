@@ -87,7 +87,7 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
     if (backend != LRR_BACKEND_CPU)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown backend %d", (int)backend);
     const lrr__kernel *kernel;
-    lrr_status st = lrr__kernel_select(op->ctx, getenv("LRR_SIMD"), &kernel);
+    lrr_status st = lrr__kernel_select(op->ctx, getenv("LRR_SIMD"), op->k, &kernel);
     if (st)
         return st;
     lrr_solver *s = calloc(1, sizeof *s);

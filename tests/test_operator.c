@@ -330,7 +330,7 @@ static void test_realtime_kernels(void **state)
     int ran = 0;
     for (int v = 0; v < 3; v++) {
         const lrr__kernel *kn;
-        lrr_status st = lrr__kernel_select(ctx, variants[v], &kn);
+        lrr_status st = lrr__kernel_select(ctx, variants[v], 17, &kn);
         if (st == LRR_ERR_UNSUPPORTED) {
             print_message("kernel %s: not supported by this CPU, skipped\n", variants[v]);
             lrr_context_last_error(ctx, NULL, 0);
@@ -411,7 +411,15 @@ static void test_realtime_kernels(void **state)
     assert_true(ran >= 1);
     /* a name that is not a variant is an argument error */
     const lrr__kernel *kn;
-    assert_int_equal(lrr__kernel_select(ctx, "sse9", &kn), LRR_ERR_INVALID_ARG);
+    assert_int_equal(lrr__kernel_select(ctx, "sse9", 17, &kn), LRR_ERR_INVALID_ARG);
+    /* unforced: AVX-512 only for long rows, when AVX2 is there to take the short ones */
+    assert_int_equal(lrr__kernel_select(ctx, NULL, 216, &kn), LRR_OK);
+    const lrr__kernel *longk;
+    assert_int_equal(lrr__kernel_select(ctx, NULL, 864, &longk), LRR_OK);
+    if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx2")) {
+        assert_string_equal(kn->name, "avx2");
+        assert_string_equal(longk->name, "avx512");
+    }
     /* LRR_SIMD reaches the solver; every variant gives the same B to float rounding */
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
