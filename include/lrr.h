@@ -175,6 +175,8 @@ typedef struct lrr_build_options {
     int threads;                  /* OpenMP threads; 0 = OpenMP's default */
     lrr_progress_fn progress;     /* may be NULL */
     void *progress_user;
+    int no_rotation;              /* 1: every hemicube in the same tangent frame (for studying
+                                     the aliasing the random rotation spreads out) */
 } lrr_build_options;
 
 /* Builds F̄ by one hemicube per subpatch, then M_c = (I_k - Vᵀ diag(rho_c) F̄)^{-1} per
@@ -234,6 +236,7 @@ typedef struct lrr_operator_info {
     double build_seconds;   /* wall time of lrr_operator_build (as stored, after a load) */
     unsigned hemicube_resolution;
     uint64_t seed;
+    int no_rotation;        /* built without the random rotation */
     size_t bytes;           /* memory held by F̄, M_c and per-subpatch data */
 } lrr_operator_info;
 LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)

@@ -36,8 +36,9 @@
  *     4 FBAR      n×k elements of dtype, row-major (64-byte aligned so the file could be
  *                 mapped); for dtype 1 and 2 row i holds F̄_i / ROWSCALE_i
  *     5 M         3×k×k float, row-major, channel-major
- *     6 INFO      cond[3] f64, build_seconds f64, hemicube_resolution u32, reserved u32,
- *                 seed u64: size 48
+ *     6 INFO      cond[3] f64, build_seconds f64, hemicube_resolution u32, flags u32
+ *                 (bit 0: built without the random rotation; other bits 0), seed u64:
+ *                 size 48
  *     7 ROWSCALE  n float, positive powers of two; present exactly when dtype is 1 or 2
  *   Centres, normals and areas are not stored: they are recomputed from the geometry.
  *   (dtype 1 and 2 came after the first files: a reader that knows only float32 refuses them
@@ -266,6 +267,7 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         memcpy(info + 8 * c, &op->cond[c], 8);
     memcpy(info + 24, &op->build_seconds, 8);
     put32(info + 32, op->hemicube_resolution);
+    put32(info + 36, op->no_rotation ? 1u : 0u);
     put64(info + 40, op->seed);
 
     const void *fbar_data = half ? (const void *)op->fbar16 : (const void *)op->fbar;
@@ -709,6 +711,7 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
         memcpy(&op->cond[c], info + 8 * c, 8);
     memcpy(&op->build_seconds, info + 24, 8);
     op->hemicube_resolution = get32(info + 32);
+    op->no_rotation = (get32(info + 36) & 1u) != 0;
     op->seed = get64(info + 40);
     op->builtin = builtin;
 

@@ -319,7 +319,8 @@ typedef struct {
     double *row;
 } scratch;
 
-static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, scratch *sc, float *out)
+static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate, scratch *sc,
+                         float *out)
 {
     const lrr__geometry *g = h->g;
     unsigned R = h->mm->res;
@@ -340,7 +341,8 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, scratch *sc
     cross3(helper, N, U0);
     normalise3(U0);
     cross3(N, U0, V0);
-    double theta = 2 * M_PI * (double)(splitmix64(seed ^ splitmix64(i)) >> 11) * 0x1.0p-53;
+    double theta =
+        rotate ? 2 * M_PI * (double)(splitmix64(seed ^ splitmix64(i)) >> 11) * 0x1.0p-53 : 0;
     double ct = cos(theta), st = sin(theta);
     for (int j = 0; j < 3; j++)
         U[j] = ct * U0[j] + st * V0[j];
@@ -471,7 +473,7 @@ lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
         for (size_t i = 0; i < g->n; i++) {
             if (cancelled || failed)
                 continue;
-            hemicube_row(&h, i, opts->seed, &sc, out + i * cols);
+            hemicube_row(&h, i, opts->seed, !opts->no_rotation, &sc, out + i * cols);
             size_t now_done;
             #pragma omp atomic capture
             now_done = ++done;

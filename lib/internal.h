@@ -117,6 +117,7 @@ struct lrr_operator {
     double build_seconds;
     unsigned hemicube_resolution;
     uint64_t seed;
+    int no_rotation;           /* built with lrr_build_options.no_rotation */
 };
 
 /* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, m and

@@ -64,7 +64,7 @@ help_mentions() {
     fi
 }
 help_mentions info --max-patch-area --patches --levels cornell
-help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage
+help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage --no-rotation
 help_mentions solve --csv --emission-scale --repeat --path
 help_mentions render -o --width --height --exposure --emission-scale
 help_mentions demo --out
@@ -260,6 +260,17 @@ for st in f16 bf16; do
         show_err
     fi
 done
+# Without the random rotation the seed makes no difference to the operator.
+run preprocess cornell --patches 24 --levels 1 --hemicube 32 --no-rotation --seed 1 -o "$T/nr1.lrr"
+rc1=$rc
+run preprocess cornell --patches 24 --levels 1 --hemicube 32 --no-rotation --seed 2 -o "$T/nr2.lrr"
+run solve "$T/nr1.lrr" --csv "$T/nr1.csv" --repeat 1
+run solve "$T/nr2.lrr" --csv "$T/nr2.csv" --repeat 1
+if [ "$rc1" -eq 0 ] && [ "$rc" -eq 0 ] && cmp -s "$T/nr1.csv" "$T/nr2.csv"; then
+    pass "--no-rotation: seeds 1 and 2 give the same radiosity"
+else
+    fail "--no-rotation: seeds differ (exit $rc1/$rc)"
+fi
 run preprocess cornell --storage f8 -o "$T/f8.lrr"
 expect_rc 2 "preprocess --storage f8 is a usage error"
 

@@ -47,6 +47,7 @@ enum {
     OPT_SEED,
     OPT_THREADS,
     OPT_PROGRESS,
+    OPT_NO_ROTATION,
     OPT_CSV,
     OPT_EMISSION_SCALE,
     OPT_REPEAT,
@@ -105,6 +106,7 @@ static const char info_help[] =
 #define BUILD_HELP                                                                            \
     "  --hemicube R         hemicube resolution: even, 8..4096 (default 128)\n"                \
     "  --seed S             seed of the random hemicube rotations (default 1)\n"               \
+    "  --no-rotation        no random rotation: every hemicube in the same tangent frame\n"     \
     "  --threads T          OpenMP threads, 0 = OpenMP's default (default 0)\n"                \
     "  --progress           draw a progress bar on stderr even when it is not a terminal\n"
 
@@ -238,7 +240,8 @@ static int bad_option(const char *prog, int c, char *const argv[])
     {"hemicube", required_argument, NULL, OPT_HEMICUBE},                                      \
     {"seed", required_argument, NULL, OPT_SEED},                                              \
     {"threads", required_argument, NULL, OPT_THREADS},                                        \
-    {"progress", no_argument, NULL, OPT_PROGRESS}
+    {"progress", no_argument, NULL, OPT_PROGRESS},                                            \
+    {"no-rotation", no_argument, NULL, OPT_NO_ROTATION}
 
 static void start_getopt(void)
 {
@@ -293,6 +296,7 @@ typedef struct build_args {
     unsigned hemicube, threads;
     uint64_t seed;
     int force_progress;
+    int no_rotation;
 } build_args;
 
 static void build_init(build_args *b)
@@ -301,6 +305,7 @@ static void build_init(build_args *b)
     b->threads = 0;
     b->seed = DEFAULT_SEED;
     b->force_progress = 0;
+    b->no_rotation = 0;
 }
 
 /* Returns 1 if c was a build option, 0 if not, -1 on a bad value. */
@@ -323,6 +328,9 @@ static int build_option(build_args *b, const char *prog, int c, const char *arg)
     case OPT_PROGRESS:
         b->force_progress = 1;
         return 1;
+    case OPT_NO_ROTATION:
+        b->no_rotation = 1;
+        return 1;
     default:
         return 0;
     }
@@ -336,7 +344,8 @@ static lrr_build_options build_start(const build_args *b, cli_progress *bar)
                             .seed = b->seed,
                             .threads = (int)b->threads,
                             .progress = cli_progress_cb,
-                            .progress_user = bar};
+                            .progress_user = bar,
+                            .no_rotation = b->no_rotation};
     return bo;
 }
 
