@@ -8,7 +8,7 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
     lrr_subdivision sd = {0, K, levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {32, 2, 0, NULL, NULL};
+    lrr_build_options o = {32, 2, 0, NULL, NULL, 0};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);
@@ -232,6 +232,62 @@ static void test_black_rows(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* Tiny operators: one triangle (n = k = 1: it cannot see itself, so B = E) and two facing
+ * triangles (k = 2); every path, storage and batch gives the full path's answer. */
+static void test_tiny(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    const float v[18] = {0, 0, 0, 1, 0, 0, 0, 1, 0,      /* facing +z */
+                         0, 0, 0.5f, 0, 1, 0.5f, 1, 0, 0.5f}; /* above it, facing -z */
+    const float rho[6] = {0.5f, 0.6f, 0.7f, 0.8f, 0.2f, 0.4f};
+    const float em[6] = {1, 2, 3, 0, 0, 0};
+    for (size_t tris = 1; tris <= 2; tris++)
+        for (unsigned levels = 0; levels <= 1; levels++) {
+            lrr_scene *s;
+            LRR_CHECK(ctx, lrr_scene_create(ctx, tris, v, rho, em, "tiny", &s));
+            lrr_subdivision sd = {1e9, 0, levels};
+            LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
+            lrr_build_options o = {16, 1, 0, NULL, NULL, 0};
+            lrr_operator *op;
+            LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+            lrr_scene_destroy(s);
+            const size_t n = op->n;
+            assert_int_equal(op->k, tris);
+            float *ref = malloc(3 * n * sizeof *ref), *b = malloc(6 * n * sizeof *b),
+                  *e2 = malloc(6 * n * sizeof *e2);
+            full_solve(ctx, op, op->emission, ref);
+            if (tris == 1)
+                for (size_t j = 0; j < 3 * n; j++)
+                    assert_true(ref[j] == op->emission[j]);
+            else
+                assert_true(ref[3 * (n - 1)] > 0); /* the upper triangle receives light */
+            for (int storage = 0; storage < 3; storage++) {
+                LRR_CHECK(ctx, lrr_operator_set_storage(op, (lrr_storage)storage));
+                const double tol = storage == 0 ? 1e-6 : storage == 1 ? 1e-3 : 1e-2;
+                for (int path = LRR_PATH_AUTO; path <= LRR_PATH_INCREMENTAL; path++) {
+                    lrr_solver *sv;
+                    LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &sv));
+                    LRR_CHECK(ctx, lrr_solver_set_path(sv, (lrr_path)path));
+                    for (int f = 0; f < 2; f++) { /* the second frame can be incremental */
+                        LRR_CHECK(ctx, lrr_solve(sv, op->emission, b));
+                        assert_true(max_rel(3 * n, b, ref) <= tol);
+                    }
+                    memcpy(e2, op->emission, 3 * n * sizeof *e2);
+                    memcpy(e2 + 3 * n, op->emission, 3 * n * sizeof *e2);
+                    LRR_CHECK(ctx, lrr_solve_batch(sv, 2, e2, b));
+                    assert_true(max_rel(3 * n, b, ref) <= tol);
+                    assert_true(max_rel(3 * n, b + 3 * n, ref) <= tol);
+                    lrr_solver_destroy(sv);
+                }
+            }
+            free(ref), free(b), free(e2);
+            lrr_operator_destroy(op);
+        }
+    lrr_context_destroy(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -239,6 +295,7 @@ int main(void)
         cmocka_unit_test(test_incremental_animation),
         cmocka_unit_test(test_batch),
         cmocka_unit_test(test_black_rows),
+        cmocka_unit_test(test_tiny),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
