@@ -180,6 +180,10 @@ void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float
 void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
                      const float *E, const float *rho, float *B);
 
+/* Tests only: when lrr_solve_batch hands a batch to sgemm (at least min_count frames and
+ * F̄ of at least min_bytes), so small test operators can exercise both ways. */
+void lrr__solver_batch_thresholds(lrr_solver *s, size_t min_count, size_t min_bytes);
+
 /* ------------------------------------------------------------ misc */
 /* Below about this many multiply-adds (or bytes touched) a parallel region costs more than it
  * saves: waking the OpenMP team takes microseconds when idle, and milliseconds on a loaded

@@ -167,6 +167,7 @@ static void test_batch(void **state)
             LRR_CHECK(ctx, lrr_operator_set_storage(op, LRR_STORAGE_F16));
         lrr_solver *sv;
         LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &sv));
+        lrr__solver_batch_thresholds(sv, 2, 0); /* sgemm even for this small operator */
         LRR_CHECK(ctx, lrr_solve_batch(sv, count, E, B));
         double worst = 0;
         for (size_t f = 0; f < count; f++) {
@@ -175,15 +176,26 @@ static void test_batch(void **state)
         }
         print_message("batch of %zu (%s): worst max relative difference %.2e\n", count,
                       storage ? "f16, frame by frame" : "f32, sgemm", worst);
+        if (!storage) { /* and the default thresholds: a loop of single frames here */
+            lrr_solver *plain;
+            LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &plain));
+            float *B2 = malloc(count * 3 * n * sizeof *B2);
+            LRR_CHECK(ctx, lrr_solve_batch(plain, count, E, B2));
+            assert_true(max_rel(count * 3 * n, B2, B) <= 1e-5);
+            free(B2);
+            lrr_solver_destroy(plain);
+        }
         assert_true(worst <= 1e-5);
         LRR_CHECK(ctx, lrr_solve_batch(sv, 0, E, B));
         /* a bad value is reported with its frame */
         float keep = E[3 * 3 * n + 7];
         E[3 * 3 * n + 7] = -1;
+        B[0] = -42;
         assert_int_equal(lrr_solve_batch(sv, count, E, B), LRR_ERR_INVALID_ARG);
+        assert_true(B[0] == -42); /* nothing written */
         char msg[256];
         lrr_context_last_error(ctx, msg, sizeof msg);
-        if (!storage && !strstr(msg, "frame 3"))
+        if (!strstr(msg, "frame 3"))
             fail_msg("message does not name the frame: %s", msg);
         E[3 * 3 * n + 7] = keep;
         assert_int_equal(lrr_solve_batch(sv, 2, E, E + 3 * n), LRR_ERR_INVALID_ARG);
