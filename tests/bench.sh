@@ -169,6 +169,69 @@ else
     show_err
 fi
 
+# ---------------------------------------------------------------- realtime
+run --help
+if [ "$rc" -eq 0 ] && grep -q 'realtime' "$T/out"; then pass "lrr-bench --help lists realtime"; else fail "lrr-bench --help does not list realtime"; fi
+help_mentions realtime --n --k --cells --scene --hemicube --repeat --csv 'Timing does' \
+    'impl,storage,n,k,ms_median'
+run realtime --n 384
+if [ "$rc" -eq 2 ] && grep -q -- '--k' "$T/err"; then pass "realtime --n without --k: exit 2"; else fail "realtime --n without --k: exit $rc"; fi
+run realtime --n 384 --k 24 --cells tiny
+if [ "$rc" -eq 2 ]; then pass "realtime --n/--k with --cells: exit 2"; else fail "realtime --n/--k with --cells: exit $rc"; fi
+
+RCSV="$T/realtime.csv"
+mkdir -p "$T/rt_tmp"
+start=$(date +%s)
+TMPDIR="$T/rt_tmp" "$BENCH" realtime --n 384 --k 24 --repeat 3 --hemicube 16 --csv "$RCSV" \
+    >"$T/out" 2>"$T/err"
+rc=$?
+secs=$(($(date +%s) - start))
+if [ "$rc" -eq 0 ] && [ -f "$RCSV" ]; then
+    pass "realtime --n 384 --k 24 (${secs} s)"
+else
+    fail "realtime --n 384 --k 24: exit $rc"
+    show_err
+fi
+[ -f "$RCSV" ] || : >"$RCSV"
+rheader='impl,storage,n,k,ms_median,ms_min,ms_max,floor_ms,ratio_to_floor,ratio_to_paper,rel_l2_vs_f32'
+if head -n 1 "$RCSV" | grep -q "^$rheader\(,\|\$\)"; then
+    pass "realtime CSV header starts with the required columns"
+else
+    fail "realtime CSV header: '$(head -n 1 "$RCSV")'"
+fi
+missing=""
+for impl in fused sgemv3 sgemm3 paper sparse incremental; do
+    awk -F, -v i="$impl" 'NR > 1 && $1 == i { found = 1 } END { exit !found }' "$RCSV" ||
+        missing="$missing $impl"
+done
+if [ -z "$missing" ]; then pass "realtime CSV has rows for all six implementations"; else fail "realtime CSV lacks:$missing"; fi
+bad=$(awk -F, '
+    NR == 1 { next }
+    {
+        for (j = 5; j <= 7; j++)
+            if ($j !~ /^[0-9.eE+-]+$/ || !($j + 0 > 0)) print $1 " " $2 ": ms column " j " = " $j
+        if ($1 == "fused" && $2 == "f16" && !($11 ~ /^[0-9.eE+-]+$/ && $11 + 0 < 1e-3))
+            print "fused f16 rel_l2_vs_f32 " $11 " (want < 1e-3)"
+        if ($1 == "fused" && $2 == "bf16" && !($11 ~ /^[0-9.eE+-]+$/ && $11 + 0 < 1e-2))
+            print "fused bf16 rel_l2_vs_f32 " $11 " (want < 1e-2)"
+        if ($1 == "sgemv3" && $11 != "nan") print "sgemv3 rel_l2_vs_f32 " $11 " (want nan)"
+        if ($1 == "fused") f[$2] = 1
+    }
+    END { if (!f["f32"] || !f["f16"] || !f["bf16"]) print "fused rows for f32, f16 and bf16 missing" }' "$RCSV")
+if [ -z "$bad" ] && [ -s "$RCSV" ]; then
+    pass "realtime: positive finite times, f16 $(awk -F, '$1=="fused"&&$2=="f16"{print $11}' "$RCSV") < 1e-3, bf16 $(awk -F, '$1=="fused"&&$2=="bf16"{print $11}' "$RCSV") < 1e-2, sgemv3 nan"
+else
+    fail "realtime CSV values:"
+    echo "$bad" | sed 's/^/    /'
+fi
+if grep -q '^target: fused f32' "$T/out" && grep -q '^batch: lrr_solve_batch 16 frames' "$T/out" &&
+    grep -q '^omp_wait_policy: ' "$T/out" && grep -q '^openblas: ' "$T/out"; then
+    pass "realtime prints the threading, the batch line and the targets"
+else
+    fail "realtime text output lacks target/batch/threading lines"
+fi
+if [ -z "$(ls -A "$T/rt_tmp")" ]; then pass "realtime left no temporary .lrr file"; else fail "realtime left in TMPDIR: $(ls -A "$T/rt_tmp")"; fi
+
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then
     rm -rf "$T"

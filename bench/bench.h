@@ -1,0 +1,161 @@
+/*
+ * Shared parts of lrr-bench (common.c): messages, option helpers, the machine description,
+ * scenes, timing, cache size and read bandwidth, the real-time steps that the benchmarks
+ * compare (lrr_solve, the paper's method, plain sgemv), comparison of radiosities and
+ * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c.
+ */
+#ifndef LRR_BENCH_H
+#define LRR_BENCH_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include <cblas.h>
+
+#include "cli.h"
+#include "lrr.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+#define DEFAULT_HEMICUBE 128u
+#define DEFAULT_SEED 1u
+#define MB 1e6 /* memory columns are in MB = 10^6 bytes */
+#define MIN_RUNS 20
+#define MIN_SECONDS 0.5
+#define MAX_RUNS 200000
+#define BANDWIDTH_PASSES 5
+
+enum {
+    OPT_SCENE = 256,
+    OPT_CELLS,
+    OPT_HEMICUBE,
+    OPT_CSV,
+    OPT_PLOT,
+    OPT_MEMORY_BUDGET,
+    OPT_REPEAT,
+    OPT_SEED,
+    OPT_QUICK,
+    OPT_SEEDS,
+    OPT_N,
+    OPT_K
+};
+
+/* ------------------------------------------------------------------ commands */
+int cmd_table(int argc, char *argv[]);
+int cmd_stress(int argc, char *argv[]);
+int cmd_hemicube(int argc, char *argv[]);
+int cmd_realtime(int argc, char *argv[]);
+
+/* ------------------------------------------------------------------ messages */
+/* "lrr-bench: <message>" on stderr; returns CLI_EXIT_FAIL. */
+int bench_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* "lrr-bench: <what>: <status>: <library message>"; returns CLI_EXIT_FAIL. */
+int lib_fail(lrr_context *ctx, lrr_status s, const char *what);
+/* A progress line on stderr. */
+void note(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+/* ------------------------------------------------------------------ options */
+/* Reports getopt_long's ':' or '?' and returns CLI_EXIT_USAGE. */
+int bad_option(const char *prog, int c, char *const argv[]);
+/* Resets getopt for a subcommand (opterr off, glibc re-initialised). */
+void start_getopt(void);
+/* Non-zero (after a usage message) when positional arguments are left. */
+int no_positional(const char *prog, int argc, char *const argv[]);
+
+/* ------------------------------------------------------------------ machine, scenes */
+/* cpu, cores, threads, OpenBLAS, lrr version, date and load as 'key: value' lines. */
+void print_machine(void);
+/* A scene file, or a built-in name; CLI_EXIT_OK or a reported failure. */
+int open_scene(lrr_context *ctx, const char *name, lrr_scene **scene);
+/* levels with 4^levels = d, or -1 */
+int levels_of(size_t d);
+/* Progress on stderr: a bar on a terminal, nothing otherwise (phase lines say enough). */
+void progress_begin(cli_progress *bar, const char *label, lrr_build_options *bo);
+
+/* ------------------------------------------------------------------ timing */
+typedef struct timing {
+    double median, min, max; /* milliseconds */
+    size_t runs;
+} timing;
+
+typedef int (*frame_fn)(void *user);
+
+/* Two warm-up runs, then `repeat` timed runs (0: adaptive, at least MIN_RUNS and at least
+ * MIN_SECONDS in all). Returns 0 or the frame's non-zero status. */
+int time_frames(frame_fn fn, void *user, unsigned repeat, timing *t);
+
+/* Size of the last-level cache in bytes (the highest cache index sysfs lists), 0 if unknown. */
+size_t llc_bytes(void);
+/* Bytes of the bandwidth buffer: 4 × the last-level cache, at least 512 MiB, at most 4 GiB. */
+size_t bandwidth_buffer_bytes(void);
+/* Read bandwidth in bytes per second (0 on failure): an OpenMP sum, best of
+ * BANDWIDTH_PASSES passes. */
+double measure_bandwidth(size_t bytes);
+
+/* ------------------------------------------------------------------ real-time steps */
+typedef struct ours_frame {
+    lrr_solver *solver;
+    const float *e, *e_alt; /* e_alt: used on every other frame when not NULL */
+    float *b;
+    lrr_status status;
+    unsigned long frame;
+} ours_frame;
+
+/* One lrr_solve (a frame_fn on an ours_frame). */
+int ours_step(void *user);
+/* "full", "sparse", "incremental", "auto" */
+const char *path_name(lrr_path p);
+
+/* The paper's real-time step: B_c = E_c - Y_c (Vᵀ E_c), channels stored planar. */
+typedef struct paper_frame {
+    blasint n, k;
+    float *v;        /* n×k indicator, dense */
+    float *y[3];     /* n×k, Y_c = -diag(rho_c) F̄ M_c */
+    float *e[3], *b[3];
+    float *w;        /* k */
+} paper_frame;
+
+int paper_step(void *user);
+void paper_free(paper_frame *f);
+/* a×b zeroed floats, 64-byte aligned (lrr_aligned_free); NULL on overflow or failure */
+float *alloc_floats(size_t a, size_t b);
+/* Builds the paper's Y_c and V from the operator (sgemm, outside any timing). */
+int paper_setup(const lrr_operator *op, const float *e, paper_frame *f);
+
+/* Three sgemv over F̄, one per channel, nothing else. */
+typedef struct sgemv_frame {
+    blasint n, k;
+    const float *fbar;
+    float *z[3], *out[3];
+} sgemv_frame;
+
+int sgemv_step(void *user);
+
+/* ------------------------------------------------------------------ comparison, formatting */
+/* Area-weighted relative L2 over all channels (area NULL: unweighted) and the largest
+ * relative error over entries above 1e-3 of the largest reference value (max_rel may be
+ * NULL). With e the emission is subtracted from both (the reflected part only). */
+void compare_b(size_t n, const float *area, const float *b, const float *ref, const float *e,
+               double *rel_l2, double *max_rel);
+/* 12.2 GB, 4.3 GB, 35.4 MB: decimal units */
+const char *fmt_bytes(char *buf, size_t len, size_t bytes);
+/* milliseconds with 3 significant-ish digits; "-" for NaN */
+const char *fmt_ms(char *buf, size_t len, double v);
+/* a CSV number (%.6g, nan, inf) followed by ',' or, when last, '\n' */
+void csv_num(FILE *f, double v, int last);
+
+/* ------------------------------------------------------------------ cells (table.c) */
+typedef struct cell {
+    size_t n, k, d;
+} cell;
+
+/* --cells: paper, small, all, tiny or a list "N/K/D,N/K/D,...". Replaces *cells (freed
+ * first; the caller frees it after use, also after a failure) and sets *n_cells and *name
+ * (= text); -1 after a usage message, or when out of memory. */
+int parse_cells(const char *prog, const char *text, cell **cells, size_t *n_cells,
+                const char **name);
+
+#endif /* LRR_BENCH_H */

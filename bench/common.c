@@ -1,0 +1,459 @@
+/*
+ * lrr-bench: the parts every command shares (see bench.h). Uses only the public API
+ * (lrr.h), cblas for the baselines.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <omp.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "bench.h"
+
+#define BANDWIDTH_MIN_BYTES ((size_t)512 << 20)
+#define BANDWIDTH_MAX_BYTES ((size_t)4 << 30)
+
+/* ------------------------------------------------------------------ messages */
+int bench_fail(const char *fmt, ...)
+{
+    va_list ap;
+    fputs("lrr-bench: ", stderr);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    return CLI_EXIT_FAIL;
+}
+
+/* "lrr-bench: <what>: <status>: <library message>" */
+int lib_fail(lrr_context *ctx, lrr_status s, const char *what)
+{
+    char msg[1024] = "";
+    if (ctx && lrr_context_last_error(ctx, msg, sizeof msg) == LRR_OK)
+        msg[0] = '\0';
+    return bench_fail("%s: %s%s%s", what, lrr_strerror(s), msg[0] ? ": " : "", msg);
+}
+
+void note(const char *fmt, ...)
+{
+    va_list ap;
+    fputs("lrr-bench: ", stderr);
+    va_start(ap, fmt);
+    vfprintf(stderr, fmt, ap);
+    va_end(ap);
+    fputc('\n', stderr);
+    fflush(stderr);
+}
+
+int bad_option(const char *prog, int c, char *const argv[])
+{
+    const char *arg = optind > 0 ? argv[optind - 1] : "";
+    if (c == ':')
+        cli_usage_error(prog, "%s: a value is required", arg);
+    else if (strncmp(arg, "--", 2) == 0 || optopt == 0 || optopt > 255)
+        cli_usage_error(prog, "unknown option '%s'", arg);
+    else
+        cli_usage_error(prog, "unknown option '-%c'", optopt);
+    fprintf(stderr, "Try '%s --help'.\n", prog);
+    return CLI_EXIT_USAGE;
+}
+
+void start_getopt(void)
+{
+    opterr = 0;
+    optind = 0; /* glibc: re-initialise the scanner */
+}
+
+int no_positional(const char *prog, int argc, char *const argv[])
+{
+    if (optind < argc) {
+        cli_usage_error(prog, "unexpected argument '%s'", argv[optind]);
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return CLI_EXIT_USAGE;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------ machine description */
+static void cpu_model(char *buf, size_t len)
+{
+    snprintf(buf, len, "unknown");
+    FILE *f = fopen("/proc/cpuinfo", "r");
+    if (!f)
+        return;
+    char line[512];
+    while (fgets(line, sizeof line, f)) {
+        if (strncmp(line, "model name", 10) != 0)
+            continue;
+        char *colon = strchr(line, ':');
+        if (!colon)
+            continue;
+        colon++;
+        while (*colon == ' ' || *colon == '\t')
+            colon++;
+        colon[strcspn(colon, "\n")] = '\0';
+        snprintf(buf, len, "%s", colon);
+        break;
+    }
+    fclose(f);
+}
+
+void print_machine(void)
+{
+    char cpu[256], date[64];
+    cpu_model(cpu, sizeof cpu);
+    time_t t = time(NULL);
+    struct tm tm;
+    localtime_r(&t, &tm);
+    strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S %z", &tm);
+    printf("cpu: %s\n", cpu);
+    printf("cores_online: %ld\n", sysconf(_SC_NPROCESSORS_ONLN));
+    printf("threads_openmp: %d\n", omp_get_max_threads());
+    printf("threads_openblas: %d\n", openblas_get_num_threads());
+    printf("openblas: %s\n", openblas_get_config());
+    printf("lrr: %s\n", lrr_version_string());
+    printf("date: %s\n", date);
+    /* timings on a shared machine mean little when it is busy: say how busy it was */
+    FILE *f = fopen("/proc/loadavg", "r");
+    double l1, l5, l15;
+    if (f && fscanf(f, "%lf %lf %lf", &l1, &l5, &l15) == 3)
+        printf("load_average: %.2f %.2f %.2f\n", l1, l5, l15);
+    if (f)
+        fclose(f);
+}
+
+/* ------------------------------------------------------------------ scenes */
+int open_scene(lrr_context *ctx, const char *name, lrr_scene **scene)
+{
+    struct stat st;
+    lrr_status s;
+    if (stat(name, &st) == 0)
+        s = lrr_scene_load(ctx, name, scene);
+    else if (strcmp(name, "cornell") == 0 || strcmp(name, "cornell-closed") == 0)
+        s = lrr_scene_builtin(ctx, name, scene);
+    else
+        return bench_fail("scene '%s': %s (built-in scenes: cornell, cornell-closed)", name,
+                          strerror(errno));
+    if (s != LRR_OK) {
+        char what[512];
+        snprintf(what, sizeof what, "scene '%s'", name);
+        return lib_fail(ctx, s, what);
+    }
+    return CLI_EXIT_OK;
+}
+
+/* levels with 4^levels = d, or -1 */
+int levels_of(size_t d)
+{
+    int l = 0;
+    while (d > 1 && d % 4 == 0) {
+        d /= 4;
+        l++;
+    }
+    return d == 1 && l <= 10 ? l : -1;
+}
+
+/* Progress on stderr: a bar on a terminal, nothing otherwise (phase lines say enough). */
+void progress_begin(cli_progress *bar, const char *label, lrr_build_options *bo)
+{
+    cli_progress_init(bar, label, isatty(STDERR_FILENO));
+    bo->progress = cli_progress_cb;
+    bo->progress_user = bar;
+}
+
+/* ------------------------------------------------------------------ timing */
+/* Two warm-up runs, then `repeat` timed runs (0: adaptive, at least MIN_RUNS and at least
+ * MIN_SECONDS in all). Returns 0 or the frame's non-zero status. */
+int time_frames(frame_fn fn, void *user, unsigned repeat, timing *t)
+{
+    int rc = fn(user);
+    if (rc)
+        return rc;
+    double t0 = cli_now();
+    if ((rc = fn(user)))
+        return rc;
+    double est = cli_now() - t0;
+    size_t runs = repeat;
+    if (!runs) {
+        double want = est > 0 ? ceil(MIN_SECONDS / est) : (double)MAX_RUNS;
+        runs = want < MIN_RUNS ? MIN_RUNS : want > MAX_RUNS ? MAX_RUNS : (size_t)want;
+    }
+    double *v = malloc(runs * sizeof *v);
+    if (!v)
+        return bench_fail("cannot allocate %zu timings", runs);
+    for (size_t r = 0; r < runs; r++) {
+        double a = cli_now();
+        if ((rc = fn(user))) {
+            free(v);
+            return rc;
+        }
+        v[r] = 1e3 * (cli_now() - a);
+    }
+    t->min = t->max = v[0];
+    for (size_t r = 1; r < runs; r++) {
+        t->min = fmin(t->min, v[r]);
+        t->max = fmax(t->max, v[r]);
+    }
+    t->median = cli_median(v, runs);
+    t->runs = runs;
+    free(v);
+    return 0;
+}
+
+/* Size of the last-level cache in bytes (the highest cache index sysfs lists), 0 if unknown. */
+size_t llc_bytes(void)
+{
+    size_t best = 0;
+    for (int i = 0; i < 8; i++) {
+        char path[96];
+        snprintf(path, sizeof path, "/sys/devices/system/cpu/cpu0/cache/index%d/size", i);
+        FILE *f = fopen(path, "r");
+        if (!f)
+            continue;
+        unsigned long long v = 0;
+        char unit = 0;
+        if (fscanf(f, "%llu%c", &v, &unit) >= 1) {
+            if (unit == 'K')
+                v <<= 10;
+            else if (unit == 'M')
+                v <<= 20;
+            if (v > best)
+                best = (size_t)v;
+        }
+        fclose(f);
+    }
+    return best;
+}
+
+/* Bytes of the bandwidth buffer: four times the last-level cache (some servers have
+ * hundreds of MiB of it), at least 512 MiB, at most 4 GiB. */
+size_t bandwidth_buffer_bytes(void)
+{
+    size_t llc = llc_bytes();
+    size_t b = llc <= BANDWIDTH_MAX_BYTES / 4 ? 4 * llc : BANDWIDTH_MAX_BYTES;
+    return b < BANDWIDTH_MIN_BYTES ? BANDWIDTH_MIN_BYTES : b;
+}
+
+/* Read bandwidth: an OpenMP sum over a buffer much larger than the caches, best of several
+ * passes, in bytes per second (0 on failure). */
+double measure_bandwidth(size_t bytes)
+{
+    size_t count = bytes / sizeof(float);
+    float *buf = lrr_aligned_alloc(count * sizeof(float));
+    if (!buf)
+        return 0;
+    #pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < count; i++)
+        buf[i] = 1.0f; /* first touch by the thread that will read it */
+    double best = 0, check = 0;
+    /* eight independent 4-wide accumulators: the adds' latency must not be what limits a
+     * core (one scalar or one vector chain tops out near 12-24 GB/s per core) */
+    typedef float v4 __attribute__((vector_size(16)));
+    enum { ACC = 8, STEP = 4 * ACC };
+    const size_t blocks = count / STEP;
+    for (int pass = 0; pass < BANDWIDTH_PASSES; pass++) {
+        double total = 0;
+        double a = cli_now();
+        #pragma omp parallel reduction(+ : total)
+        {
+            v4 acc[ACC];
+            for (int l = 0; l < ACC; l++)
+                acc[l] = (v4){0, 0, 0, 0};
+            #pragma omp for schedule(static)
+            for (size_t b = 0; b < blocks; b++) {
+                const v4 *p = (const v4 *)(const void *)(buf + b * STEP);
+                for (int l = 0; l < ACC; l++)
+                    acc[l] += p[l];
+            }
+            for (int l = 0; l < ACC; l++)
+                total += (double)acc[l][0] + acc[l][1] + acc[l][2] + acc[l][3];
+        }
+        double s = cli_now() - a;
+        check += total;
+        if (s > 0 && (double)(count * sizeof(float)) / s > best)
+            best = (double)(count * sizeof(float)) / s;
+    }
+    lrr_aligned_free(buf);
+    /* the sums are used, so no pass can be optimised away */
+    return check > 0 ? best : 0;
+}
+
+/* ---------------------------------------------------------------- the three real-time steps */
+int ours_step(void *user)
+{
+    ours_frame *f = user;
+    const float *e = f->e_alt && (f->frame++ & 1) ? f->e_alt : f->e;
+    f->status = lrr_solve(f->solver, e, f->b);
+    return f->status != LRR_OK;
+}
+
+const char *path_name(lrr_path p)
+{
+    switch (p) {
+    case LRR_PATH_FULL:
+        return "full";
+    case LRR_PATH_SPARSE:
+        return "sparse";
+    case LRR_PATH_INCREMENTAL:
+        return "incremental";
+    default:
+        return "auto";
+    }
+}
+
+int paper_step(void *user)
+{
+    paper_frame *f = user;
+    for (int c = 0; c < 3; c++) {
+        cblas_sgemv(CblasRowMajor, CblasTrans, f->n, f->k, 1.0f, f->v, f->k, f->e[c], 1, 0.0f,
+                    f->w, 1);
+        cblas_scopy(f->n, f->e[c], 1, f->b[c], 1);
+        cblas_sgemv(CblasRowMajor, CblasNoTrans, f->n, f->k, -1.0f, f->y[c], f->k, f->w, 1, 1.0f,
+                    f->b[c], 1);
+    }
+    return 0;
+}
+
+void paper_free(paper_frame *f)
+{
+    lrr_aligned_free(f->v);
+    lrr_aligned_free(f->w);
+    for (int c = 0; c < 3; c++) {
+        lrr_aligned_free(f->y[c]);
+        lrr_aligned_free(f->e[c]);
+        lrr_aligned_free(f->b[c]);
+    }
+    memset(f, 0, sizeof *f);
+}
+
+float *alloc_floats(size_t a, size_t b)
+{
+    if (a == 0 || b == 0 || a > SIZE_MAX / sizeof(float) / b)
+        return NULL;
+    float *p = lrr_aligned_alloc(a * b * sizeof(float));
+    if (p)
+        memset(p, 0, a * b * sizeof(float));
+    return p;
+}
+
+/* Builds the paper's Y_c and V from the operator (sgemm, outside any timing). */
+int paper_setup(const lrr_operator *op, const float *e, paper_frame *f)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    size_t n = oi.n, k = oi.k, d = oi.d;
+    memset(f, 0, sizeof *f);
+    f->n = (blasint)n;
+    f->k = (blasint)k;
+    f->v = alloc_floats(n, k);
+    f->w = alloc_floats(k, 1);
+    for (int c = 0; c < 3; c++) {
+        f->y[c] = alloc_floats(n, k);
+        f->e[c] = alloc_floats(n, 1);
+        f->b[c] = alloc_floats(n, 1);
+    }
+    if (!f->v || !f->w || !f->y[0] || !f->y[1] || !f->y[2] || !f->e[0] || !f->e[1] ||
+        !f->e[2] || !f->b[0] || !f->b[1] || !f->b[2]) {
+        paper_free(f);
+        return bench_fail("the paper's method: cannot allocate 4 n×k matrices (%.1f MB)",
+                          4.0 * (double)n * (double)k * 4 / MB);
+    }
+    const float *fbar = lrr_operator_fbar(op), *m = lrr_operator_m(op);
+    const float *rho = lrr_operator_reflectance(op);
+    for (size_t i = 0; i < n; i++) {
+        f->v[i * k + i / d] = 1.0f;
+        for (int c = 0; c < 3; c++)
+            f->e[c][i] = e[3 * i + c];
+    }
+    for (int c = 0; c < 3; c++) {
+        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, f->n, f->k, f->k, 1.0f, fbar,
+                    f->k, m + (size_t)c * k * k, f->k, 0.0f, f->y[c], f->k);
+        float *y = f->y[c];
+        #pragma omp parallel for schedule(static)
+        for (size_t i = 0; i < n; i++) {
+            float r = -rho[3 * i + c];
+            for (size_t p = 0; p < k; p++)
+                y[i * k + p] *= r;
+        }
+    }
+    return 0;
+}
+
+/* Three sgemv over F̄, one per channel, nothing else. */
+int sgemv_step(void *user)
+{
+    sgemv_frame *f = user;
+    for (int c = 0; c < 3; c++)
+        cblas_sgemv(CblasRowMajor, CblasNoTrans, f->n, f->k, 1.0f, f->fbar, f->k, f->z[c], 1,
+                    0.0f, f->out[c], 1);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- errors */
+/* Area-weighted relative L2 over all channels and the largest relative error over entries
+ * above 1e-3 of the largest reference value. With `skip_e` the emission is subtracted from
+ * both (the reflected part only). */
+void compare_b(size_t n, const float *area, const float *b, const float *ref,
+                      const float *e, double *rel_l2, double *max_rel)
+{
+    double num = 0, den = 0, bmax = 0;
+    for (size_t i = 0; i < 3 * n; i++)
+        bmax = fmax(bmax, fabs((double)ref[i] - (e ? e[i] : 0)));
+    double mr = 0;
+    for (size_t i = 0; i < n; i++) {
+        double a = area ? area[i] : 1.0;
+        for (int c = 0; c < 3; c++) {
+            double r = (double)ref[3 * i + c] - (e ? e[3 * i + c] : 0);
+            double x = (double)b[3 * i + c] - (e ? e[3 * i + c] : 0);
+            double dlt = x - r;
+            num += a * dlt * dlt;
+            den += a * r * r;
+            if (fabs(r) > 1e-3 * bmax)
+                mr = fmax(mr, fabs(dlt) / fabs(r));
+            if (!isfinite(x))
+                mr = INFINITY;
+        }
+    }
+    *rel_l2 = den > 0 ? sqrt(num) / sqrt(den) : (num > 0 ? INFINITY : 0);
+    if (max_rel)
+        *max_rel = mr;
+}
+
+/* 12.2 GB, 4.3 GB, 35.4 MB: decimal units, three significant digits or one decimal */
+const char *fmt_bytes(char *buf, size_t len, size_t bytes)
+{
+    double b = (double)bytes;
+    if (b >= 1e9)
+        snprintf(buf, len, "%.1f GB", b / 1e9);
+    else if (b >= 1e6)
+        snprintf(buf, len, "%.1f MB", b / 1e6);
+    else
+        snprintf(buf, len, "%.1f kB", b / 1e3);
+    return buf;
+}
+
+/* ---------------------------------------------------------------- numbers */
+const char *fmt_ms(char *buf, size_t len, double v)
+{
+    if (isnan(v))
+        return snprintf(buf, len, "-"), buf;
+    snprintf(buf, len, v < 10 ? "%.3f" : v < 100 ? "%.2f" : "%.1f", v);
+    return buf;
+}
+
+void csv_num(FILE *f, double v, int last)
+{
+    if (isnan(v))
+        fputs("nan", f);
+    else if (isinf(v))
+        fputs(v > 0 ? "inf" : "-inf", f);
+    else
+        fprintf(f, "%.6g", v);
+    fputc(last ? '\n' : ',', f);
+}

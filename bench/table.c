@@ -1,0 +1,732 @@
+/*
+ * lrr-bench table: the paper's n×k table: memory, preprocessing, real-time step (ours, the
+ * paper's two-gemv method, three plain sgemv), a bandwidth floor and the error against the
+ * full n×n solution, as a table, CSV and plot.
+ */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench.h"
+#include "plot.h"
+
+#define DEFAULT_BUDGET_MIB 4096u
+#define REFERENCE_TOL 1e-7
+#define PAPER_MATCH_TOL 1e-4
+
+static const char table_help[] =
+    "Usage: lrr-bench table [OPTIONS]\n"
+    "For each (n, k, d) cell: subdivide the scene into about k patches of d = 4^levels\n"
+    "subpatches, build the operator (preprocess_s), then time one real-time step for the\n"
+    "scene's emission (warm-up, then the median, min and max of many runs):\n"
+    "  ours     lrr_solve forced to its full path (LRR_PATH_FULL): one pass over F̄ for\n"
+    "           B_c = E_c + rho_c ∘ (F̄ (M_c (Vᵀ E_c))), all three channels, which is what\n"
+    "           any emission costs (auto_ms: the default LRR_PATH_AUTO with the emission\n"
+    "           scaled by 1 and 0.5 on alternate frames, and the path it took)\n"
+    "  paper    the paper's method: per channel Y_c = -diag(rho_c) F̄ M_c (n×k, built once\n"
+    "           with sgemm, not timed) and a dense V; per frame w = Vᵀ E_c and\n"
+    "           B_c = E_c - Y_c w, two cblas_sgemv per channel (six per frame); its B must\n"
+    "           match ours (relative L2 < 1e-4, else an error)\n"
+    "  3sgemv   three plain cblas_sgemv over F̄ (n×k), no epilogue\n"
+    "Memory in MB = 10^6 bytes: mem_mb = F̄ (n·k floats) + M (3·k² floats);\n"
+    "mem_mb_paper = 2·n·k·4 bytes (U and V dense, as the paper counted; the paper's own\n"
+    "column is in MiB, see mem_mib_paper in the CSV).\n"
+    "floor_ms = F̄'s bytes (n·k·4) / the read bandwidth measured at the start of the run\n"
+    "(an OpenMP sum over max(512 MiB, 4 × the last-level cache), best of 5): every\n"
+    "implementation reads F̄ (or the paper's Y) once per channel or frame. Our full path\n"
+    "also reads M (3·k² floats), which matters when k nears n: floor_ms_full in the CSV\n"
+    "counts F̄ + M. A matrix that fits in the last-level cache (llc_mib) can beat both.\n"
+    "Error: where lrr_reference_bytes(n) <= the memory budget, the full n×n F is built from\n"
+    "the same hemicubes and solved by Gauss-Seidel (tol 1e-7): rel_l2 is the area-weighted\n"
+    "relative L2 over all channels, max_rel the largest |ΔB|/|B_ref| over entries with\n"
+    "|B_ref| > 1e-3·max|B_ref|; otherwise n/a (nan in the CSV) with the reason.\n"
+    "\n"
+    "Options:\n"
+    "  --scene SCENE        a scene file (OBJ/PLY/glTF) or built-in name 'cornell',\n"
+    "                       'cornell-closed' (default cornell; a file wins over a name)\n"
+    "  --cells SET          paper (the paper's 9 cells), small (its 4 cheapest, under\n"
+    "                       3 minutes on 2 cores), all (paper plus two d = 1 cells), or a\n"
+    "                       list N/K/D,... with D a power of 4 (default paper)\n"
+    "  --hemicube R         hemicube resolution: even, 8..4096 (default 128)\n"
+    "  --seed S             seed of the hemicube rotations (default 1)\n"
+    "  --csv OUT.csv        write the results (rewritten after each cell):\n"
+    "                       n,k,d,mem_mb,mem_mb_paper,preprocess_s,rt_ms_ours,rt_ms_paper,\n"
+    "                       rt_ms_3sgemv,floor_ms,rel_l2,max_rel, then extra columns\n"
+    "  --plot OUT.png       rel_l2 against real-time ms, log-log: ours (labelled n×k) and\n"
+    "                       the paper's method (the same operator, so the same error),\n"
+    "                       joined per cell; cells with an error only\n"
+    "  --memory-budget MB   most memory for the n×n reference, in MiB (2^20 bytes;\n"
+    "                       default 4096)\n"
+    "  --repeat N           timed runs per implementation (default: adaptive, at least 20\n"
+    "                       runs and at least 0.5 s)\n"
+    "  -h, --help           show this help\n";
+
+
+/* ================================================================== table */
+/* The paper's 9 cells (Table 1 of the low-rank radiosity paper: n, k, d). */
+static const cell paper_cells[] = {{3456, 216, 16},   {3456, 864, 4},    {13824, 216, 64},
+                                   {3456, 3456, 1},   {13824, 864, 16},  {55296, 216, 256},
+                                   {13824, 3456, 4},  {55296, 864, 64},  {221184, 216, 1024}};
+/* The paper's four cheapest cells (3456×3456 is d = 1, where the model is exact): about a
+ * minute and a half on 2 cores with the n×n references. */
+static const cell small_cells[] = {{3456, 216, 16}, {3456, 864, 4}, {13824, 216, 64},
+                                   {3456, 3456, 1}};
+/* 'all' adds d = 1 cells, where the low-rank model is exact (rel_l2 shows the rounding). */
+static const cell extra_cells[] = {{216, 216, 1}, {864, 864, 1}};
+/* For `make check`: seconds, not minutes. */
+static const cell tiny_cells[] = {{576, 36, 16}, {144, 144, 1}};
+
+typedef struct cell_result {
+    cell target;
+    size_t n, k, d;
+    double mem_mb, mem_mb_paper, mem_mib_paper, preprocess_s;
+    timing ours, paper, sgemv3, ours_auto;
+    char auto_path[16], kernel[32];
+    double floor_ms, floor_ms_full, bandwidth_gbs;
+    double rel_l2, max_rel, rel_l2_reflected, reference_s, reference_residual;
+    double paper_vs_ours;
+    double cond[3];
+    int threads;
+    char label[64];
+    char note[256];
+} cell_result;
+
+typedef struct table_args {
+    const char *scene, *csv, *plot;
+    unsigned hemicube, repeat;
+    uint64_t seed;
+    size_t budget;
+    cell *cells;
+    size_t n_cells;
+    const char *cells_name;
+} table_args;
+
+/* --cells: a named set or "N/K/D,N/K/D,..." */
+int parse_cells(const char *prog, const char *text, cell **cells, size_t *n_cells,
+                const char **name)
+{
+    const cell *src = NULL;
+    size_t count = 0;
+    if (strcmp(text, "paper") == 0) {
+        src = paper_cells;
+        count = sizeof paper_cells / sizeof paper_cells[0];
+    } else if (strcmp(text, "small") == 0) {
+        src = small_cells;
+        count = sizeof small_cells / sizeof small_cells[0];
+    } else if (strcmp(text, "tiny") == 0) {
+        src = tiny_cells;
+        count = sizeof tiny_cells / sizeof tiny_cells[0];
+    }
+    free(*cells);
+    *cells = NULL;
+    *name = text;
+    if (src) {
+        *cells = malloc(count * sizeof **cells);
+        if (!*cells)
+            return -1;
+        memcpy(*cells, src, count * sizeof *src);
+        *n_cells = count;
+        return 0;
+    }
+    if (strcmp(text, "all") == 0) {
+        size_t np = sizeof paper_cells / sizeof paper_cells[0];
+        size_t ne = sizeof extra_cells / sizeof extra_cells[0];
+        *cells = malloc((np + ne) * sizeof **cells);
+        if (!*cells)
+            return -1;
+        memcpy(*cells, extra_cells, ne * sizeof *extra_cells);
+        memcpy(*cells + ne, paper_cells, np * sizeof *paper_cells);
+        *n_cells = np + ne;
+        return 0;
+    }
+    /* a list */
+    size_t cap = 1;
+    for (const char *p = text; *p; p++)
+        cap += *p == ',';
+    *cells = calloc(cap, sizeof **cells);
+    if (!*cells)
+        return -1;
+    *n_cells = 0;
+    const char *p = text;
+    while (*p) {
+        char *end;
+        unsigned long long v[3];
+        for (int j = 0; j < 3; j++) {
+            if (*p < '0' || *p > '9')
+                goto bad;
+            errno = 0;
+            v[j] = strtoull(p, &end, 10);
+            if (errno || v[j] == 0 || v[j] > (1ull << 32))
+                goto bad;
+            p = end;
+            if (j < 2) {
+                if (*p != '/')
+                    goto bad;
+                p++;
+            }
+        }
+        if (*p == ',')
+            p++;
+        else if (*p)
+            goto bad;
+        if (levels_of((size_t)v[2]) < 0) {
+            cli_usage_error(prog, "--cells: d = %llu is not a power of 4 (1, 4, ..., 4^10)",
+                            v[2]);
+            return -1;
+        }
+        (*cells)[(*n_cells)++] = (cell){(size_t)v[0], (size_t)v[1], (size_t)v[2]};
+    }
+    if (*n_cells == 0)
+        goto bad;
+    return 0;
+bad:
+    cli_usage_error(prog, "--cells: '%s' is not paper, small, all or a list N/K/D,...", text);
+    return -1;
+}
+
+static int reference_error(lrr_context *ctx, const lrr_scene *scene,
+                           const lrr_build_options *bo, size_t budget, const float *b,
+                           cell_result *r, const char *label)
+{
+    size_t need = lrr_reference_bytes(r->n);
+    if (need == SIZE_MAX || need > budget) {
+        char nb[32], bb[32];
+        snprintf(r->note, sizeof r->note, "n×n needs %s > budget %s",
+                 need == SIZE_MAX ? "more than SIZE_MAX bytes" : fmt_bytes(nb, sizeof nb, need),
+                 fmt_bytes(bb, sizeof bb, budget));
+        return 0;
+    }
+    lrr_reference *ref = NULL;
+    cli_progress bar;
+    lrr_build_options o = *bo;
+    note("%s: reference: n×n form factors (%.1f MB)", label, (double)need / MB);
+    progress_begin(&bar, "n×n hemicubes", &o);
+    double t0 = cli_now();
+    lrr_status s = lrr_reference_build(scene, &o, budget, &ref);
+    cli_progress_finish(&bar);
+    if (s == LRR_ERR_BUDGET) {
+        char msg[256] = "";
+        lrr_context_last_error(ctx, msg, sizeof msg);
+        snprintf(r->note, sizeof r->note, "reference refused: %s", msg);
+        return 0;
+    }
+    if (s != LRR_OK)
+        return lib_fail(ctx, s, "reference build");
+    float *bref = cli_alloc_rgb(r->n);
+    if (!bref) {
+        lrr_reference_destroy(ref);
+        return CLI_EXIT_FAIL;
+    }
+    lrr_reference_stats st = {0};
+    s = lrr_reference_solve(ref, LRR_METHOD_GAUSS_SEIDEL, REFERENCE_TOL, 0,
+                            lrr_reference_emission(ref), bref, &st);
+    r->reference_s = cli_now() - t0;
+    r->reference_residual = st.residual;
+    if (s != LRR_OK && s != LRR_NOT_CONVERGED) {
+        free(bref);
+        lrr_reference_destroy(ref);
+        return lib_fail(ctx, s, "Gauss-Seidel reference solve");
+    }
+    if (s == LRR_NOT_CONVERGED) {
+        char msg[256] = "";
+        lrr_context_last_error(ctx, msg, sizeof msg);
+        snprintf(r->note, sizeof r->note, "Gauss-Seidel stopped at residual %.2g after %zu",
+                 st.residual, st.iterations);
+    }
+    note("%s: reference: Gauss-Seidel %zu sweeps, residual %.2g, %.2f s (%.1f s with F)",
+         label, st.iterations, st.residual, st.seconds, r->reference_s);
+    const float *area = lrr_reference_area(ref);
+    compare_b(r->n, area, b, bref, NULL, &r->rel_l2, &r->max_rel);
+    compare_b(r->n, area, b, bref, lrr_reference_emission(ref), &r->rel_l2_reflected, NULL);
+    free(bref);
+    lrr_reference_destroy(ref);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- one cell */
+static int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t index,
+                    double bandwidth, cell_result *r)
+{
+    memset(r, 0, sizeof *r);
+    r->target = *c;
+    r->rel_l2 = r->max_rel = r->rel_l2_reflected = r->reference_s = NAN;
+    r->reference_residual = r->paper_vs_ours = r->floor_ms = r->floor_ms_full = NAN;
+    r->threads = omp_get_max_threads();
+    r->bandwidth_gbs = bandwidth / 1e9;
+    char label[96];
+    snprintf(label, sizeof label, "[%zu/%zu] %zu×%zu (d %zu)", index + 1, a->n_cells, c->n, c->k,
+             c->d);
+
+    lrr_scene *scene = NULL;
+    lrr_operator *op = NULL;
+    lrr_solver *solver = NULL;
+    float *b = NULL;
+    paper_frame pf = {0};
+    sgemv_frame sf = {0};
+    int rc = open_scene(ctx, a->scene, &scene);
+    if (rc)
+        return rc;
+    lrr_subdivision sub = {0.0, c->k, (unsigned)levels_of(c->d)};
+    lrr_status s = lrr_scene_subdivide(scene, &sub);
+    if (s != LRR_OK) {
+        rc = lib_fail(ctx, s, "subdivision");
+        goto done;
+    }
+    lrr_scene_info si;
+    lrr_scene_get_info(scene, &si);
+    r->n = si.subpatches;
+    r->k = si.patches;
+    r->d = si.d;
+    snprintf(r->label, sizeof r->label, "%zu×%zu", r->n, r->k);
+    note("%s: %zu patches, %zu subpatches; building the operator (hemicube %u)", label, r->k,
+         r->n, a->hemicube);
+
+    lrr_build_options bo = {.hemicube_resolution = a->hemicube, .seed = a->seed};
+    cli_progress bar;
+    progress_begin(&bar, "hemicubes", &bo);
+    double t0 = cli_now();
+    s = lrr_operator_build(scene, &bo, &op);
+    r->preprocess_s = cli_now() - t0;
+    cli_progress_finish(&bar);
+    bo.progress = NULL;
+    bo.progress_user = NULL;
+    if (s != LRR_OK) {
+        rc = lib_fail(ctx, s, "operator build");
+        goto done;
+    }
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    memcpy(r->cond, oi.condition, sizeof r->cond);
+    if (!lrr_operator_fbar(op)) { /* a fresh build is float; the baselines need that view */
+        rc = bench_fail("%s: F̄ is not stored as float (storage %s)", label,
+                        lrr_storage_name(oi.storage));
+        goto done;
+    }
+    double nk = (double)r->n * (double)r->k;
+    r->mem_mb = (nk + 3.0 * (double)r->k * (double)r->k) * sizeof(float) / MB;
+    r->mem_mb_paper = 2.0 * nk * sizeof(float) / MB;
+    r->mem_mib_paper = 2.0 * nk * sizeof(float) / (1024.0 * 1024.0);
+    /* every method reads F̄ (or Y) once; our full path also reads the three M_c */
+    r->floor_ms = bandwidth > 0 ? 1e3 * nk * sizeof(float) / bandwidth : NAN;
+    r->floor_ms_full = bandwidth > 0 ? 1e3 * r->mem_mb * MB / bandwidth : NAN;
+    note("%s: operator built in %.2f s; timing the real-time step", label, r->preprocess_s);
+
+    /* ours */
+    const float *e = lrr_operator_emission(op);
+    b = cli_alloc_rgb(r->n);
+    if (!b) {
+        rc = CLI_EXIT_FAIL;
+        goto done;
+    }
+    if ((s = lrr_solver_create(op, LRR_BACKEND_CPU, &solver)) != LRR_OK) {
+        rc = lib_fail(ctx, s, "solver");
+        goto done;
+    }
+    snprintf(r->kernel, sizeof r->kernel, "%s", lrr_solver_kernel(solver));
+    if ((s = lrr_solver_set_path(solver, LRR_PATH_FULL)) != LRR_OK) {
+        rc = lib_fail(ctx, s, "solver path");
+        goto done;
+    }
+    ours_frame of = {solver, e, NULL, b, LRR_OK, 0};
+    if (time_frames(ours_step, &of, a->repeat, &r->ours)) {
+        rc = of.status != LRR_OK ? lib_fail(ctx, of.status, "lrr_solve") : CLI_EXIT_FAIL;
+        goto done;
+    }
+    if (lrr_solver_last_path(solver) != LRR_PATH_FULL) {
+        rc = bench_fail("%s: lrr_solve took the %s path, not the full one it was told to",
+                        label, path_name(lrr_solver_last_path(solver)));
+        goto done;
+    }
+    /* the default path, for an emission that changes every frame (into its own buffer) */
+    {
+        float *e_half = cli_alloc_rgb(r->n), *b_auto = cli_alloc_rgb(r->n);
+        if (!e_half || !b_auto) {
+            free(e_half);
+            free(b_auto);
+            rc = CLI_EXIT_FAIL;
+            goto done;
+        }
+        for (size_t i = 0; i < 3 * r->n; i++)
+            e_half[i] = 0.5f * e[i];
+        ours_frame af = {solver, e, e_half, b_auto, LRR_OK, 0};
+        if ((s = lrr_solver_set_path(solver, LRR_PATH_AUTO)) != LRR_OK)
+            af.status = s;
+        int arc = s != LRR_OK || time_frames(ours_step, &af, a->repeat, &r->ours_auto);
+        snprintf(r->auto_path, sizeof r->auto_path, "%s",
+                 path_name(lrr_solver_last_path(solver)));
+        free(e_half);
+        free(b_auto);
+        if (arc) {
+            rc = lib_fail(ctx, af.status, "lrr_solve (auto path)");
+            goto done;
+        }
+    }
+    for (size_t i = 0; i < 3 * r->n; i++)
+        if (!isfinite(b[i])) {
+            rc = bench_fail("%s: lrr_solve gave a non-finite value at subpatch %zu", label,
+                            i / 3);
+            goto done;
+        }
+
+    /* the paper's method */
+    if ((rc = paper_setup(op, e, &pf)))
+        goto done;
+    if ((rc = time_frames(paper_step, &pf, a->repeat, &r->paper)))
+        goto done;
+    {
+        double num = 0, den = 0;
+        for (size_t i = 0; i < r->n; i++)
+            for (int ch = 0; ch < 3; ch++) {
+                double dlt = (double)pf.b[ch][i] - b[3 * i + ch];
+                num += dlt * dlt;
+                den += (double)b[3 * i + ch] * b[3 * i + ch];
+            }
+        r->paper_vs_ours = den > 0 ? sqrt(num / den) : sqrt(num);
+        if (!(r->paper_vs_ours < PAPER_MATCH_TOL))
+            rc = bench_fail("error: %s: the paper's method and lrr_solve disagree: relative "
+                            "L2 %.3g >= %g (they are the same operator)",
+                            label, r->paper_vs_ours, PAPER_MATCH_TOL);
+    }
+    /* three plain sgemv, with z_c = M_c Vᵀ E_c as the vectors */
+    sf.n = pf.n;
+    sf.k = pf.k;
+    sf.fbar = lrr_operator_fbar(op);
+    for (int ch = 0; ch < 3; ch++) {
+        sf.z[ch] = alloc_floats(r->k, 1);
+        sf.out[ch] = pf.b[ch]; /* reuse: the paper's check is done */
+        if (!sf.z[ch]) {
+            rc = bench_fail("cannot allocate z");
+            goto done;
+        }
+        cblas_sgemv(CblasRowMajor, CblasTrans, pf.n, pf.k, 1.0f, pf.v, pf.k, pf.e[ch], 1, 0.0f,
+                    pf.w, 1);
+        cblas_sgemv(CblasRowMajor, CblasNoTrans, pf.k, pf.k, 1.0f,
+                    lrr_operator_m(op) + (size_t)ch * r->k * r->k, pf.k, pf.w, 1, 0.0f, sf.z[ch],
+                    1);
+    }
+    lrr_aligned_free(pf.v); /* V and Y are not needed any more */
+    pf.v = NULL;
+    for (int ch = 0; ch < 3; ch++) {
+        lrr_aligned_free(pf.y[ch]);
+        pf.y[ch] = NULL;
+    }
+    int rc3 = time_frames(sgemv_step, &sf, a->repeat, &r->sgemv3);
+    if (rc3) {
+        rc = rc3;
+        goto done;
+    }
+    note("%s: ms ours %.3f (auto %.3f, %s), paper %.3f, 3 sgemv %.3f", label, r->ours.median,
+         r->ours_auto.median, r->auto_path, r->paper.median, r->sgemv3.median);
+
+    /* error against the n×n reference (the paper arrays are freed first) */
+    for (int ch = 0; ch < 3; ch++) {
+        lrr_aligned_free(sf.z[ch]);
+        sf.z[ch] = NULL;
+    }
+    paper_free(&pf);
+    lrr_solver_destroy(solver);
+    solver = NULL;
+    int rce = reference_error(ctx, scene, &bo, a->budget, b, r, label);
+    if (rce)
+        rc = rce;
+done:
+    for (int ch = 0; ch < 3; ch++)
+        lrr_aligned_free(sf.z[ch]);
+    paper_free(&pf);
+    lrr_solver_destroy(solver);
+    free(b);
+    lrr_operator_destroy(op);
+    lrr_scene_destroy(scene);
+    return rc;
+}
+
+/* ---------------------------------------------------------------- output */
+static const char table_csv_header[] =
+    "n,k,d,mem_mb,mem_mb_paper,preprocess_s,rt_ms_ours,rt_ms_paper,rt_ms_3sgemv,floor_ms,"
+    "rel_l2,max_rel,"
+    "rt_ms_ours_min,rt_ms_ours_max,rt_ms_paper_min,rt_ms_paper_max,rt_ms_3sgemv_min,"
+    "rt_ms_3sgemv_max,runs_ours,runs_paper,runs_3sgemv,n_target,k_target,d_target,"
+    "mem_mib_paper,bandwidth_gbs,reference_s,rel_l2_reflected,paper_vs_ours,cond_r,cond_g,"
+    "cond_b,threads,rt_ms_ours_auto,rt_ms_ours_auto_min,rt_ms_ours_auto_max,auto_path,kernel,"
+    "floor_ms_full\n";
+
+static int write_table_csv(const char *path, const cell_result *res, size_t count)
+{
+    cli_outfile out;
+    if (cli_outfile_open(&out, path) != 0)
+        return bench_fail("cannot create a temporary file for '%s': %s", path, strerror(errno));
+    fputs(table_csv_header, out.f);
+    for (size_t i = 0; i < count; i++) {
+        const cell_result *r = &res[i];
+        fprintf(out.f, "%zu,%zu,%zu,", r->n, r->k, r->d);
+        const double v[] = {r->mem_mb, r->mem_mb_paper, r->preprocess_s, r->ours.median,
+                            r->paper.median, r->sgemv3.median, r->floor_ms, r->rel_l2,
+                            r->max_rel, r->ours.min, r->ours.max, r->paper.min, r->paper.max,
+                            r->sgemv3.min, r->sgemv3.max};
+        for (size_t j = 0; j < sizeof v / sizeof v[0]; j++)
+            csv_num(out.f, v[j], 0);
+        fprintf(out.f, "%zu,%zu,%zu,%zu,%zu,%zu,", r->ours.runs, r->paper.runs, r->sgemv3.runs,
+                r->target.n, r->target.k, r->target.d);
+        const double w[] = {r->mem_mib_paper, r->bandwidth_gbs, r->reference_s,
+                            r->rel_l2_reflected, r->paper_vs_ours, r->cond[0], r->cond[1],
+                            r->cond[2]};
+        for (size_t j = 0; j < sizeof w / sizeof w[0]; j++)
+            csv_num(out.f, w[j], 0);
+        fprintf(out.f, "%d,", r->threads);
+        csv_num(out.f, r->ours_auto.median, 0);
+        csv_num(out.f, r->ours_auto.min, 0);
+        csv_num(out.f, r->ours_auto.max, 0);
+        fprintf(out.f, "%s,%s,", r->auto_path, r->kernel);
+        csv_num(out.f, r->floor_ms_full, 1);
+    }
+    if (cli_outfile_commit(&out) != 0)
+        return bench_fail("cannot write '%s': %s", path, strerror(errno));
+    return 0;
+}
+
+/* Returns 0, 1 when no cell has an error to plot (nothing written), -1 on failure. */
+static int write_table_plot(const char *path, const table_args *a, const cell_result *res,
+                            size_t count)
+{
+    double *x = calloc(count + 1, sizeof *x), *x2 = calloc(count + 1, sizeof *x2);
+    double *y = calloc(count + 1, sizeof *y);
+    const char **labels = calloc(count + 1, sizeof *labels);
+    int rc = -1;
+    if (!x || !x2 || !y || !labels) {
+        bench_fail("cannot allocate the plot's points");
+        goto out;
+    }
+    size_t m = 0;
+    for (size_t i = 0; i < count; i++) {
+        if (!(isfinite(res[i].rel_l2) && res[i].rel_l2 > 0))
+            continue;
+        x[m] = res[i].ours.median;
+        x2[m] = res[i].paper.median;
+        y[m] = res[i].rel_l2;
+        labels[m] = res[i].label;
+        m++;
+    }
+    if (m == 0) {
+        rc = 1;
+        goto out;
+    }
+    char title[256];
+    snprintf(title, sizeof title, "%s: error against real-time step (hemicube %u, %d threads)",
+             a->scene, a->hemicube, omp_get_max_threads());
+    plot_series series[2] = {
+        {"ours (lrr_solve, full path)", x, y, labels, m, {31, 119, 180}, PLOT_CIRCLE},
+        {"paper's method (6 sgemv)", x2, y, NULL, m, {255, 127, 14}, PLOT_SQUARE}};
+    plot_spec spec = {title, "real-time step per frame [ms]",
+                      "relative L2 error vs n×n Gauss-Seidel", 0, 0, series, 2, 1};
+    if (plot_write_png(&spec, path) != 0)
+        bench_fail("cannot write '%s': %s", path, strerror(errno));
+    else
+        rc = 0;
+out:
+    free(x);
+    free(x2);
+    free(y);
+    free(labels);
+    return rc;
+}
+
+static void print_table_header(void)
+{
+    printf("\n%7s %5s %5s %8s %8s %7s %26s %26s %26s %8s %9s %9s %18s  %s\n", "n", "k", "d",
+           "mem_MB", "paper_MB", "prep_s", "ours_ms (min-max)", "paper_ms (min-max)",
+           "3sgemv_ms (min-max)", "floor_ms", "rel_l2", "max_rel", "auto_ms (path)", "note");
+}
+
+static void print_table_row(const cell_result *r)
+{
+    char t[3][128], e1[24], e2[24], fl[32];
+    const timing *tm[3] = {&r->ours, &r->paper, &r->sgemv3};
+    for (int i = 0; i < 3; i++) {
+        char med[32], lo[32], hi[32];
+        fmt_ms(med, sizeof med, tm[i]->median);
+        fmt_ms(lo, sizeof lo, tm[i]->min);
+        fmt_ms(hi, sizeof hi, tm[i]->max);
+        snprintf(t[i], sizeof t[i], "%s (%s-%s)", med, lo, hi);
+    }
+    fmt_ms(fl, sizeof fl, r->floor_ms);
+    if (isnan(r->rel_l2)) {
+        snprintf(e1, sizeof e1, "n/a");
+        snprintf(e2, sizeof e2, "n/a");
+    } else {
+        snprintf(e1, sizeof e1, "%.3g", r->rel_l2);
+        snprintf(e2, sizeof e2, "%.3g", r->max_rel);
+    }
+    char am[32], au[64];
+    fmt_ms(am, sizeof am, r->ours_auto.median);
+    snprintf(au, sizeof au, "%s (%s)", am, r->auto_path);
+    printf("%7zu %5zu %5zu %8.1f %8.1f %7.2f %26s %26s %26s %8s %9s %9s %18s  %s\n", r->n, r->k,
+           r->d, r->mem_mb, r->mem_mb_paper, r->preprocess_s, t[0], t[1], t[2], fl, e1, e2, au,
+           r->note);
+    fflush(stdout);
+}
+
+int cmd_table(int argc, char *argv[])
+{
+    static const char prog[] = "lrr-bench table";
+    static const struct option longopts[] = {
+        {"scene", required_argument, NULL, OPT_SCENE},
+        {"cells", required_argument, NULL, OPT_CELLS},
+        {"hemicube", required_argument, NULL, OPT_HEMICUBE},
+        {"seed", required_argument, NULL, OPT_SEED},
+        {"csv", required_argument, NULL, OPT_CSV},
+        {"plot", required_argument, NULL, OPT_PLOT},
+        {"memory-budget", required_argument, NULL, OPT_MEMORY_BUDGET},
+        {"repeat", required_argument, NULL, OPT_REPEAT},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    table_args a = {.scene = "cornell", .hemicube = DEFAULT_HEMICUBE, .seed = DEFAULT_SEED,
+                    .budget = (size_t)DEFAULT_BUDGET_MIB << 20};
+    int rc = CLI_EXIT_USAGE;
+    size_t budget_mib = DEFAULT_BUDGET_MIB;
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        switch (c) {
+        case 'h':
+            fputs(table_help, stdout);
+            free(a.cells);
+            return CLI_EXIT_OK;
+        case OPT_SCENE:
+            a.scene = optarg;
+            break;
+        case OPT_CELLS:
+            if (parse_cells(prog, optarg, &a.cells, &a.n_cells, &a.cells_name) != 0)
+                goto out;
+            break;
+        case OPT_HEMICUBE:
+            if (cli_parse_unsigned(prog, "--hemicube", optarg, 8, 4096, &a.hemicube) != 0)
+                goto out;
+            if (a.hemicube % 2) {
+                cli_usage_error(prog, "--hemicube: %u is odd (it must be even)", a.hemicube);
+                goto out;
+            }
+            break;
+        case OPT_SEED:
+            if (cli_parse_u64(prog, "--seed", optarg, 0, UINT64_MAX, &a.seed) != 0)
+                goto out;
+            break;
+        case OPT_CSV:
+            a.csv = optarg;
+            break;
+        case OPT_PLOT:
+            a.plot = optarg;
+            break;
+        case OPT_MEMORY_BUDGET:
+            if (cli_parse_size(prog, "--memory-budget", optarg, 1, SIZE_MAX >> 20, &budget_mib) !=
+                0)
+                goto out;
+            a.budget = budget_mib << 20;
+            break;
+        case OPT_REPEAT:
+            if (cli_parse_unsigned(prog, "--repeat", optarg, 1, 1000000, &a.repeat) != 0)
+                goto out;
+            break;
+        default:
+            rc = bad_option(prog, c, argv);
+            goto out;
+        }
+    }
+    if (no_positional(prog, argc, argv))
+        goto out;
+    if ((a.csv && !a.csv[0]) || (a.plot && !a.plot[0])) {
+        cli_usage_error(prog, "--csv/--plot: the file name is empty");
+        goto out;
+    }
+    if (!a.cells && parse_cells(prog, "paper", &a.cells, &a.n_cells, &a.cells_name) != 0) {
+        rc = bench_fail("out of memory");
+        goto out;
+    }
+
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK) {
+        rc = lib_fail(NULL, s, "context");
+        goto out;
+    }
+    /* a scene that cannot be read fails now, not after the bandwidth measurement */
+    lrr_scene *probe = NULL;
+    if ((rc = open_scene(ctx, a.scene, &probe)) != CLI_EXIT_OK) {
+        lrr_context_destroy(ctx);
+        goto out;
+    }
+    lrr_scene_destroy(probe);
+    cell_result *res = calloc(a.n_cells, sizeof *res);
+    if (!res) {
+        lrr_context_destroy(ctx);
+        rc = bench_fail("out of memory");
+        goto out;
+    }
+    double t_start = cli_now();
+    printf("benchmark: table\n");
+    print_machine();
+    printf("scene: %s\n", a.scene);
+    printf("cells: %s (%zu)\n", a.cells_name ? a.cells_name : "paper", a.n_cells);
+    printf("hemicube: %u\n", a.hemicube);
+    printf("seed: %llu\n", (unsigned long long)a.seed);
+    printf("memory_budget_mib: %zu\n", a.budget >> 20);
+    fflush(stdout);
+    size_t llc = llc_bytes(), bw_bytes = bandwidth_buffer_bytes();
+    printf("llc_mib: %zu\n", llc >> 20);
+    note("measuring the read bandwidth (%d passes over %zu MiB)", BANDWIDTH_PASSES,
+         bw_bytes >> 20);
+    double bw = measure_bandwidth(bw_bytes);
+    if (bw > 0)
+        printf("read_bandwidth_gbs: %.2f (OpenMP sum over %zu MiB, best of %d, %d threads)\n",
+               bw / 1e9, bw_bytes >> 20, BANDWIDTH_PASSES, omp_get_max_threads());
+    else
+        printf("read_bandwidth_gbs: nan (cannot allocate %zu MiB)\n", bw_bytes >> 20);
+    printf("units: memory in MB = 10^6 bytes; times in ms per frame (median (min-max)); "
+           "floor = F̄ bytes / read bandwidth\n");
+    print_table_header();
+    fflush(stdout);
+
+    rc = CLI_EXIT_OK;
+    size_t done = 0;
+    for (size_t i = 0; i < a.n_cells; i++) {
+        int crc = run_cell(ctx, &a, &a.cells[i], i, bw, &res[done]);
+        if (crc && res[done].n == 0) { /* nothing measured: stop */
+            rc = crc;
+            break;
+        }
+        if (crc)
+            rc = crc; /* a failed check: keep the row, report it, carry on */
+        print_table_row(&res[done]);
+        done++;
+        if (a.csv && write_table_csv(a.csv, res, done) != 0) {
+            rc = CLI_EXIT_FAIL;
+            break;
+        }
+        if (a.plot && write_table_plot(a.plot, &a, res, done) < 0) {
+            rc = CLI_EXIT_FAIL;
+            break;
+        }
+    }
+    printf("\ntotal_seconds: %.1f\n", cli_now() - t_start);
+    if (a.csv && done)
+        printf("csv: %s\n", a.csv);
+    if (a.plot && done) {
+        int prc = write_table_plot(a.plot, &a, res, done);
+        if (prc == 0)
+            printf("plot: %s\n", a.plot);
+        else if (prc == 1) {
+            bench_fail("--plot %s: no cell has an error estimate (all n/a), nothing plotted",
+                       a.plot);
+            rc = CLI_EXIT_FAIL;
+        } else
+            rc = CLI_EXIT_FAIL;
+    }
+    free(res);
+    lrr_context_destroy(ctx);
+out:
+    free(a.cells);
+    return rc;
+}
