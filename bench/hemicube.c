@@ -20,9 +20,9 @@ static const char hemicube_help[] =
     "against the exact point-to-polygon form factors (Lambert) averaged over the same\n"
     "subpatch centres (the hemicube's own error, without the quadrature's), and the relative\n"
     "L2 difference of the Cornell F̄ from an R = 512 build.\n"
-    "The library always applies its random rotation about the normal (there is no API to\n"
-    "turn it off), so every row is 'with rotation'; rows for several seeds show how much\n"
-    "the rotation changes the result.\n"
+    "Each R is run with the random rotation about the normal (one row per seed) and without\n"
+    "it (lrr_build_options.no_rotation: every hemicube in the same tangent frame, so the\n"
+    "pixel grid's aliasing lines up across receivers instead of averaging out).\n"
     "\n"
     "Options:\n"
     "  --csv OUT.csv        R,seed,rotation,cornell_preprocess_s,f_parallel,err_parallel,\n"
@@ -109,7 +109,7 @@ typedef struct ff_result {
 /* Area-averaged form factor from the receiver square to the other, from F̄·d, with the exact
  * point-to-polygon value at the same subpatch centres. */
 static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned levels,
-                              unsigned R, uint64_t seed, ff_result *out)
+                              unsigned R, uint64_t seed, int no_rotation, ff_result *out)
 {
     float v[36], rho[12], em[12] = {0};
     for (int i = 0; i < 12; i++)
@@ -121,7 +121,7 @@ static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned 
     lrr_status s = lrr_scene_create(ctx, 4, v, rho, em, "squares", &scene);
     if (s == LRR_OK)
         s = lrr_scene_subdivide(scene, &(lrr_subdivision){0.0, 0, levels});
-    lrr_build_options bo = {.hemicube_resolution = R, .seed = seed};
+    lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
     double t0 = cli_now();
     if (s == LRR_OK)
         s = lrr_operator_build(scene, &bo, &op);
@@ -158,14 +158,14 @@ static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned 
     return 0;
 }
 
-static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, lrr_operator **op,
-                        double *seconds)
+static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, int no_rotation,
+                        lrr_operator **op, double *seconds)
 {
     lrr_scene *scene = NULL;
     lrr_status s = lrr_scene_builtin(ctx, "cornell", &scene);
     if (s == LRR_OK)
         s = lrr_scene_subdivide(scene, &(lrr_subdivision){0.0, 216, 1});
-    lrr_build_options bo = {.hemicube_resolution = R, .seed = seed};
+    lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
     cli_progress bar;
     progress_begin(&bar, "hemicubes", &bo);
     double t0 = cli_now();
@@ -233,14 +233,14 @@ int cmd_hemicube(int argc, char *argv[])
     const double perp_exact = perpendicular_closed_form(1, 1);
     printf("benchmark: hemicube\n");
     print_machine();
-    printf("rotation: always on (the library has no switch); rows differ by seed\n");
+    printf("rotation: with (one row per seed) and without (lrr_build_options.no_rotation)\n");
     printf("closed_form_parallel: %.6f\n", par_exact);
     printf("closed_form_perpendicular: %.6f\n", perp_exact);
     printf("square_subpatches: %u per triangle (levels %u)\n", 1u << (2 * levels), levels);
     note("Cornell box reference build at R = %u", ref_res);
     lrr_operator *ref = NULL;
     double ref_s = 0;
-    if (cornell_fbar(ctx, ref_res, 1, &ref, &ref_s)) {
+    if (cornell_fbar(ctx, ref_res, 1, 0, &ref, &ref_s)) {
         lrr_context_destroy(ctx);
         return CLI_EXIT_FAIL;
     }
@@ -267,12 +267,14 @@ int cmd_hemicube(int argc, char *argv[])
            "prep_s", "F_par", "err_par", "err_par_q", "F_perp", "err_perp", "err_perp_q",
            "cornell_L2");
     for (size_t i = 0; i < n_res && rc == CLI_EXIT_OK; i++)
-        for (unsigned sd = 1; sd <= seeds && rc == CLI_EXIT_OK; sd++) {
+        for (unsigned sd = 1; sd <= seeds + 1 && rc == CLI_EXIT_OK; sd++) {
+            /* seeds 1..N with the rotation, then one row without it (its seed is moot) */
+            const int norot = sd == seeds + 1;
             unsigned R = res[i];
-            note("R = %u, seed %u", R, sd);
+            note("R = %u, %s %u", R, norot ? "no rotation, row" : "seed", sd);
             ff_result par, perp;
-            if ((rc = square_form_factor(ctx, &parallel_pair, levels, R, sd, &par)) ||
-                (rc = square_form_factor(ctx, &perpendicular_pair, levels, R, sd, &perp)))
+            if ((rc = square_form_factor(ctx, &parallel_pair, levels, R, sd, norot, &par)) ||
+                (rc = square_form_factor(ctx, &perpendicular_pair, levels, R, sd, norot, &perp)))
                 break;
             if (!printed_quad) {
                 printf("# quadrature (exact point form factors at the receivers' centres): "
@@ -282,7 +284,7 @@ int cmd_hemicube(int argc, char *argv[])
             }
             lrr_operator *op = NULL;
             double prep = 0;
-            if ((rc = cornell_fbar(ctx, R, sd, &op, &prep)))
+            if ((rc = cornell_fbar(ctx, R, sd, norot, &op, &prep)))
                 break;
             const float *a = lrr_operator_fbar(op), *bref = lrr_operator_fbar(ref);
             double num = 0, den = 0;
@@ -295,12 +297,16 @@ int cmd_hemicube(int argc, char *argv[])
             double l2 = sqrt(num / den);
             double ep = par.f / par_exact - 1, epq = par.f / par.quad - 1;
             double er = perp.f / perp_exact - 1, erq = perp.f / perp.quad - 1;
-            printf("%5u %5u %8s %9.3f %10.6f %+10.2e %+10.2e %10.6f %+10.2e %+10.2e %12.3e\n", R,
-                   sd, "yes", prep, par.f, ep, epq, perp.f, er, erq, l2);
+            char seed_text[16];
+            snprintf(seed_text, sizeof seed_text, "%u", sd);
+            printf("%5u %5s %8s %9.3f %10.6f %+10.2e %+10.2e %10.6f %+10.2e %+10.2e %12.3e\n", R,
+                   norot ? "-" : seed_text, norot ? "no" : "yes", prep, par.f, ep, epq, perp.f,
+                   er, erq, l2);
             fflush(stdout);
             if (have_out)
-                fprintf(out.f, "%u,%u,yes,%.6g,%.9g,%.6g,%.6g,%.9g,%.6g,%.6g,%.6g,%zu,%zu\n", R, sd,
-                        prep, par.f, ep, epq, perp.f, er, erq, l2, ri.n, ri.k);
+                fprintf(out.f, "%u,%s,%s,%.6g,%.9g,%.6g,%.6g,%.9g,%.6g,%.6g,%.6g,%zu,%zu\n", R,
+                        norot ? "nan" : seed_text, norot ? "no" : "yes", prep, par.f, ep, epq,
+                        perp.f, er, erq, l2, ri.n, ri.k);
         }
     printf("\ntotal_seconds: %.1f\n", cli_now() - t_start);
     if (have_out) {

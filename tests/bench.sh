@@ -161,9 +161,10 @@ fi
 # ---------------------------------------------------------------- hemicube
 HCSV="$T/hemicube.csv"
 run hemicube --quick --csv "$HCSV"
-if [ "$rc" -eq 0 ] && [ -f "$HCSV" ] && [ "$(($(wc -l <"$HCSV") - 1))" -eq 2 ] &&
-    awk -F, 'NR > 1 { for (i = 5; i <= 11; i++) if ($i !~ /^[-+0-9.eE]+$/) exit 1 }' "$HCSV"; then
-    pass "hemicube --quick: 2 rows of finite numbers"
+if [ "$rc" -eq 0 ] && [ -f "$HCSV" ] && [ "$(($(wc -l <"$HCSV") - 1))" -eq 4 ] &&
+    awk -F, 'NR > 1 { for (i = 5; i <= 11; i++) if ($i !~ /^[-+0-9.eE]+$/) exit 1 }' "$HCSV" &&
+    [ "$(awk -F, 'NR > 1 && $3 == "no"' "$HCSV" | wc -l)" -eq 2 ]; then
+    pass "hemicube --quick: 4 rows of finite numbers, 2 without the rotation"
 else
     fail "hemicube --quick: exit $rc"
     show_err
