@@ -42,6 +42,7 @@
  * fill 24 of AVX-512's 32 registers; 4 × 3 fill AVX2's 16 with z and the row load. */
 #define ROWS_AVX2 4
 #define ROWS_AVX512 8
+_Static_assert(3 * ROWS_AVX512 % 4 == 0, "epilogue8 sums four dot products per hadd round");
 
 /* ------------------------------------------------------------------ portable C */
 
@@ -218,6 +219,7 @@ __attribute__((target("avx2,fma"))) static void fbar_rows_avx2(const float *fbar
     {                                                                                           \
         const float *zr = z, *zg = z + k, *zb = z + 2 * k;                                      \
         const size_t kv = k & ~(size_t)7;                                                       \
+        const __m256i tm = tail_mask256(k - kv);                                                \
         size_t i = i0;                                                                          \
         for (; i + ROWS_AVX2 <= i1; i += ROWS_AVX2) {                                           \
             const uint16_t *f0 = fbar + i * k;                                                  \
@@ -235,18 +237,23 @@ __attribute__((target("avx2,fma"))) static void fbar_rows_avx2(const float *fbar
                     acc[q][2] = _mm256_fmadd_ps(x, b, acc[q][2]);                               \
                 }                                                                               \
             }                                                                                   \
-            for (int q = 0; q < ROWS_AVX2; q++) {                                               \
-                float t[3] = {hsum256(acc[q][0]), hsum256(acc[q][1]), hsum256(acc[q][2])};      \
-                const uint16_t *fq = f0 + q * k;                                                \
-                for (size_t p = kv; p < k; p++) {                                               \
-                    float x = BF16 ? lrr__bf16_to_f32(fq[p]) : lrr__f16_to_f32(fq[p]);          \
-                    t[0] += x * zr[p], t[1] += x * zg[p], t[2] += x * zb[p];                    \
-                }                                                                               \
-                for (int c = 0; c < 3; c++) {                                                   \
-                    size_t j = 3 * (i + q) + c;                                                 \
-                    B[j] = E[j] + rho[j] * (scale[i + q] * t[c]);                               \
+            if (kv < k) { /* the tail through a zero-padded copy: no scalar decoding */         \
+                __m256 r = _mm256_maskload_ps(zr + kv, tm), g = _mm256_maskload_ps(zg + kv, tm), \
+                       b = _mm256_maskload_ps(zb + kv, tm);                                     \
+                for (int q = 0; q < ROWS_AVX2; q++) {                                           \
+                    uint16_t pad[8] = {0};                                                      \
+                    memcpy(pad, f0 + q * k + kv, (k - kv) * sizeof(uint16_t));                  \
+                    __m256 x = LOAD8(pad);                                                      \
+                    acc[q][0] = _mm256_fmadd_ps(x, r, acc[q][0]);                               \
+                    acc[q][1] = _mm256_fmadd_ps(x, g, acc[q][1]);                               \
+                    acc[q][2] = _mm256_fmadd_ps(x, b, acc[q][2]);                               \
                 }                                                                               \
             }                                                                                   \
+            for (int q = 0; q < ROWS_AVX2; q++)                                                 \
+                for (int c = 0; c < 3; c++) {                                                   \
+                    size_t j = 3 * (i + q) + c;                                                 \
+                    B[j] = E[j] + rho[j] * (scale[i + q] * hsum256(acc[q][c]));                 \
+                }                                                                               \
         }                                                                                       \
         if (i < i1)                                                                             \
             half_rows_c(fbar, scale, BF16, i, i1, k, z, E, rho, B);                             \
@@ -301,6 +308,35 @@ __attribute__((target("avx2,fma"))) static void gemv_rows_avx2(const float *a, s
 
 /* ------------------------------------------------------------------ AVX-512 */
 
+/* The epilogue of an 8-row group: the 24 accumulators (row-major r, g, b) are summed by a
+ * halving tree (512 → 128 bits, then two rounds of hadd), which leaves the 24 dot products
+ * in the order of B itself, so B = E + rho ∘ (scale ∘ t) is six 4-wide multiply-adds. Twenty-four
+ * separate _mm512_reduce_add_ps cost about twice the instructions, which short rows
+ * (k = 216: 14 vector steps per row) do not amortise. scale: one per row, or NULL. */
+__attribute__((target("avx512f"))) static inline void epilogue8(__m512 acc[ROWS_AVX512][3],
+                                                                const float *E,
+                                                                const float *rho,
+                                                                const float *scale, float *B)
+{
+    __m128 v[3 * ROWS_AVX512];
+    for (int q = 0; q < ROWS_AVX512; q++)
+        for (int c = 0; c < 3; c++) {
+            __m512 a = acc[q][c];
+            __m256 hi = _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(a), 1));
+            __m256 h = _mm256_add_ps(_mm512_castps512_ps256(a), hi);
+            v[3 * q + c] = _mm_add_ps(_mm256_castps256_ps128(h), _mm256_extractf128_ps(h, 1));
+        }
+    for (int j = 0; j < 3 * ROWS_AVX512 / 4; j++) {
+        __m128 t = _mm_hadd_ps(_mm_hadd_ps(v[4 * j], v[4 * j + 1]),
+                               _mm_hadd_ps(v[4 * j + 2], v[4 * j + 3]));
+        if (scale)
+            t = _mm_mul_ps(t, _mm_set_ps(scale[(4 * j + 3) / 3], scale[(4 * j + 2) / 3],
+                                         scale[(4 * j + 1) / 3], scale[(4 * j) / 3]));
+        _mm_storeu_ps(B + 4 * j, _mm_add_ps(_mm_loadu_ps(E + 4 * j),
+                                            _mm_mul_ps(_mm_loadu_ps(rho + 4 * j), t)));
+    }
+}
+
 __attribute__((target("avx512f"))) static void fbar_rows_avx512(const float *fbar, size_t i0,
                                                                  size_t i1, size_t k,
                                                                  const float *z, const float *E,
@@ -336,11 +372,7 @@ __attribute__((target("avx512f"))) static void fbar_rows_avx512(const float *fba
                 acc[q][2] = _mm512_fmadd_ps(x, b, acc[q][2]);
             }
         }
-        for (int q = 0; q < ROWS_AVX512; q++)
-            for (int c = 0; c < 3; c++) {
-                size_t j = 3 * (i + q) + c;
-                B[j] = E[j] + rho[j] * _mm512_reduce_add_ps(acc[q][c]);
-            }
+        epilogue8(acc, E + 3 * i, rho + 3 * i, NULL, B + 3 * i);
     }
     if (i < i1)
         fbar_rows_c(fbar, i, i1, k, z, E, rho, B);
@@ -354,16 +386,17 @@ __attribute__((target("avx512f"))) static void fbar_rows_avx512(const float *fba
     {                                                                                           \
         const float *zr = z, *zg = z + k, *zb = z + 2 * k;                                      \
         const size_t kv = k & ~(size_t)15;                                                      \
+        const __mmask16 tm = (__mmask16)((1u << (k - kv)) - 1);                                 \
         size_t i = i0;                                                                          \
-        for (; i + ROWS_AVX512 <= i1; i += ROWS_AVX512) {                                                           \
+        for (; i + ROWS_AVX512 <= i1; i += ROWS_AVX512) {                                       \
             const uint16_t *f0 = fbar + i * k;                                                  \
-            __m512 acc[ROWS_AVX512][3];                                                                   \
-            for (int q = 0; q < ROWS_AVX512; q++)                                                         \
+            __m512 acc[ROWS_AVX512][3];                                                         \
+            for (int q = 0; q < ROWS_AVX512; q++)                                               \
                 acc[q][0] = acc[q][1] = acc[q][2] = _mm512_setzero_ps();                        \
             for (size_t p = 0; p < kv; p += 16) {                                               \
                 __m512 r = _mm512_loadu_ps(zr + p), g = _mm512_loadu_ps(zg + p),               \
                        b = _mm512_loadu_ps(zb + p);                                             \
-                for (int q = 0; q < ROWS_AVX512; q++) {                                                   \
+                for (int q = 0; q < ROWS_AVX512; q++) {                                         \
                     _mm_prefetch((const char *)(f0 + q * k + p) + PREFETCH, _MM_HINT_T0);       \
                     __m512 x = LOAD16(f0 + q * k + p);                                          \
                     acc[q][0] = _mm512_fmadd_ps(x, r, acc[q][0]);                               \
@@ -371,19 +404,20 @@ __attribute__((target("avx512f"))) static void fbar_rows_avx512(const float *fba
                     acc[q][2] = _mm512_fmadd_ps(x, b, acc[q][2]);                               \
                 }                                                                               \
             }                                                                                   \
-            for (int q = 0; q < ROWS_AVX512; q++) {                                                       \
-                float t[3] = {_mm512_reduce_add_ps(acc[q][0]), _mm512_reduce_add_ps(acc[q][1]), \
-                              _mm512_reduce_add_ps(acc[q][2])};                                 \
-                const uint16_t *fq = f0 + q * k;                                                \
-                for (size_t p = kv; p < k; p++) {                                               \
-                    float x = BF16 ? lrr__bf16_to_f32(fq[p]) : lrr__f16_to_f32(fq[p]);          \
-                    t[0] += x * zr[p], t[1] += x * zg[p], t[2] += x * zb[p];                    \
-                }                                                                               \
-                for (int c = 0; c < 3; c++) {                                                   \
-                    size_t j = 3 * (i + q) + c;                                                 \
-                    B[j] = E[j] + rho[j] * (scale[i + q] * t[c]);                               \
+            if (kv < k) { /* the tail through a zero-padded copy: no scalar decoding */         \
+                __m512 r = _mm512_maskz_loadu_ps(tm, zr + kv),                                  \
+                       g = _mm512_maskz_loadu_ps(tm, zg + kv),                                  \
+                       b = _mm512_maskz_loadu_ps(tm, zb + kv);                                  \
+                for (int q = 0; q < ROWS_AVX512; q++) {                                         \
+                    uint16_t pad[16] = {0};                                                     \
+                    memcpy(pad, f0 + q * k + kv, (k - kv) * sizeof(uint16_t));                  \
+                    __m512 x = LOAD16(pad);                                                     \
+                    acc[q][0] = _mm512_fmadd_ps(x, r, acc[q][0]);                               \
+                    acc[q][1] = _mm512_fmadd_ps(x, g, acc[q][1]);                               \
+                    acc[q][2] = _mm512_fmadd_ps(x, b, acc[q][2]);                               \
                 }                                                                               \
             }                                                                                   \
+            epilogue8(acc, E + 3 * i, rho + 3 * i, scale + i, B + 3 * i);                      \
         }                                                                                       \
         if (i < i1)                                                                             \
             half_rows_c(fbar, scale, BF16, i, i1, k, z, E, rho, B);                             \
