@@ -283,8 +283,9 @@ LRR_API LRR_NODISCARD lrr_status lrr_solve(lrr_solver *solver, const float *emis
 
 /* count frames at once (animation frames, light presets): emission and radiosity are
  * count×n×3, frame after frame. Every frame is validated first (an error names the frame
- * and leaves radiosity untouched). With float storage, at least 8 frames and F̄ of 32 MiB or
- * more, this is three small sgemm and one n×k×3·count sgemm (OpenBLAS) per 64 frames, which
+ * and leaves radiosity untouched). With float storage, at least 8 frames and F̄ larger than
+ * 32 MiB and than a quarter of the last-level cache, this is three small sgemm and one
+ * n×k×3·count sgemm (OpenBLAS) per 64 frames, which
  * is compute-bound rather than memory-bound (n = 55296, k = 864: 3.3 ms per frame for 16
  * frames against 8.0 ms one at a time); otherwise a loop of lrr_solve. */
 LRR_API LRR_NODISCARD lrr_status lrr_solve_batch(lrr_solver *solver, size_t count,
