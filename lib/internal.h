@@ -184,6 +184,27 @@ void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float 
  * F̄ of at least min_bytes), so small test operators can exercise both ways. */
 void lrr__solver_batch_thresholds(lrr_solver *s, size_t min_count, size_t min_bytes);
 
+/* ------------------------------------------------------------ OpenCL backend */
+/* Validates one frame of emission (3n entries): finite and >= 0, the message naming the
+ * subpatch and channel; shared by the CPU and OpenCL solvers so both say the same. */
+lrr_status lrr__emission_check(lrr_context *ctx, size_t n, const float *E);
+/* The error for entry `bad` of E (index 3·subpatch + channel). */
+lrr_status lrr__emission_error(lrr_context *ctx, const float *E, size_t bad);
+
+/* The device side of an OpenCL solver (solve_opencl.c); without OpenCL support create
+ * returns LRR_ERR_UNSUPPORTED. */
+typedef struct lrr__cl_solver lrr__cl_solver;
+lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out);
+void lrr__cl_destroy(lrr__cl_solver *cl);
+const char *lrr__cl_name(const lrr__cl_solver *cl); /* "opencl:<device name>" */
+/* One full pass for validated E: E up, three kernels, B down. */
+lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B);
+/* Tests only: the work-group-per-row kernel (GPUs) instead of item-per-row (CPU devices). */
+void lrr__cl_use_groups(lrr__cl_solver *cl, int groups);
+void lrr__solver_opencl_groups(lrr_solver *s, int groups);
+/* lib/kernels/realtime.cl as a string (generated at build time). */
+extern const char lrr__kernel_realtime_cl[];
+
 /* ------------------------------------------------------------ misc */
 /* Below about this many multiply-adds (or bytes touched) a parallel region costs more than it
  * saves: waking the OpenMP team takes microseconds when idle, and milliseconds on a loaded

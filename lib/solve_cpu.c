@@ -42,6 +42,7 @@ struct lrr_solver {
     const lrr_operator *op;
     lrr_backend backend;
     const lrr__kernel *kernel; /* SIMD variant, chosen once (environment LRR_SIMD forces one) */
+    lrr__cl_solver *cl;        /* LRR_BACKEND_OPENCL: every frame goes there (solve_opencl.c) */
     float *w;      /* 3×k, channel-major */
     float *z;      /* 3×k, channel-major: the right-hand sides of the n×k product */
     lrr_path path; /* requested path (LRR_PATH_AUTO chooses per frame) */
@@ -69,6 +70,7 @@ void lrr_solver_destroy(lrr_solver *s)
 {
     if (!s)
         return;
+    lrr__cl_destroy(s->cl);
     lrr_aligned_free(s->w);
     lrr_aligned_free(s->z);
     lrr_aligned_free(s->slot);
@@ -94,9 +96,23 @@ static size_t fbar_bytes(const lrr_operator *op)
 lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_solver **out)
 {
     *out = NULL;
-    if (backend == LRR_BACKEND_OPENCL)
-        return lrr__error(op->ctx, LRR_ERR_UNSUPPORTED,
-                          "the OpenCL backend is not built into this library");
+    if (backend == LRR_BACKEND_OPENCL) {
+        lrr__cl_solver *cl;
+        lrr_status st = lrr__cl_create(op, &cl);
+        if (st)
+            return st;
+        lrr_solver *s = calloc(1, sizeof *s);
+        if (!s) {
+            lrr__cl_destroy(cl);
+            return lrr__error(op->ctx, LRR_ERR_NOMEM, "cannot allocate a solver");
+        }
+        s->op = op;
+        s->cl = cl;
+        s->backend = backend;
+        s->path = s->last = LRR_PATH_FULL;
+        *out = s;
+        return LRR_OK;
+    }
     if (backend != LRR_BACKEND_CPU)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown backend %d", (int)backend);
     const lrr__kernel *kernel;
@@ -137,12 +153,16 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
 
 const char *lrr_solver_kernel(const lrr_solver *s)
 {
+    if (s->cl)
+        return lrr__cl_name(s->cl);
     return s->kernel->name;
 }
 
 lrr_status lrr_solver_set_cache(lrr_solver *s, size_t max_bytes)
 {
     const lrr_operator *op = s->op;
+    if (s->cl)
+        return LRR_OK; /* OpenCL solvers have no column cache */
     lrr_aligned_free(s->cols);
     lrr_aligned_free(s->slot);
     s->cols = NULL;
@@ -172,6 +192,9 @@ lrr_status lrr_solver_set_path(lrr_solver *s, lrr_path path)
 {
     if (path < LRR_PATH_AUTO || path > LRR_PATH_INCREMENTAL)
         return lrr__error(s->op->ctx, LRR_ERR_INVALID_ARG, "unknown path %d", (int)path);
+    if (s->cl && path != LRR_PATH_AUTO && path != LRR_PATH_FULL)
+        return lrr__error(s->op->ctx, LRR_ERR_UNSUPPORTED,
+                          "path %d: the OpenCL backend takes the full path only", (int)path);
     s->path = path;
     return LRR_OK;
 }
@@ -179,6 +202,29 @@ lrr_status lrr_solver_set_path(lrr_solver *s, lrr_path path)
 lrr_path lrr_solver_last_path(const lrr_solver *s)
 {
     return s->last;
+}
+
+lrr_status lrr__emission_error(lrr_context *ctx, const float *E, size_t bad)
+{
+    return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                      "emission of subpatch %zu, channel %zu = %g (must be finite and >= 0)",
+                      bad / 3, bad % 3, (double)E[bad]);
+}
+
+lrr_status lrr__emission_check(lrr_context *ctx, size_t n, const float *E)
+{
+    size_t bad = SIZE_MAX;
+    #pragma omp parallel for schedule(static) reduction(min : bad) if (3 * n >= LRR__PARALLEL_MIN)
+    for (size_t j = 0; j < 3 * n; j++)
+        if (!(E[j] >= 0.0f) || !isfinite(E[j]))
+            bad = bad < j ? bad : j;
+    return bad == SIZE_MAX ? LRR_OK : lrr__emission_error(ctx, E, bad);
+}
+
+void lrr__solver_opencl_groups(lrr_solver *s, int groups)
+{
+    if (s->cl)
+        lrr__cl_use_groups(s->cl, groups);
 }
 
 /* w = Vᵀ E (3×k), validating E; nz[p] = 1 where w_p ≠ 0 (m_emit of them). With prev, also
@@ -215,9 +261,7 @@ static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
         mc += s->ch[p];
     }
     if (bad != SIZE_MAX)
-        return lrr__error(op->ctx, LRR_ERR_INVALID_ARG,
-                          "emission of subpatch %zu, channel %zu = %g (must be finite and >= 0)",
-                          bad / 3, bad % 3, (double)E[bad]);
+        return lrr__emission_error(op->ctx, E, bad);
     *m_emit = me;
     *m_changed = mc;
     return LRR_OK;
@@ -310,6 +354,11 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
     const size_t n = op->n, k = op->k;
     if (E == B)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "emission and radiosity may not alias");
+    if (s->cl) {
+        /* validated here, before upload, so the message is the CPU solver's */
+        lrr_status st = lrr__emission_check(op->ctx, n, E);
+        return st ? st : lrr__cl_solve(s->cl, E, B);
+    }
     const int want_prev = s->path == LRR_PATH_AUTO || s->path == LRR_PATH_INCREMENTAL;
     if (want_prev && !s->e_prev) {
         lrr_status st;
@@ -457,9 +506,9 @@ lrr_status lrr_solve_batch(lrr_solver *s, size_t count, const float *E, float *B
                           "frame %zu: emission of subpatch %zu, channel %zu = %g (must be "
                           "finite and >= 0)",
                           bad / frame, bad % frame / 3, bad % 3, (double)E[bad]);
-    if (op->storage != LRR_STORAGE_F32 || count < s->gemm_min_count ||
+    if (s->cl || op->storage != LRR_STORAGE_F32 || count < s->gemm_min_count ||
         fbar_bytes(op) < s->gemm_min_bytes) {
-        /* one fused pass per frame (16-bit F̄ cannot go to sgemm) */
+        /* one fused pass per frame (16-bit F̄ cannot go to sgemm; OpenCL frames loop) */
         for (size_t f = 0; f < count; f++) {
             lrr_status st = lrr_solve(s, E + f * frame, B + f * frame);
             if (st)

@@ -65,7 +65,7 @@ help_mentions() {
 }
 help_mentions info --max-patch-area --patches --levels cornell
 help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage --no-rotation
-help_mentions solve --csv --emission-scale --repeat --path
+help_mentions solve --csv --emission-scale --repeat --path --backend LRR_OPENCL_DEVICE
 help_mentions render -o --width --height --exposure --emission-scale
 help_mentions demo --out
 help_mentions reference --method jacobi gauss-seidel southwell direct --tol --max-iterations \
@@ -238,6 +238,32 @@ for p in full sparse incremental auto; do
 done
 run solve "$LRRFILE" --path sideways
 expect_rc 2 "solve --path sideways is a usage error"
+
+# The OpenCL backend gives the CPU's answer; skipped (with a PASS line saying so) where the
+# library has no OpenCL or the machine no OpenCL platform.
+run solve "$LRRFILE" --backend opencl --repeat 2
+m=$(value mean_b_r)
+if [ "$rc" -ne 0 ] && grep -Eq 'not built into|no OpenCL platform' "$T/err"; then
+    pass "solve --backend opencl: skipped, no OpenCL here ($(head -n 1 "$T/err"))"
+elif [ "$rc" -eq 0 ] && [ "$(value backend)" = opencl ] && awk -v a="$mean1" -v b="$m" \
+    'BEGIN { r = b - a; if (r < 0) r = -r; exit !(a > 0 && r <= 1e-5 * a) }'; then
+    pass "solve --backend opencl: kernel $(value kernel), mean_b_r = $m vs $mean1"
+else
+    fail "solve --backend opencl: mean_b_r '$m' vs '$mean1' (exit $rc)"
+    show_err
+fi
+LRR_OPENCL_DEVICE=no-such-device "$LRR" solve "$LRRFILE" --backend opencl --repeat 1 \
+    >"$T/out" 2>"$T/err"
+rc=$?
+if [ "$rc" -eq 1 ] && grep -Eq 'not built into|no OpenCL platform' "$T/err"; then
+    pass "LRR_OPENCL_DEVICE=no-such-device: skipped, no OpenCL here"
+elif [ "$rc" -eq 1 ] && grep -q 'LRR_OPENCL_DEVICE' "$T/err"; then
+    pass "LRR_OPENCL_DEVICE=no-such-device: exit 1 naming the variable"
+else
+    fail "LRR_OPENCL_DEVICE=no-such-device: exit $rc, stderr: $(cat "$T/err")"
+fi
+run solve "$LRRFILE" --backend gpu
+expect_rc 2 "solve --backend gpu is a usage error"
 LRR_SIMD=c "$LRR" solve "$LRRFILE" --repeat 1 >"$T/out" 2>"$T/err"
 rc=$?
 if [ "$rc" -eq 0 ] && [ "$(value kernel)" = c ]; then pass "LRR_SIMD=c forces the portable kernel"; else fail "LRR_SIMD=c: exit $rc, kernel '$(value kernel)'"; fi

@@ -52,6 +52,7 @@ enum {
     OPT_EMISSION_SCALE,
     OPT_REPEAT,
     OPT_PATH,
+    OPT_BACKEND,
     OPT_STORAGE,
     OPT_WIDTH,
     OPT_HEIGHT,
@@ -127,9 +128,10 @@ static const char preprocess_help[] =
 
 static const char solve_help[] =
     "Usage: lrr solve FILE.lrr [OPTIONS]\n"
-    "Solves B = E + rho ∘ (F̄ (M (Vᵀ E))) on the CPU for the emission stored in the file\n"
-    "and prints n, k, d, solve_ms (median of the timed runs, after one warm-up run),\n"
-    "mean_b_r, mean_b_g, mean_b_b (area-weighted mean radiosity) and max_b.\n"
+    "Solves B = E + rho ∘ (F̄ (M (Vᵀ E))) on the CPU (or an OpenCL device, --backend) for\n"
+    "the emission stored in the file and prints n, k, d, solve_ms (median of the timed runs,\n"
+    "after one warm-up run), mean_b_r, mean_b_g, mean_b_b (area-weighted mean radiosity)\n"
+    "and max_b.\n"
     "\n"
     "Options:\n"
     "  --csv OUT.csv        write one row per subpatch:\n"
@@ -140,9 +142,14 @@ static const char solve_help[] =
     "                       path to time (see lrr_solver_set_path). auto picks per frame;\n"
     "                       repeating one emission then takes the incremental path with\n"
     "                       nothing changed, so its time is bookkeeping only\n"
+    "  --backend B          cpu (default) or opencl: solve on an OpenCL device (the first\n"
+    "                       GPU, else the first CPU device; the environment variable\n"
+    "                       LRR_OPENCL_DEVICE picks another, by index P:D or by a part of\n"
+    "                       \"platform / device\" name). Every OpenCL frame is a full pass\n"
     "  -h, --help           show this help\n"
-    "Also prints storage (of F̄), path (that the last run took) and kernel (the SIMD\n"
-    "variant; the environment variable LRR_SIMD=c|avx2|avx512 forces one).\n";
+    "Also prints storage (of F̄), backend, path (that the last run took) and kernel (the\n"
+    "SIMD variant, whose choice the environment variable LRR_SIMD=c|avx2|avx512 forces, or\n"
+    "opencl:<device name>).\n";
 
 static const char reference_help[] =
     "Usage: lrr reference SCENE --method M [OPTIONS]\n"
@@ -512,14 +519,18 @@ static int parse_path(const char *prog, const char *arg, lrr_path *out)
     return -1;
 }
 
-/* Times `repeat` solves of the same emission on the given path after one warm-up, and
- * reports the path the last one took and the kernel variant. */
-static int timed_solve(lrr_context *ctx, const lrr_operator *op, const float *e, float *b,
-                       unsigned repeat, lrr_path path, double *median_ms, lrr_path *used,
-                       const char **kernel)
+/* Room for lrr_solver_kernel's name, copied before the solver goes ("opencl:<device>"). */
+#define KERNEL_NAME_MAX 160
+
+/* Times `repeat` solves of the same emission on the given backend and path after one
+ * warm-up, and reports the path the last one took and the kernel variant (kernel has
+ * KERNEL_NAME_MAX bytes, or is NULL). */
+static int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend,
+                       const float *e, float *b, unsigned repeat, lrr_path path,
+                       double *median_ms, lrr_path *used, char *kernel)
 {
     lrr_solver *solver = NULL;
-    lrr_status s = lrr_solver_create(op, LRR_BACKEND_CPU, &solver);
+    lrr_status s = lrr_solver_create(op, backend, &solver);
     if (s == LRR_OK)
         s = lrr_solver_set_path(solver, path);
     if (s != LRR_OK) {
@@ -540,7 +551,7 @@ static int timed_solve(lrr_context *ctx, const lrr_operator *op, const float *e,
     if (used)
         *used = lrr_solver_last_path(solver);
     if (kernel)
-        *kernel = lrr_solver_kernel(solver);
+        snprintf(kernel, KERNEL_NAME_MAX, "%s", lrr_solver_kernel(solver));
     lrr_solver_destroy(solver);
     if (s != LRR_OK) {
         free(t);
@@ -739,12 +750,14 @@ static int cmd_solve(int argc, char *argv[])
         {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
         {"repeat", required_argument, NULL, OPT_REPEAT},
         {"path", required_argument, NULL, OPT_PATH},
+        {"backend", required_argument, NULL, OPT_BACKEND},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     const char *csv = NULL;
     double scale = 1.0;
     unsigned repeat = DEFAULT_REPEAT;
     lrr_path path = LRR_PATH_FULL;
+    lrr_backend backend = LRR_BACKEND_CPU;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
@@ -767,6 +780,16 @@ static int cmd_solve(int argc, char *argv[])
             if (parse_path(prog, optarg, &path) != 0)
                 return CLI_EXIT_USAGE;
             break;
+        case OPT_BACKEND:
+            if (strcmp(optarg, "cpu") == 0) {
+                backend = LRR_BACKEND_CPU;
+            } else if (strcmp(optarg, "opencl") == 0) {
+                backend = LRR_BACKEND_OPENCL;
+            } else {
+                cli_usage_error(prog, "--backend: '%s' is not one of cpu, opencl", optarg);
+                return CLI_EXIT_USAGE;
+            }
+            break;
         default:
             return bad_option(prog, c, argv);
         }
@@ -787,7 +810,7 @@ static int cmd_solve(int argc, char *argv[])
     float *e = NULL, *b = NULL;
     double ms = 0.0;
     lrr_path used = LRR_PATH_FULL;
-    const char *kernel = "";
+    char kernel[KERNEL_NAME_MAX] = "";
     int rc = load_operator(ctx, file, &op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(op, scale, &e);
@@ -795,7 +818,8 @@ static int cmd_solve(int argc, char *argv[])
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi);
         b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, e, b, repeat, path, &ms, &used, &kernel) : CLI_EXIT_FAIL;
+        rc = b ? timed_solve(ctx, op, backend, e, b, repeat, path, &ms, &used, kernel)
+               : CLI_EXIT_FAIL;
     }
     if (rc == CLI_EXIT_OK && csv)
         rc = cli_write_radiosity_csv(csv, op, b);
@@ -806,6 +830,7 @@ static int cmd_solve(int argc, char *argv[])
         printf("k: %zu\n", oi.k);
         printf("d: %zu\n", oi.d);
         printf("storage: %s\n", lrr_storage_name(oi.storage));
+        printf("backend: %s\n", backend == LRR_BACKEND_OPENCL ? "opencl" : "cpu");
         printf("path: %s\n", path_names[used]);
         printf("kernel: %s\n", kernel);
         printf("solve_ms: %.4f\n", ms);
@@ -901,7 +926,8 @@ static int cmd_render(int argc, char *argv[])
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi);
         b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, e, b, 0, LRR_PATH_AUTO, &ms, NULL, NULL) : CLI_EXIT_FAIL;
+        rc = b ? timed_solve(ctx, op, LRR_BACKEND_CPU, e, b, 0, LRR_PATH_AUTO, &ms, NULL, NULL)
+               : CLI_EXIT_FAIL;
     }
     if (rc == CLI_EXIT_OK) {
         s = lrr_render_png(op, b, &ro, output);
@@ -1366,13 +1392,13 @@ static int cmd_demo(int argc, char *argv[])
         rc = CLI_EXIT_FAIL;
         goto done;
     }
-    const char *kernel = "";
+    char kernel[KERNEL_NAME_MAX] = "";
     double sparse_ms = 0;
-    rc = timed_solve(ctx, op, lrr_operator_emission(op), b, DEFAULT_REPEAT, LRR_PATH_SPARSE,
-                     &sparse_ms, NULL, NULL);
+    rc = timed_solve(ctx, op, LRR_BACKEND_CPU, lrr_operator_emission(op), b, DEFAULT_REPEAT,
+                     LRR_PATH_SPARSE, &sparse_ms, NULL, NULL);
     if (rc == CLI_EXIT_OK)
-        rc = timed_solve(ctx, op, lrr_operator_emission(op), b, DEFAULT_REPEAT, LRR_PATH_FULL,
-                         &ms, NULL, &kernel);
+        rc = timed_solve(ctx, op, LRR_BACKEND_CPU, lrr_operator_emission(op), b,
+                         DEFAULT_REPEAT, LRR_PATH_FULL, &ms, NULL, kernel);
     if (rc)
         goto done;
     printf("solve_ms: %.4f (one pass over F̄, %s kernel, median of %u)\n", ms, kernel,

@@ -1,0 +1,450 @@
+/* The real-time step on an OpenCL device (lrr_solver_create with LRR_BACKEND_OPENCL).
+ *
+ * Our own kernels (lib/kernels/realtime.cl, embedded at build time as lrr__kernel_realtime_cl)
+ * rather than clBLAS: the three steps are a segmented sum, three k×k products and one n×k
+ * product whose epilogue E + rho ∘ (…) is fused, with F̄ decoded from 16 bits in the loads.
+ * F̄ (in its storage), its row scales, M and rho go to the device once, at create; per frame
+ * E goes up, three kernels run on the solver's in-order queue, and B comes down.
+ * Every frame is a full pass: the CPU's sparse and incremental paths stay on the CPU.
+ *
+ * Device choice: the first GPU over all platforms, else the first CPU device; the environment
+ * variable LRR_OPENCL_DEVICE overrides it with "P:D" (platform and device index) or a
+ * substring matched case-insensitively against "platform name / device name".
+ * Only the OpenCL 1.2 API is used.
+ */
+#include "config.h"
+#include "internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef LRR_HAVE_OPENCL
+
+lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
+{
+    *out = NULL;
+    return lrr__error(op->ctx, LRR_ERR_UNSUPPORTED,
+                      "the OpenCL backend is not built into this library (configured without "
+                      "OpenCL)");
+}
+void lrr__cl_destroy(lrr__cl_solver *cl)
+{
+    (void)cl;
+}
+const char *lrr__cl_name(const lrr__cl_solver *cl)
+{
+    (void)cl;
+    return "opencl";
+}
+lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B)
+{
+    (void)cl, (void)E, (void)B;
+    return LRR_ERR_UNSUPPORTED;
+}
+void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
+{
+    (void)cl, (void)groups;
+}
+
+#else
+
+#define CL_TARGET_OPENCL_VERSION 120
+#include <CL/cl.h>
+#include <ctype.h>
+#include <stdio.h>
+
+/* Work-group size of fbar_groups on GPUs: a few warps/wavefronts per row keep loads
+ * contiguous; lowered to the device's limit. */
+#define GROUP_SIZE 128
+/* Build log characters kept in an error message (the context keeps 512 bytes). */
+#define LOG_MAX 300
+
+struct lrr__cl_solver {
+    const lrr_operator *op;
+    cl_context context;
+    cl_command_queue queue;
+    cl_program program;
+    cl_kernel segsum, smw, rows, groups;
+    cl_mem fbar, scale, m, rho, e, w, z, b;
+    size_t group_size;
+    int use_groups;      /* fbar_groups (GPUs) rather than fbar_rows (CPU devices) */
+    char name[160];      /* "opencl:<device name>" */
+};
+
+static const char *cl_code_name(cl_int e)
+{
+    switch (e) {
+#define C(x) case x: return #x;
+    C(CL_DEVICE_NOT_FOUND) C(CL_DEVICE_NOT_AVAILABLE) C(CL_COMPILER_NOT_AVAILABLE)
+    C(CL_MEM_OBJECT_ALLOCATION_FAILURE) C(CL_OUT_OF_RESOURCES) C(CL_OUT_OF_HOST_MEMORY)
+    C(CL_BUILD_PROGRAM_FAILURE) C(CL_INVALID_VALUE) C(CL_INVALID_DEVICE_TYPE)
+    C(CL_INVALID_PLATFORM) C(CL_INVALID_DEVICE) C(CL_INVALID_CONTEXT)
+    C(CL_INVALID_COMMAND_QUEUE) C(CL_INVALID_MEM_OBJECT) C(CL_INVALID_BUILD_OPTIONS)
+    C(CL_INVALID_PROGRAM) C(CL_INVALID_PROGRAM_EXECUTABLE) C(CL_INVALID_KERNEL_NAME)
+    C(CL_INVALID_KERNEL) C(CL_INVALID_ARG_INDEX) C(CL_INVALID_ARG_VALUE)
+    C(CL_INVALID_ARG_SIZE) C(CL_INVALID_KERNEL_ARGS) C(CL_INVALID_WORK_DIMENSION)
+    C(CL_INVALID_WORK_GROUP_SIZE) C(CL_INVALID_WORK_ITEM_SIZE) C(CL_INVALID_GLOBAL_OFFSET)
+    C(CL_INVALID_EVENT_WAIT_LIST) C(CL_INVALID_OPERATION) C(CL_INVALID_BUFFER_SIZE)
+    C(CL_INVALID_GLOBAL_WORK_SIZE) C(CL_MISALIGNED_SUB_BUFFER_OFFSET)
+    C(CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST)
+#undef C
+    case -1001: return "CL_PLATFORM_NOT_FOUND_KHR";
+    default: return "an unknown OpenCL error";
+    }
+}
+
+/* Records a failed OpenCL call: which call, on what, and the CL error code. */
+static lrr_status cl_fail(lrr_context *ctx, cl_int err, const char *call, const char *what)
+{
+    lrr_status st = err == CL_OUT_OF_HOST_MEMORY || err == CL_MEM_OBJECT_ALLOCATION_FAILURE
+                        ? LRR_ERR_NOMEM
+                        : LRR_ERR_UNSUPPORTED;
+    return lrr__error(ctx, st, "OpenCL: %s (%s) failed: %s (%d)", call, what, cl_code_name(err),
+                      (int)err);
+}
+
+void lrr__cl_destroy(lrr__cl_solver *cl)
+{
+    if (!cl)
+        return;
+    cl_mem mems[] = {cl->fbar, cl->scale, cl->m, cl->rho, cl->e, cl->w, cl->z, cl->b};
+    for (size_t i = 0; i < sizeof mems / sizeof mems[0]; i++)
+        if (mems[i])
+            clReleaseMemObject(mems[i]);
+    cl_kernel ks[] = {cl->segsum, cl->smw, cl->rows, cl->groups};
+    for (size_t i = 0; i < sizeof ks / sizeof ks[0]; i++)
+        if (ks[i])
+            clReleaseKernel(ks[i]);
+    if (cl->program)
+        clReleaseProgram(cl->program);
+    if (cl->queue)
+        clReleaseCommandQueue(cl->queue);
+    if (cl->context)
+        clReleaseContext(cl->context);
+    free(cl);
+}
+
+const char *lrr__cl_name(const lrr__cl_solver *cl)
+{
+    return cl->name;
+}
+
+void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
+{
+    cl->use_groups = groups != 0;
+}
+
+/* "platform name / device name" of one device, as LRR_OPENCL_DEVICE is matched against. */
+static void device_label(cl_platform_id p, cl_device_id d, char *label, size_t size)
+{
+    char pn[128] = "", dn[128] = "";
+    clGetPlatformInfo(p, CL_PLATFORM_NAME, sizeof pn - 1, pn, NULL);
+    clGetDeviceInfo(d, CL_DEVICE_NAME, sizeof dn - 1, dn, NULL);
+    snprintf(label, size, "%s / %s", pn, dn);
+}
+
+static int contains_nocase(const char *hay, const char *needle)
+{
+    size_t nl = strlen(needle);
+    for (; *hay; hay++) {
+        size_t i = 0;
+        while (i < nl && hay[i] &&
+               tolower((unsigned char)hay[i]) == tolower((unsigned char)needle[i]))
+            i++;
+        if (i == nl)
+            return 1;
+    }
+    return nl == 0;
+}
+
+/* Picks the device (see the top of the file). */
+static lrr_status pick_device(lrr_context *ctx, cl_device_id *out)
+{
+    enum { MAX_PLATFORMS = 16, MAX_DEVICES = 32 };
+    cl_platform_id plat[MAX_PLATFORMS];
+    cl_uint np = 0;
+    cl_int err = clGetPlatformIDs(MAX_PLATFORMS, plat, &np);
+    if (err == -1001 /* CL_PLATFORM_NOT_FOUND_KHR: the ICD loader found no driver */ ||
+        (err == CL_SUCCESS && np == 0))
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "no OpenCL platform found (no driver registered with the ICD loader; "
+                          "on Debian: apt-get install pocl-opencl-icd, or a GPU vendor's ICD)");
+    if (err != CL_SUCCESS)
+        return cl_fail(ctx, err, "clGetPlatformIDs", "listing platforms");
+    if (np > MAX_PLATFORMS)
+        np = MAX_PLATFORMS;
+    const char *want = getenv("LRR_OPENCL_DEVICE");
+    if (want && !want[0])
+        want = NULL;
+    unsigned wp = 0, wd = 0;
+    char tail;
+    const int by_index = want && sscanf(want, "%u:%u%c", &wp, &wd, &tail) == 2;
+    cl_device_id gpu = NULL, cpu = NULL;
+    char seen[200] = ""; /* the devices there are, for the error messages */
+    for (cl_uint p = 0; p < np; p++) {
+        cl_device_id dev[MAX_DEVICES];
+        cl_uint nd = 0;
+        err = clGetDeviceIDs(plat[p], CL_DEVICE_TYPE_ALL, MAX_DEVICES, dev, &nd);
+        if (err == CL_DEVICE_NOT_FOUND)
+            continue;
+        if (err != CL_SUCCESS)
+            return cl_fail(ctx, err, "clGetDeviceIDs", "listing a platform's devices");
+        if (nd > MAX_DEVICES)
+            nd = MAX_DEVICES;
+        for (cl_uint d = 0; d < nd; d++) {
+            char label[260];
+            device_label(plat[p], dev[d], label, sizeof label);
+            char entry[300];
+            size_t used = strlen(seen);
+            snprintf(entry, sizeof entry, "%s%u:%u %s", used ? "; " : "", (unsigned)p,
+                     (unsigned)d, label);
+            size_t len = strlen(entry), room = sizeof seen - 1 - used;
+            memcpy(seen + used, entry, len < room ? len : room); /* truncated when long */
+            seen[used + (len < room ? len : room)] = '\0';
+            if (want) {
+                if (by_index ? (p == wp && d == wd) : contains_nocase(label, want)) {
+                    *out = dev[d];
+                    return LRR_OK;
+                }
+                continue;
+            }
+            cl_device_type type = 0;
+            clGetDeviceInfo(dev[d], CL_DEVICE_TYPE, sizeof type, &type, NULL);
+            if ((type & CL_DEVICE_TYPE_GPU) && !gpu)
+                gpu = dev[d];
+            if ((type & CL_DEVICE_TYPE_CPU) && !cpu)
+                cpu = dev[d];
+        }
+    }
+    if (want)
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "LRR_OPENCL_DEVICE='%s' matches no OpenCL device (have: %s)", want,
+                          seen[0] ? seen : "none");
+    if (!gpu && !cpu)
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED, "no OpenCL GPU or CPU device found (have: %s)",
+                          seen[0] ? seen : "none");
+    *out = gpu ? gpu : cpu;
+    return LRR_OK;
+}
+
+static lrr_status new_buffer(lrr__cl_solver *cl, cl_mem_flags flags, size_t bytes,
+                             const void *host, const char *what, cl_mem *out)
+{
+    cl_int err;
+    *out = clCreateBuffer(cl->context, flags | (host ? CL_MEM_COPY_HOST_PTR : 0),
+                          bytes ? bytes : 4, (void *)host, &err);
+    if (err != CL_SUCCESS)
+        return cl_fail(cl->op->ctx, err, "clCreateBuffer", what);
+    return LRR_OK;
+}
+
+/* Builds the program once per solver for the operator's storage; a failed build returns
+ * LRR_ERR_UNSUPPORTED with the start of the build log (where the first error is). */
+static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
+{
+    lrr_context *ctx = cl->op->ctx;
+    const char *src = lrr__kernel_realtime_cl;
+    cl_int err;
+    cl->program = clCreateProgramWithSource(cl->context, 1, &src, NULL, &err);
+    if (err != CL_SUCCESS)
+        return cl_fail(ctx, err, "clCreateProgramWithSource", "lib/kernels/realtime.cl");
+    char opts[64];
+    const int storage = cl->op->storage == LRR_STORAGE_F16    ? 1
+                        : cl->op->storage == LRR_STORAGE_BF16 ? 2
+                                                              : 0;
+    snprintf(opts, sizeof opts, "-DSTORAGE=%d -DWG=%zu", storage, cl->group_size);
+    err = clBuildProgram(cl->program, 1, &dev, opts, NULL, NULL);
+    if (err != CL_SUCCESS) {
+        char log[LOG_MAX + 1] = "";
+        size_t len = 0;
+        clGetProgramBuildInfo(cl->program, dev, CL_PROGRAM_BUILD_LOG, 0, NULL, &len);
+        if (len > 0) {
+            char *full = malloc(len + 1);
+            if (full && clGetProgramBuildInfo(cl->program, dev, CL_PROGRAM_BUILD_LOG, len,
+                                              full, NULL) == CL_SUCCESS) {
+                full[len] = '\0';
+                snprintf(log, sizeof log, "%s", full);
+            }
+            free(full);
+        }
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "OpenCL: clBuildProgram (lib/kernels/realtime.cl, %s) failed: %s "
+                          "(%d); build log: %s%s",
+                          opts, cl_code_name(err), (int)err, log[0] ? log : "(empty)",
+                          len > LOG_MAX + 1 ? " [...]" : "");
+    }
+    static const char *const names[] = {"segsum", "smw", "fbar_rows", "fbar_groups"};
+    cl_kernel *ks[] = {&cl->segsum, &cl->smw, &cl->rows, &cl->groups};
+    for (int i = 0; i < 4; i++) {
+        *ks[i] = clCreateKernel(cl->program, names[i], &err);
+        if (err != CL_SUCCESS)
+            return cl_fail(ctx, err, "clCreateKernel", names[i]);
+    }
+    return LRR_OK;
+}
+
+/* The arguments never change, only the buffers' contents. */
+static lrr_status set_args(lrr__cl_solver *cl)
+{
+    const lrr_operator *op = cl->op;
+    const cl_uint un = (cl_uint)op->n, uk = (cl_uint)op->k, ud = (cl_uint)op->d;
+    struct {
+        cl_kernel kn;
+        cl_uint index;
+        size_t size;
+        const void *value;
+        const char *what;
+    } a[] = {
+        {cl->segsum, 0, sizeof(cl_mem), &cl->e, "segsum E"},
+        {cl->segsum, 1, sizeof uk, &uk, "segsum k"},
+        {cl->segsum, 2, sizeof ud, &ud, "segsum d"},
+        {cl->segsum, 3, sizeof(cl_mem), &cl->w, "segsum w"},
+        {cl->smw, 0, sizeof(cl_mem), &cl->m, "smw M"},
+        {cl->smw, 1, sizeof(cl_mem), &cl->w, "smw w"},
+        {cl->smw, 2, sizeof uk, &uk, "smw k"},
+        {cl->smw, 3, sizeof(cl_mem), &cl->z, "smw z"},
+    };
+    for (size_t i = 0; i < sizeof a / sizeof a[0]; i++) {
+        cl_int err = clSetKernelArg(a[i].kn, a[i].index, a[i].size, a[i].value);
+        if (err != CL_SUCCESS)
+            return cl_fail(op->ctx, err, "clSetKernelArg", a[i].what);
+    }
+    const cl_kernel prod[2] = {cl->rows, cl->groups};
+    const cl_mem *bufs[6] = {&cl->fbar, &cl->scale, &cl->z, &cl->e, &cl->rho, &cl->b};
+    for (int i = 0; i < 2; i++) {
+        const char *what = i ? "fbar_groups" : "fbar_rows";
+        cl_int err = CL_SUCCESS;
+        for (cl_uint j = 0; j < 5 && err == CL_SUCCESS; j++)
+            err = clSetKernelArg(prod[i], j, sizeof(cl_mem), bufs[j]);
+        if (err == CL_SUCCESS)
+            err = clSetKernelArg(prod[i], 5, sizeof un, &un);
+        if (err == CL_SUCCESS)
+            err = clSetKernelArg(prod[i], 6, sizeof uk, &uk);
+        if (err == CL_SUCCESS)
+            err = clSetKernelArg(prod[i], 7, sizeof(cl_mem), bufs[5]);
+        if (err != CL_SUCCESS)
+            return cl_fail(op->ctx, err, "clSetKernelArg", what);
+    }
+    return LRR_OK;
+}
+
+lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
+{
+    lrr_context *ctx = op->ctx;
+    *out = NULL;
+    const size_t n = op->n, k = op->k;
+    if (n > UINT32_MAX || k > UINT32_MAX || op->d > UINT32_MAX)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW,
+                          "OpenCL: n = %zu, k = %zu exceed the kernels' 32-bit indices", n, k);
+    cl_device_id dev;
+    lrr_status st = pick_device(ctx, &dev);
+    if (st)
+        return st;
+
+    /* F̄ must fit one buffer and, with everything else, the device's memory */
+    const int half = op->storage != LRR_STORAGE_F32;
+    const size_t fbar_bytes = n * k * (half ? 2 : 4); /* the operator holds it: no overflow */
+    const size_t other = 4 * (3 * k * k + 4 * 3 * n + n + 6 * k);
+    cl_ulong global_mem = 0, max_alloc = 0;
+    cl_int err = clGetDeviceInfo(dev, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof global_mem,
+                                 &global_mem, NULL);
+    if (err == CL_SUCCESS)
+        err = clGetDeviceInfo(dev, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof max_alloc, &max_alloc,
+                              NULL);
+    if (err != CL_SUCCESS)
+        return cl_fail(ctx, err, "clGetDeviceInfo", "device memory sizes");
+    if ((cl_ulong)fbar_bytes > max_alloc || (cl_ulong)fbar_bytes + other > global_mem)
+        return lrr__error(ctx, LRR_ERR_NOMEM,
+                          "OpenCL: F̄ needs %zu bytes (and %zu more for M, E, B, rho); the "
+                          "device has CL_DEVICE_MAX_MEM_ALLOC_SIZE = %llu and "
+                          "CL_DEVICE_GLOBAL_MEM_SIZE = %llu bytes",
+                          fbar_bytes, other, (unsigned long long)max_alloc,
+                          (unsigned long long)global_mem);
+
+    lrr__cl_solver *cl = calloc(1, sizeof *cl);
+    if (!cl)
+        return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate an OpenCL solver");
+    cl->op = op;
+    char dn[128] = "";
+    cl_device_type type = 0;
+    size_t max_wg = 1;
+    clGetDeviceInfo(dev, CL_DEVICE_NAME, sizeof dn - 1, dn, NULL);
+    clGetDeviceInfo(dev, CL_DEVICE_TYPE, sizeof type, &type, NULL);
+    clGetDeviceInfo(dev, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
+    snprintf(cl->name, sizeof cl->name, "opencl:%s", dn);
+    cl->use_groups = !(type & CL_DEVICE_TYPE_CPU);
+    cl->group_size = 1;
+    while (cl->group_size * 2 <= GROUP_SIZE && cl->group_size * 2 <= max_wg)
+        cl->group_size *= 2;
+
+    const cl_mem_flags ro = CL_MEM_READ_ONLY, rw = CL_MEM_READ_WRITE;
+    const float one = 1.0f;
+    cl->context = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
+    if (err != CL_SUCCESS)
+        st = cl_fail(ctx, err, "clCreateContext", dn);
+    if (!st) {
+        cl->queue = clCreateCommandQueue(cl->context, dev, 0, &err);
+        if (err != CL_SUCCESS)
+            st = cl_fail(ctx, err, "clCreateCommandQueue", dn);
+    }
+    if (st || (st = build_program(cl, dev)) ||
+        (st = new_buffer(cl, ro, fbar_bytes, half ? (const void *)op->fbar16 : op->fbar, "F̄",
+                         &cl->fbar)) ||
+        (st = new_buffer(cl, ro, half ? n * 4 : 4, half ? op->row_scale : &one, "row scales",
+                         &cl->scale)) ||
+        (st = new_buffer(cl, ro, 3 * k * k * 4, op->m, "M (3×k×k)", &cl->m)) ||
+        (st = new_buffer(cl, ro, 3 * n * 4, op->rho, "rho (n×3)", &cl->rho)) ||
+        (st = new_buffer(cl, ro, 3 * n * 4, NULL, "E (n×3)", &cl->e)) ||
+        (st = new_buffer(cl, rw, 3 * k * 4, NULL, "w (3×k)", &cl->w)) ||
+        (st = new_buffer(cl, rw, 3 * k * 4, NULL, "z (3×k)", &cl->z)) ||
+        (st = new_buffer(cl, CL_MEM_WRITE_ONLY, 3 * n * 4, NULL, "B (n×3)", &cl->b)) ||
+        (st = set_args(cl))) {
+        lrr__cl_destroy(cl);
+        return st;
+    }
+    *out = cl;
+    return LRR_OK;
+}
+
+lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B)
+{
+    const size_t n = cl->op->n, k = cl->op->k, bytes = 3 * n * sizeof(float);
+    const char *call = "clEnqueueWriteBuffer", *what = "E";
+    /* E goes up without blocking; the blocking read of B ends the in-order queue's work */
+    cl_int err = clEnqueueWriteBuffer(cl->queue, cl->e, CL_FALSE, 0, bytes, E, 0, NULL, NULL);
+    if (err != CL_SUCCESS)
+        goto fail;
+    call = "clEnqueueNDRangeKernel";
+    size_t g1 = k, g2[2] = {k, 3};
+    what = "segsum";
+    err = clEnqueueNDRangeKernel(cl->queue, cl->segsum, 1, NULL, &g1, NULL, 0, NULL, NULL);
+    if (err != CL_SUCCESS)
+        goto fail;
+    what = "smw";
+    err = clEnqueueNDRangeKernel(cl->queue, cl->smw, 2, NULL, g2, NULL, 0, NULL, NULL);
+    if (err != CL_SUCCESS)
+        goto fail;
+    if (cl->use_groups) {
+        size_t local = cl->group_size, global = n * cl->group_size;
+        what = "fbar_groups";
+        err = clEnqueueNDRangeKernel(cl->queue, cl->groups, 1, NULL, &global, &local, 0, NULL,
+                                     NULL);
+    } else {
+        size_t global = n;
+        what = "fbar_rows";
+        err = clEnqueueNDRangeKernel(cl->queue, cl->rows, 1, NULL, &global, NULL, 0, NULL, NULL);
+    }
+    if (err != CL_SUCCESS)
+        goto fail;
+    call = "clEnqueueReadBuffer";
+    what = "B";
+    err = clEnqueueReadBuffer(cl->queue, cl->b, CL_TRUE, 0, bytes, B, 0, NULL, NULL);
+    if (err != CL_SUCCESS)
+        goto fail;
+    return LRR_OK;
+fail:
+    clFinish(cl->queue); /* the caller's E must not be read after we return */
+    return cl_fail(cl->op->ctx, err, call, what);
+}
+
+#endif

@@ -1,0 +1,213 @@
+/* The OpenCL solver (lib/solve_opencl.c) against the CPU solver on the same operator.
+ * Skips (exit 77) when the library has no OpenCL or the machine no OpenCL platform. */
+#include "testutil.h"
+#include "internal.h"
+
+static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
+{
+    lrr_scene *s;
+    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_subdivision sd = {0, K, levels};
+    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
+    lrr_build_options o = {32, 2, 0, NULL, NULL, 0};
+    lrr_operator *op;
+    LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    lrr_scene_destroy(s);
+    return op;
+}
+
+/* One emitting triangle facing nothing: F̄ = 0, B = E (k = 1, n = d). */
+static lrr_operator *triangle_op(lrr_context *ctx, unsigned levels)
+{
+    const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, rho[3] = {0.5f, 0.4f, 0.3f},
+                e[3] = {1, 2, 3};
+    lrr_scene *s;
+    LRR_CHECK(ctx, lrr_scene_create(ctx, 1, v, rho, e, "triangle", &s));
+    lrr_subdivision sd = {0, 0, levels};
+    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
+    lrr_operator *op;
+    LRR_CHECK(ctx, lrr_operator_build(s, NULL, &op));
+    lrr_scene_destroy(s);
+    return op;
+}
+
+static double max_rel(size_t m, const float *a, const float *b)
+{
+    double num = 0, den = 0;
+    for (size_t i = 0; i < m; i++) {
+        num = fmax(num, fabs((double)a[i] - b[i]));
+        den = fmax(den, fabs((double)b[i]));
+    }
+    return den > 0 ? num / den : num;
+}
+
+/* An emission with every patch lit differently, so every term of F̄ matters. */
+static float *test_emission(const lrr_operator *op)
+{
+    float *e = malloc(3 * op->n * sizeof *e);
+    assert_non_null(e);
+    for (size_t j = 0; j < 3 * op->n; j++)
+        e[j] = op->emission[j] + (float)((j * 2654435761u) % 1000) * 1e-3f;
+    return e;
+}
+
+/* OpenCL (both product kernels) against the CPU solver's full path, in each storage. */
+static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
+{
+    static const lrr_storage storages[] = {LRR_STORAGE_F32, LRR_STORAGE_F16, LRR_STORAGE_BF16};
+    const size_t n = op->n;
+    float *e = test_emission(op);
+    float *ref = malloc(3 * n * sizeof *ref), *b = malloc(3 * n * sizeof *b);
+    float *batch = malloc(2 * 3 * n * sizeof *batch), *e2 = malloc(2 * 3 * n * sizeof *e2);
+    assert_true(ref && b && batch && e2);
+    memcpy(e2, e, 3 * n * sizeof *e);
+    memcpy(e2 + 3 * n, op->emission, 3 * n * sizeof *e);
+    for (int si = 0; si < 3; si++) {
+        LRR_CHECK(ctx, lrr_operator_set_storage(op, storages[si]));
+        lrr_solver *cpu, *cl;
+        LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &cpu));
+        LRR_CHECK(ctx, lrr_solver_set_path(cpu, LRR_PATH_FULL));
+        LRR_CHECK(ctx, lrr_solve(cpu, e, ref));
+        LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl));
+        assert_int_equal(strncmp(lrr_solver_kernel(cl), "opencl:", 7), 0);
+        for (int groups = 0; groups < 2; groups++) {
+            lrr__solver_opencl_groups(cl, groups);
+            memset(b, 0xff, 3 * n * sizeof *b);
+            LRR_CHECK(ctx, lrr_solve(cl, e, b));
+            assert_int_equal(lrr_solver_last_path(cl), LRR_PATH_FULL);
+            double r = max_rel(3 * n, b, ref);
+            print_message("%s, %s, %s kernel (%s): max |dB| / max |B| = %.2e\n", what,
+                          lrr_storage_name(storages[si]), groups ? "group" : "row",
+                          lrr_solver_kernel(cl), r);
+            assert_true(r <= 1e-5);
+        }
+        /* a batch loops frames; the second frame is the stored emission */
+        LRR_CHECK(ctx, lrr_solve_batch(cl, 2, e2, batch));
+        assert_true(max_rel(3 * n, batch, ref) <= 1e-5);
+        LRR_CHECK(ctx, lrr_solve(cpu, op->emission, ref));
+        assert_true(max_rel(3 * n, batch + 3 * n, ref) <= 1e-5);
+        lrr_solver_destroy(cl);
+        lrr_solver_destroy(cpu);
+    }
+    free(e2);
+    free(batch);
+    free(b);
+    free(ref);
+    free(e);
+}
+
+static void test_odd_sizes(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    for (unsigned levels = 1; levels <= 2; levels++) {
+        lrr_operator *op = cornell_op(ctx, 37, levels);
+        compare_op(ctx, op, levels == 1 ? "Cornell 37 patches, levels 1"
+                                        : "Cornell 37 patches, levels 2");
+        lrr_operator_destroy(op);
+    }
+    lrr_operator *op = triangle_op(ctx, 1);
+    compare_op(ctx, op, "one triangle");
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+}
+
+static void test_cornell_216(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_operator *op = cornell_op(ctx, 216, 1);
+    assert_int_equal(op->k, 216);
+    compare_op(ctx, op, "Cornell k = 216");
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+}
+
+static void test_errors(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_operator *op = triangle_op(ctx, 1);
+    char msg[512];
+    lrr_solver *cl = NULL;
+
+    setenv("LRR_OPENCL_DEVICE", "no-such-device", 1);
+    assert_int_equal(lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl), LRR_ERR_UNSUPPORTED);
+    unsetenv("LRR_OPENCL_DEVICE");
+    assert_null(cl);
+    lrr_context_last_error(ctx, msg, sizeof msg);
+    print_message("%s\n", msg);
+    assert_non_null(strstr(msg, "LRR_OPENCL_DEVICE"));
+    assert_non_null(strstr(msg, "no-such-device"));
+
+    /* by index 0:0 is always there when a platform is */
+    setenv("LRR_OPENCL_DEVICE", "0:0", 1);
+    LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl));
+    unsetenv("LRR_OPENCL_DEVICE");
+    assert_int_equal(lrr_solver_set_path(cl, LRR_PATH_SPARSE), LRR_ERR_UNSUPPORTED);
+    lrr_context_last_error(ctx, msg, sizeof msg);
+    assert_non_null(strstr(msg, "full path only"));
+    LRR_CHECK(ctx, lrr_solver_set_path(cl, LRR_PATH_AUTO));
+
+    /* NaN in E: the CPU solver's message, before anything goes to the device */
+    const size_t n = op->n;
+    float *e = calloc(3 * n, sizeof *e), *b = calloc(3 * n, sizeof *b);
+    assert_true(e && b);
+    e[3 * 2 + 1] = NAN;
+    assert_int_equal(lrr_solve(cl, e, b), LRR_ERR_INVALID_ARG);
+    lrr_context_last_error(ctx, msg, sizeof msg);
+    print_message("%s\n", msg);
+    assert_non_null(strstr(msg, "subpatch 2, channel 1"));
+    char cpu_msg[512];
+    lrr_solver *cpu;
+    LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &cpu));
+    assert_int_equal(lrr_solve(cpu, e, b), LRR_ERR_INVALID_ARG);
+    lrr_context_last_error(ctx, cpu_msg, sizeof cpu_msg);
+    assert_string_equal(msg, cpu_msg);
+    lrr_solver_destroy(cpu);
+    lrr_solver_destroy(cl);
+    free(b);
+    free(e);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+}
+
+int main(void)
+{
+    /* skip when there is no OpenCL to test: not built in, or no platform on this machine */
+    unsetenv("LRR_OPENCL_DEVICE");
+    lrr_context *ctx;
+    if (lrr_context_create(&ctx) != LRR_OK)
+        return 1;
+    lrr_scene *s;
+    const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, rho[3] = {0.5f, 0.5f, 0.5f},
+                em[3] = {1, 1, 1};
+    lrr_operator *op = NULL;
+    lrr_subdivision sd = {0, 0, 0};
+    if (lrr_scene_create(ctx, 1, v, rho, em, "probe", &s) != LRR_OK ||
+        lrr_scene_subdivide(s, &sd) != LRR_OK || lrr_operator_build(s, NULL, &op) != LRR_OK)
+        return 1;
+    lrr_scene_destroy(s);
+    lrr_solver *sv = NULL;
+    lrr_status st = lrr_solver_create(op, LRR_BACKEND_OPENCL, &sv);
+    char msg[512];
+    lrr_context_last_error(ctx, msg, sizeof msg);
+    lrr_solver_destroy(sv);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+    if (st == LRR_ERR_UNSUPPORTED &&
+        (strstr(msg, "not built into") || strstr(msg, "no OpenCL platform"))) {
+        printf("SKIP: %s\n", msg);
+        return 77;
+    }
+    /* any other failure is a real one and shows up in the tests below */
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_odd_sizes),
+        cmocka_unit_test(test_cornell_216),
+        cmocka_unit_test(test_errors),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
