@@ -40,7 +40,8 @@ enum {
     OPT_QUICK,
     OPT_SEEDS,
     OPT_N,
-    OPT_K
+    OPT_K,
+    OPT_BACKEND
 };
 
 /* ------------------------------------------------------------------ commands */
@@ -133,6 +134,26 @@ typedef struct sgemv_frame {
 } sgemv_frame;
 
 int sgemv_step(void *user);
+
+/* ------------------------------------------------------------------ OpenCL */
+/* --backend cpu|opencl: *opencl = 0 or 1; -1 after a usage message. */
+int parse_backend(const char *prog, const char *text, int *opencl);
+/* Whether an OpenCL solver can be created (on a one-triangle operator): CLI_EXIT_OK, or
+ * "lrr-bench: --backend opencl: <library message>" (e.g. no OpenCL platform) and
+ * CLI_EXIT_FAIL. */
+int opencl_probe(lrr_context *ctx);
+/* A frame_fn: lrr_solve on an OpenCL solver, then its lrr_solver_timings, appended to
+ * kernel_ms/transfer_ms (at most cap frames). */
+typedef struct cl_frame {
+    ours_frame of;
+    double *kernel_ms, *transfer_ms;
+    size_t cap, count;
+} cl_frame;
+int cl_step(void *user);
+/* Median of the last `runs` recorded timings of a cl_frame (reorders them). */
+void cl_medians(cl_frame *f, size_t runs, double *kernel_ms, double *transfer_ms);
+/* The solver's lrr_solver_kernel, commas replaced, into buf. */
+const char *cl_device_name(const lrr_solver *s, char *buf, size_t len);
 
 /* ------------------------------------------------------------------ comparison, formatting */
 /* Area-weighted relative L2 over all channels (area NULL: unweighted) and the largest

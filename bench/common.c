@@ -339,6 +339,83 @@ int ours_step(void *user)
     return f->status != LRR_OK;
 }
 
+/* ------------------------------------------------------------------ OpenCL */
+int parse_backend(const char *prog, const char *text, int *opencl)
+{
+    if (strcmp(text, "cpu") == 0)
+        *opencl = 0;
+    else if (strcmp(text, "opencl") == 0)
+        *opencl = 1;
+    else {
+        cli_usage_error(prog, "--backend: '%s' is neither 'cpu' nor 'opencl'", text);
+        return -1;
+    }
+    return 0;
+}
+
+int opencl_probe(lrr_context *ctx)
+{
+    const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, rho[3] = {0.5f, 0.5f, 0.5f},
+                em[3] = {1, 1, 1};
+    lrr_scene *scene = NULL;
+    lrr_operator *op = NULL;
+    lrr_solver *sv = NULL;
+    lrr_subdivision sd = {0, 0, 0};
+    lrr_status s = lrr_scene_create(ctx, 1, v, rho, em, "opencl-probe", &scene);
+    if (s == LRR_OK)
+        s = lrr_scene_subdivide(scene, &sd);
+    if (s == LRR_OK)
+        s = lrr_operator_build(scene, NULL, &op);
+    if (s != LRR_OK) {
+        lrr_scene_destroy(scene);
+        return lib_fail(ctx, s, "--backend opencl: probe operator");
+    }
+    lrr_scene_destroy(scene);
+    s = lrr_solver_create(op, LRR_BACKEND_OPENCL, &sv);
+    int rc = s == LRR_OK ? CLI_EXIT_OK : lib_fail(ctx, s, "--backend opencl");
+    lrr_solver_destroy(sv);
+    lrr_operator_destroy(op);
+    return rc;
+}
+
+int cl_step(void *user)
+{
+    cl_frame *f = user;
+    if (ours_step(&f->of))
+        return 1;
+    double km = NAN, tm = NAN;
+    if ((f->of.status = lrr_solver_timings(f->of.solver, &km, &tm)) != LRR_OK)
+        return 1;
+    if (f->count < f->cap) {
+        f->kernel_ms[f->count] = km;
+        f->transfer_ms[f->count] = tm;
+        f->count++;
+    }
+    return 0;
+}
+
+void cl_medians(cl_frame *f, size_t runs, double *kernel_ms, double *transfer_ms)
+{
+    if (runs > f->count)
+        runs = f->count;
+    if (!runs) {
+        *kernel_ms = *transfer_ms = NAN;
+        return;
+    }
+    const size_t first = f->count - runs;
+    *kernel_ms = cli_median(f->kernel_ms + first, runs);
+    *transfer_ms = cli_median(f->transfer_ms + first, runs);
+}
+
+const char *cl_device_name(const lrr_solver *s, char *buf, size_t len)
+{
+    snprintf(buf, len, "%s", lrr_solver_kernel(s));
+    for (char *p = buf; *p; p++)
+        if (*p == ',' || *p == '\n' || *p == '"')
+            *p = ';';
+    return buf;
+}
+
 const char *path_name(lrr_path p)
 {
     switch (p) {

@@ -27,7 +27,8 @@
 
 static const char realtime_help[] =
     "Usage: lrr-bench realtime [--n N --k K | --cells paper|small|LIST] [--scene SCENE]\n"
-    "                          [--hemicube R] [--repeat N] [--csv OUT.csv]\n"
+    "                          [--hemicube R] [--repeat N] [--backend cpu|opencl]\n"
+    "                          [--csv OUT.csv]\n"
     "The real-time step alone: every implementation measured in one run on the same matrix.\n"
     "For each cell the scene is subdivided into about k patches of d = 4^levels subpatches\n"
     "and the operator built once; it is saved to a temporary .lrr file in $TMPDIR (deleted\n"
@@ -46,6 +47,11 @@ static const char realtime_help[] =
     "               alternate frames: the previous B plus the columns of the changed\n"
     "               patches (a frame that took another path is reported)\n"
     "and, in the text only, lrr_solve_batch with 16 frames (ms per frame).\n"
+    "With --backend opencl, also fused on an OpenCL solver (LRR_BACKEND_OPENCL; device from\n"
+    "LRR_OPENCL_DEVICE) for f32, f16 and bf16: rows with backend=opencl, timed the same way,\n"
+    "with the median kernel_ms (the kernels' END - START) and transfer_ms (E up, B down)\n"
+    "from OpenCL profiling events (lrr_solver_timings), their sum, and ratio_to_cpu = CPU\n"
+    "fused (same storage) median / OpenCL median, measured in the same run.\n"
     "Timing: each implementation in its own block: 3 warm-up runs, then 200 ms idle (the\n"
     "spinning OpenMP or OpenBLAS workers of the previous block go to sleep, so the two\n"
     "thread pools never compete), then the timed runs: median, min and max, ms per frame.\n"
@@ -78,10 +84,14 @@ static const char realtime_help[] =
     "                       not depend on R: only the preprocessing time does\n"
     "  --repeat N           timed runs per implementation (default: adaptive, at least 20\n"
     "                       runs and at least 0.3 s)\n"
+    "  --backend B          cpu (default: the rows above) or opencl (also the OpenCL rows;\n"
+    "                       fails when no OpenCL device or platform is available)\n"
     "  --csv OUT.csv        one row per implementation and cell (rewritten after each cell):\n"
     "                       impl,storage,n,k,ms_median,ms_min,ms_max,floor_ms,\n"
     "                       ratio_to_floor,ratio_to_paper,rel_l2_vs_f32, then extra columns\n"
-    "                       (nan where a value does not apply)\n"
+    "                       ending in backend,kernel_ms,transfer_ms,device,ratio_to_cpu\n"
+    "                       (CPU rows: cpu,nan,nan,cpu,nan; nan where a value does not\n"
+    "                       apply)\n"
     "  -h, --help           show this help\n";
 
 /* ------------------------------------------------------------------ results */
@@ -113,6 +123,9 @@ typedef struct rt_row {
     double floor_ms, floor_ms_full, ratio_to_floor, ratio_to_paper, rel_l2;
     double bytes;       /* what one frame must read, for the cache warning */
     int reads_fbar;     /* ratio_to_floor < 1 means something */
+    const char *backend;  /* "cpu" or "opencl" */
+    double kernel_ms, transfer_ms, ratio_to_cpu; /* OpenCL rows; nan otherwise */
+    char device[160];   /* OpenCL rows: lrr_solver_kernel; "cpu" otherwise */
 } rt_row;
 
 typedef struct rt_cell {
@@ -125,6 +138,8 @@ typedef struct rt_cell {
     timing batch;
     double batch_ms_per_frame, batch_rel_l2;
     rt_row rows[RT_COUNT];
+    rt_row cl_rows[3];  /* --backend opencl: fused f32, f16, bf16 on the OpenCL solver */
+    int have_cl;
 } rt_cell;
 
 typedef struct rt_args {
@@ -135,6 +150,7 @@ typedef struct rt_args {
     const char *cells_name;
     size_t llc;
     double bandwidth;
+    int opencl; /* --backend opencl */
 } rt_args;
 
 /* ------------------------------------------------------------------ frames */
@@ -260,6 +276,36 @@ static int time_solver(lrr_context *ctx, lrr_solver *solver, lrr_path want, cons
     return 0;
 }
 
+/* Times lrr_solve on a fresh OpenCL solver for op (storage row->storage), B in b; fills
+ * the row's timing and the medians of its kernel and transfer times. */
+static int time_cl(lrr_context *ctx, const lrr_operator *op, const float *e, float *b,
+                   unsigned repeat, rt_row *row)
+{
+    lrr_solver *sv = NULL;
+    lrr_status s = lrr_solver_create(op, LRR_BACKEND_OPENCL, &sv);
+    if (s != LRR_OK)
+        return lib_fail(ctx, s, "OpenCL solver");
+    snprintf(row->kernel, sizeof row->kernel, "opencl");
+    cl_device_name(sv, row->device, sizeof row->device);
+    snprintf(row->path, sizeof row->path, "full");
+    cl_frame cf = {{sv, e, NULL, b, LRR_OK, 0}, NULL, NULL, 0, 0};
+    cf.cap = RT_WARMUPS + (repeat ? repeat : MAX_RUNS) + 1;
+    cf.kernel_ms = malloc(cf.cap * sizeof *cf.kernel_ms);
+    cf.transfer_ms = malloc(cf.cap * sizeof *cf.transfer_ms);
+    int rc = 0;
+    if (!cf.kernel_ms || !cf.transfer_ms)
+        rc = bench_fail("cannot allocate %zu timings", cf.cap);
+    else if (rt_time(cl_step, &cf, repeat, &row->t))
+        rc = cf.of.status != LRR_OK ? lib_fail(ctx, cf.of.status, "lrr_solve (OpenCL)")
+                                    : CLI_EXIT_FAIL;
+    else
+        cl_medians(&cf, row->t.runs, &row->kernel_ms, &row->transfer_ms);
+    free(cf.kernel_ms);
+    free(cf.transfer_ms);
+    lrr_solver_destroy(sv);
+    return rc;
+}
+
 /* ------------------------------------------------------------------ helpers */
 static int finite_all(const float *v, size_t count)
 {
@@ -329,6 +375,14 @@ static int rt_cell_run(lrr_context *ctx, const rt_args *a, const cell *c, size_t
         w->t.median = w->t.min = w->t.max = NAN;
         w->floor_ms = w->floor_ms_full = w->ratio_to_floor = w->ratio_to_paper = NAN;
         w->rel_l2 = NAN;
+        w->backend = "cpu";
+        w->kernel_ms = w->transfer_ms = w->ratio_to_cpu = NAN;
+        snprintf(w->device, sizeof w->device, "cpu");
+    }
+    for (int i = 0; i < 3; i++) {
+        rt_row *w = &r->cl_rows[i];
+        *w = r->rows[RT_FUSED_F32 + i];
+        w->backend = "opencl";
     }
     char label[96];
     snprintf(label, sizeof label, "[%zu/%zu] %zu×%zu (d %zu)", index + 1, a->n_cells, c->n, c->k,
@@ -430,6 +484,13 @@ static int rt_cell_run(lrr_context *ctx, const rt_args *a, const cell *c, size_t
         rc = bench_fail("%s: fused f32 gave a non-finite B", label);
         goto done;
     }
+    if (a->opencl) {
+        note("%s: fused f32 (OpenCL)", label);
+        if ((rc = time_cl(ctx, op, e, b, a->repeat, &r->cl_rows[0])))
+            goto done;
+        compare_b(n, area, b, b32, NULL, &r->cl_rows[0].rel_l2, NULL);
+        r->have_cl = 1;
+    }
 
     /* fused f16 and bf16, one solver each */
     for (int j = 0; j < 2; j++) {
@@ -444,6 +505,12 @@ static int rt_cell_run(lrr_context *ctx, const rt_args *a, const cell *c, size_t
         compare_b(n, area, b, b32, NULL, &row->rel_l2, NULL);
         lrr_solver_destroy(sv);
         sv = NULL;
+        if (a->opencl) {
+            note("%s: fused %s (OpenCL)", label, row->storage);
+            if ((rc = time_cl(ctx, op16[j], e, b, a->repeat, &r->cl_rows[1 + j])))
+                goto done;
+            compare_b(n, area, b, b32, NULL, &r->cl_rows[1 + j].rel_l2, NULL);
+        }
         lrr_operator_destroy(op16[j]);
         op16[j] = NULL;
     }
@@ -570,6 +637,17 @@ static int rt_cell_run(lrr_context *ctx, const rt_args *a, const cell *c, size_t
         w->reads_fbar = i != RT_SPARSE && i != RT_INCREMENTAL;
         w->bytes = i == RT_PAPER ? 4.0 * f32_bytes : i <= RT_FUSED_BF16 ? fb + m_bytes : fb;
     }
+    for (int i = 0; r->have_cl && i < 3; i++) {
+        rt_row *w = &r->cl_rows[i];
+        const rt_row *cpu = &r->rows[RT_FUSED_F32 + i];
+        w->floor_ms = cpu->floor_ms;
+        w->floor_ms_full = cpu->floor_ms_full;
+        w->ratio_to_floor = w->t.median / w->floor_ms;
+        w->ratio_to_paper = paper_ms / w->t.median;
+        w->ratio_to_cpu = cpu->t.median / w->t.median;
+        w->reads_fbar = 1;
+        w->bytes = cpu->bytes;
+    }
 done:
     if (have_file)
         unlink(path);
@@ -598,7 +676,7 @@ static const char rt_csv_header[] =
     "impl,storage,n,k,ms_median,ms_min,ms_max,floor_ms,ratio_to_floor,ratio_to_paper,"
     "rel_l2_vs_f32,d,runs,kernel,path,other_path_frames,floor_ms_full,bandwidth_gbs,"
     "bandwidth_source,llc_mib,threads_openmp,threads_openblas,n_target,k_target,d_target,"
-    "preprocess_s,hemicube\n";
+    "preprocess_s,hemicube,backend,kernel_ms,transfer_ms,device,ratio_to_cpu\n";
 
 static int write_rt_csv(const char *path, const rt_args *a, const rt_cell *cells, size_t count)
 {
@@ -608,8 +686,8 @@ static int write_rt_csv(const char *path, const rt_args *a, const rt_cell *cells
     fputs(rt_csv_header, out.f);
     for (size_t i = 0; i < count; i++) {
         const rt_cell *r = &cells[i];
-        for (int j = 0; j < RT_COUNT; j++) {
-            const rt_row *w = &r->rows[j];
+        for (int j = 0; j < RT_COUNT + (r->have_cl ? 3 : 0); j++) {
+            const rt_row *w = j < RT_COUNT ? &r->rows[j] : &r->cl_rows[j - RT_COUNT];
             fprintf(out.f, "%s,%s,%zu,%zu,", w->impl, w->storage, r->n, r->k);
             const double v[] = {w->t.median,       w->t.min,          w->t.max,
                                 w->floor_ms,       w->ratio_to_floor, w->ratio_to_paper,
@@ -624,7 +702,11 @@ static int write_rt_csv(const char *path, const rt_args *a, const rt_cell *cells
                     omp_get_max_threads(), openblas_get_num_threads(), r->target.n,
                     r->target.k, r->target.d);
             csv_num(out.f, r->preprocess_s, 0);
-            fprintf(out.f, "%u\n", a->hemicube);
+            fprintf(out.f, "%u,%s,", a->hemicube, w->backend);
+            csv_num(out.f, w->kernel_ms, 0);
+            csv_num(out.f, w->transfer_ms, 0);
+            fprintf(out.f, "%s,", w->device);
+            csv_num(out.f, w->ratio_to_cpu, 1);
         }
     }
     if (cli_outfile_commit(&out) != 0)
@@ -699,6 +781,31 @@ static void print_rt_cell(const rt_args *a, const rt_cell *r)
         printf("%-12s %-7s %-8s %28s %7zu %9s %14s %14s %13s  %s\n", w->impl, w->storage,
                w->kernel, t, w->t.runs, fl, rf, rp, el, pth);
     }
+    if (r->have_cl) {
+        printf("\nopencl: %s (fused, full path; kernel and transfer: medians of the OpenCL "
+               "profiling events; ratio_to_cpu = CPU fused ms / OpenCL ms)\n",
+               r->cl_rows[0].device);
+        printf("%-7s %28s %7s %10s %11s %10s %12s %13s\n", "storage", "ms median (min-max)",
+               "runs", "kernel_ms", "transfer_ms", "sum_ms", "ratio_to_cpu", "rel_l2_vs_f32");
+        for (int i = 0; i < 3; i++) {
+            const rt_row *w = &r->cl_rows[i];
+            char med[32], lo[32], hi[32], t[128], km[32], tm[32], sm[32], rc[32], el[32];
+            fmt_ms(med, sizeof med, w->t.median);
+            fmt_ms(lo, sizeof lo, w->t.min);
+            fmt_ms(hi, sizeof hi, w->t.max);
+            snprintf(t, sizeof t, "%s (%s-%s)", med, lo, hi);
+            if (isnan(w->rel_l2))
+                snprintf(el, sizeof el, "-");
+            else
+                snprintf(el, sizeof el, "%.3g", w->rel_l2);
+            snprintf(km, sizeof km, "%.3g", w->kernel_ms);
+            snprintf(tm, sizeof tm, "%.3g", w->transfer_ms);
+            snprintf(sm, sizeof sm, "%.3g", w->kernel_ms + w->transfer_ms);
+            printf("%-7s %28s %7zu %10s %11s %10s %12s %13s\n", w->storage, t, w->t.runs, km, tm,
+                   sm,
+                   fmt_ratio(rc, sizeof rc, w->ratio_to_cpu), el);
+        }
+    }
     const rt_row *f32 = &r->rows[RT_FUSED_F32], *f16 = &r->rows[RT_FUSED_F16];
     char bm[32], fm[32];
     printf("\nbatch: lrr_solve_batch %d frames: %s ms per frame (median %s ms per batch, %zu "
@@ -765,6 +872,7 @@ int cmd_realtime(int argc, char *argv[])
         {"hemicube", required_argument, NULL, OPT_HEMICUBE},
         {"repeat", required_argument, NULL, OPT_REPEAT},
         {"csv", required_argument, NULL, OPT_CSV},
+        {"backend", required_argument, NULL, OPT_BACKEND},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     rt_args a = {.scene = "cornell", .hemicube = RT_DEFAULT_HEMICUBE};
@@ -808,6 +916,10 @@ int cmd_realtime(int argc, char *argv[])
             break;
         case OPT_CSV:
             a.csv = optarg;
+            break;
+        case OPT_BACKEND:
+            if (parse_backend(prog, optarg, &a.opencl) != 0)
+                goto out;
             break;
         default:
             rc = bad_option(prog, c, argv);
@@ -868,6 +980,10 @@ int cmd_realtime(int argc, char *argv[])
         goto out;
     }
     lrr_scene_destroy(probe);
+    if (a.opencl && (rc = opencl_probe(ctx)) != CLI_EXIT_OK) {
+        lrr_context_destroy(ctx);
+        goto out;
+    }
     rt_cell *res = calloc(a.n_cells, sizeof *res);
     if (!res) {
         lrr_context_destroy(ctx);
@@ -888,6 +1004,8 @@ int cmd_realtime(int argc, char *argv[])
     printf("scene: %s\n", a.scene);
     printf("cells: %s (%zu)\n", a.cells_name, a.n_cells);
     printf("hemicube: %u (the timings do not depend on it)\n", a.hemicube);
+    if (a.opencl)
+        printf("backend: cpu and opencl\n");
     if (a.repeat)
         printf("repeat: %u\n", a.repeat);
     else

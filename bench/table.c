@@ -32,6 +32,10 @@ static const char table_help[] =
     "           B_c = E_c - Y_c w, two cblas_sgemv per channel (six per frame); its B must\n"
     "           match ours (relative L2 < 1e-4, else an error)\n"
     "  3sgemv   three plain cblas_sgemv over F̄ (n×k), no epilogue\n"
+    "  opencl   (--backend opencl) ours on an OpenCL solver (LRR_BACKEND_OPENCL, f32, full\n"
+    "           path; device from LRR_OPENCL_DEVICE), with the medians of its kernel time\n"
+    "           and transfer time (E up, B down) from OpenCL profiling events, and\n"
+    "           ratio_to_ours = ours ms / OpenCL ms (above 1: the device is faster)\n"
     "Memory in MB = 10^6 bytes: mem_mb = F̄ (n·k floats) + M (3·k² floats);\n"
     "mem_mb_paper = 2·n·k·4 bytes (U and V dense, as the paper counted; the paper's own\n"
     "column is in MiB, see mem_mib_paper in the CSV).\n"
@@ -56,7 +60,10 @@ static const char table_help[] =
     "  --seed S             seed of the hemicube rotations (default 1)\n"
     "  --csv OUT.csv        write the results (rewritten after each cell):\n"
     "                       n,k,d,mem_mb,mem_mb_paper,preprocess_s,rt_ms_ours,rt_ms_paper,\n"
-    "                       rt_ms_3sgemv,floor_ms,rel_l2,max_rel, then extra columns\n"
+    "                       rt_ms_3sgemv,floor_ms,rel_l2,max_rel, then extra columns,\n"
+    "                       ending in backend,rt_ms_opencl,kernel_ms,transfer_ms,device,\n"
+    "                       opencl_ratio_to_ours (cpu,nan,nan,nan,cpu,nan without\n"
+    "                       --backend opencl)\n"
     "  --plot OUT.png       rel_l2 against real-time ms, log-log: ours (labelled n×k) and\n"
     "                       the paper's method (the same operator, so the same error),\n"
     "                       joined per cell; cells with an error only\n"
@@ -64,6 +71,8 @@ static const char table_help[] =
     "                       default 4096)\n"
     "  --repeat N           timed runs per implementation (default: adaptive, at least 20\n"
     "                       runs and at least 0.5 s)\n"
+    "  --backend B          cpu (default) or opencl (also the opencl columns; fails when\n"
+    "                       no OpenCL device or platform is available)\n"
     "  -h, --help           show this help\n";
 
 
@@ -94,6 +103,10 @@ typedef struct cell_result {
     int threads;
     char label[64];
     char note[256];
+    int have_cl;                          /* --backend opencl */
+    timing ocl;                           /* ours on the OpenCL solver */
+    double ocl_kernel_ms, ocl_transfer_ms, ocl_ratio; /* medians; ours / OpenCL */
+    char ocl_device[160];
 } cell_result;
 
 typedef struct table_args {
@@ -104,6 +117,7 @@ typedef struct table_args {
     cell *cells;
     size_t n_cells;
     const char *cells_name;
+    int opencl; /* --backend opencl */
 } table_args;
 
 /* --cells: a named set or "N/K/D,N/K/D,..." */
@@ -257,6 +271,9 @@ static int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t
     r->rel_l2 = r->max_rel = r->rel_l2_reflected = r->reference_s = NAN;
     r->reference_residual = r->paper_vs_ours = r->floor_ms = r->floor_ms_full = NAN;
     r->threads = omp_get_max_threads();
+    r->ocl.median = r->ocl.min = r->ocl.max = NAN;
+    r->ocl_kernel_ms = r->ocl_transfer_ms = r->ocl_ratio = NAN;
+    snprintf(r->ocl_device, sizeof r->ocl_device, "cpu");
     r->bandwidth_gbs = bandwidth / 1e9;
     char label[96];
     snprintf(label, sizeof label, "[%zu/%zu] %zu×%zu (d %zu)", index + 1, a->n_cells, c->n, c->k,
@@ -341,6 +358,38 @@ static int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t
         rc = bench_fail("%s: lrr_solve took the %s path, not the full one it was told to",
                         label, path_name(lrr_solver_last_path(solver)));
         goto done;
+    }
+    /* the OpenCL solver, f32, full path (its own B buffer; ours stays the reference) */
+    if (a->opencl) {
+        lrr_solver *cls = NULL;
+        float *bcl = cli_alloc_rgb(r->n);
+        cl_frame cf = {{NULL, e, NULL, bcl, LRR_OK, 0}, NULL, NULL, 0, 0};
+        cf.cap = 3 + (a->repeat ? a->repeat : MAX_RUNS);
+        cf.kernel_ms = malloc(cf.cap * sizeof *cf.kernel_ms);
+        cf.transfer_ms = malloc(cf.cap * sizeof *cf.transfer_ms);
+        if (!bcl || !cf.kernel_ms || !cf.transfer_ms)
+            rc = bench_fail("cannot allocate the OpenCL timings");
+        else if ((s = lrr_solver_create(op, LRR_BACKEND_OPENCL, &cls)) != LRR_OK)
+            rc = lib_fail(ctx, s, "OpenCL solver");
+        else {
+            note("%s: ours on %s", label, lrr_solver_kernel(cls));
+            cl_device_name(cls, r->ocl_device, sizeof r->ocl_device);
+            cf.of.solver = cls;
+            if (time_frames(cl_step, &cf, a->repeat, &r->ocl))
+                rc = cf.of.status != LRR_OK ? lib_fail(ctx, cf.of.status, "lrr_solve (OpenCL)")
+                                            : CLI_EXIT_FAIL;
+            else {
+                cl_medians(&cf, r->ocl.runs, &r->ocl_kernel_ms, &r->ocl_transfer_ms);
+                r->ocl_ratio = r->ours.median / r->ocl.median;
+                r->have_cl = 1;
+            }
+        }
+        lrr_solver_destroy(cls);
+        free(bcl);
+        free(cf.kernel_ms);
+        free(cf.transfer_ms);
+        if (rc)
+            goto done;
     }
     /* the default path, for an emission that changes every frame (into its own buffer) */
     {
@@ -453,7 +502,7 @@ static const char table_csv_header[] =
     "rt_ms_3sgemv_max,runs_ours,runs_paper,runs_3sgemv,n_target,k_target,d_target,"
     "mem_mib_paper,bandwidth_gbs,reference_s,rel_l2_reflected,paper_vs_ours,cond_r,cond_g,"
     "cond_b,threads,rt_ms_ours_auto,rt_ms_ours_auto_min,rt_ms_ours_auto_max,auto_path,kernel,"
-    "floor_ms_full\n";
+    "floor_ms_full,backend,rt_ms_opencl,kernel_ms,transfer_ms,device,opencl_ratio_to_ours\n";
 
 static int write_table_csv(const char *path, const cell_result *res, size_t count)
 {
@@ -482,7 +531,13 @@ static int write_table_csv(const char *path, const cell_result *res, size_t coun
         csv_num(out.f, r->ours_auto.min, 0);
         csv_num(out.f, r->ours_auto.max, 0);
         fprintf(out.f, "%s,%s,", r->auto_path, r->kernel);
-        csv_num(out.f, r->floor_ms_full, 1);
+        csv_num(out.f, r->floor_ms_full, 0);
+        fprintf(out.f, "%s,", r->have_cl ? "opencl" : "cpu");
+        csv_num(out.f, r->ocl.median, 0);
+        csv_num(out.f, r->ocl_kernel_ms, 0);
+        csv_num(out.f, r->ocl_transfer_ms, 0);
+        fprintf(out.f, "%s,", r->ocl_device);
+        csv_num(out.f, r->ocl_ratio, 1);
     }
     if (cli_outfile_commit(&out) != 0)
         return bench_fail("cannot write '%s': %s", path, strerror(errno));
@@ -535,14 +590,18 @@ out:
     return rc;
 }
 
-static void print_table_header(void)
+static void print_table_header(int opencl)
 {
-    printf("\n%7s %5s %5s %8s %8s %7s %26s %26s %26s %8s %9s %9s %18s  %s\n", "n", "k", "d",
+    printf("\n%7s %5s %5s %8s %8s %7s %26s %26s %26s %8s %9s %9s %18s", "n", "k", "d",
            "mem_MB", "paper_MB", "prep_s", "ours_ms (min-max)", "paper_ms (min-max)",
-           "3sgemv_ms (min-max)", "floor_ms", "rel_l2", "max_rel", "auto_ms (path)", "note");
+           "3sgemv_ms (min-max)", "floor_ms", "rel_l2", "max_rel", "auto_ms (path)");
+    if (opencl)
+        printf(" %26s %10s %11s %13s", "opencl_ms (min-max)", "kernel_ms", "transfer_ms",
+               "ratio_to_ours");
+    printf("  %s\n", "note");
 }
 
-static void print_table_row(const cell_result *r)
+static void print_table_row(const cell_result *r, int opencl)
 {
     char t[3][128], e1[24], e2[24], fl[32];
     const timing *tm[3] = {&r->ours, &r->paper, &r->sgemv3};
@@ -564,9 +623,21 @@ static void print_table_row(const cell_result *r)
     char am[32], au[64];
     fmt_ms(am, sizeof am, r->ours_auto.median);
     snprintf(au, sizeof au, "%s (%s)", am, r->auto_path);
-    printf("%7zu %5zu %5zu %8.1f %8.1f %7.2f %26s %26s %26s %8s %9s %9s %18s  %s\n", r->n, r->k,
-           r->d, r->mem_mb, r->mem_mb_paper, r->preprocess_s, t[0], t[1], t[2], fl, e1, e2, au,
-           r->note);
+    printf("%7zu %5zu %5zu %8.1f %8.1f %7.2f %26s %26s %26s %8s %9s %9s %18s", r->n, r->k,
+           r->d, r->mem_mb, r->mem_mb_paper, r->preprocess_s, t[0], t[1], t[2], fl, e1, e2, au);
+    if (opencl) {
+        char med[32], lo[32], hi[32], oc[128], km[32], tx[32], ra[32];
+        snprintf(oc, sizeof oc, "%s (%s-%s)", fmt_ms(med, sizeof med, r->ocl.median),
+                 fmt_ms(lo, sizeof lo, r->ocl.min), fmt_ms(hi, sizeof hi, r->ocl.max));
+        if (isnan(r->ocl_ratio))
+            snprintf(ra, sizeof ra, "-");
+        else
+            snprintf(ra, sizeof ra, "%.2f", r->ocl_ratio);
+        snprintf(km, sizeof km, "%.3g", r->ocl_kernel_ms);
+        snprintf(tx, sizeof tx, "%.3g", r->ocl_transfer_ms);
+        printf(" %26s %10s %11s %13s", oc, km, tx, ra);
+    }
+    printf("  %s\n", r->note);
     fflush(stdout);
 }
 
@@ -582,6 +653,7 @@ int cmd_table(int argc, char *argv[])
         {"plot", required_argument, NULL, OPT_PLOT},
         {"memory-budget", required_argument, NULL, OPT_MEMORY_BUDGET},
         {"repeat", required_argument, NULL, OPT_REPEAT},
+        {"backend", required_argument, NULL, OPT_BACKEND},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     table_args a = {.scene = "cornell", .hemicube = DEFAULT_HEMICUBE, .seed = DEFAULT_SEED,
@@ -631,6 +703,10 @@ int cmd_table(int argc, char *argv[])
             if (cli_parse_unsigned(prog, "--repeat", optarg, 1, 1000000, &a.repeat) != 0)
                 goto out;
             break;
+        case OPT_BACKEND:
+            if (parse_backend(prog, optarg, &a.opencl) != 0)
+                goto out;
+            break;
         default:
             rc = bad_option(prog, c, argv);
             goto out;
@@ -660,6 +736,10 @@ int cmd_table(int argc, char *argv[])
         goto out;
     }
     lrr_scene_destroy(probe);
+    if (a.opencl && (rc = opencl_probe(ctx)) != CLI_EXIT_OK) {
+        lrr_context_destroy(ctx);
+        goto out;
+    }
     cell_result *res = calloc(a.n_cells, sizeof *res);
     if (!res) {
         lrr_context_destroy(ctx);
@@ -687,7 +767,7 @@ int cmd_table(int argc, char *argv[])
         printf("read_bandwidth_gbs: nan (cannot allocate %zu MiB)\n", bw_bytes >> 20);
     printf("units: memory in MB = 10^6 bytes; times in ms per frame (median (min-max)); "
            "floor = F̄ bytes / read bandwidth\n");
-    print_table_header();
+    print_table_header(a.opencl);
     fflush(stdout);
 
     rc = CLI_EXIT_OK;
@@ -700,7 +780,7 @@ int cmd_table(int argc, char *argv[])
         }
         if (crc)
             rc = crc; /* a failed check: keep the row, report it, carry on */
-        print_table_row(&res[done]);
+        print_table_row(&res[done], a.opencl);
         done++;
         if (a.csv && write_table_csv(a.csv, res, done) != 0) {
             rc = CLI_EXIT_FAIL;

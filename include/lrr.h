@@ -177,6 +177,11 @@ typedef struct lrr_build_options {
     void *progress_user;
     int no_rotation;              /* 1: every hemicube in the same tangent frame (for studying
                                      the aliasing the random rotation spreads out) */
+    int backend;                  /* where the hemicube pixels are integrated: 0 or
+                                     LRR_BACKEND_CPU on the CPU, LRR_BACKEND_OPENCL on an
+                                     OpenCL device (rasterisation stays on the CPU; same F̄ to
+                                     rounding; LRR_ERR_UNSUPPORTED without OpenCL, and for
+                                     lrr_reference_build) */
 } lrr_build_options;
 
 /* Builds F̄ by one hemicube per subpatch, then M_c = (I_k - Vᵀ diag(rho_c) F̄)^{-1} per
@@ -271,6 +276,13 @@ LRR_API void lrr_solver_destroy(lrr_solver *solver);
 /* The instruction-set variant the CPU solver runs: "c", "avx2" or "avx512" (the widest this
  * CPU supports; the environment variable LRR_SIMD, read by lrr_solver_create, forces one). */
 LRR_API const char *lrr_solver_kernel(const lrr_solver *solver) LRR_NONNULL(1);
+
+/* An OpenCL solver's device times for its last lrr_solve, from OpenCL profiling events, in
+ * milliseconds: kernel_ms is the sum of the kernels' END - START, transfer_ms that of the E
+ * upload and the B download (host overhead and queueing gaps are in neither). Both are 0
+ * before the first frame. A CPU solver returns LRR_ERR_UNSUPPORTED. */
+LRR_API LRR_NODISCARD lrr_status lrr_solver_timings(const lrr_solver *solver, double *kernel_ms,
+                                                    double *transfer_ms) LRR_NONNULL(1, 2, 3);
 
 /* B = E + rho ∘ (F̄ · (M · (Vᵀ E))) per channel. emission and radiosity are n×3 row-major
  * (they may not alias). Emission must be finite and >= 0.

@@ -283,34 +283,52 @@ static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t,
         raster_tri(s[0], s[i], s[i + 1], id, f->W, f->H, f->depth, f->item);
 }
 
+/* The patch (or subpatch) that pixel (xx, y) of face f shows; id is its triangle (>= 0). */
+static inline size_t pixel_target(const hemi_ctx *h, const double x[3], const face *f, int xx,
+                                  int y, int32_t id)
+{
+    double half = 0.5 * f->W;
+    double sy = f->side ? (y + 0.5) / half : (y + 0.5) / half - 1;
+    double sx = (xx + 0.5) / half - 1;
+    double dir[3];
+    for (int j = 0; j < 3; j++)
+        dir[j] = sx * f->right[j] + sy * f->up[j] + f->fwd[j];
+    const tri_info *ti = &h->tri[id];
+    double w0[3] = {ti->v0[0] - x[0], ti->v0[1] - x[1], ti->v0[2] - x[2]};
+    double tt = dot3(ti->n, w0) / dot3(ti->n, dir);
+    double r[3];
+    for (int j = 0; j < 3; j++)
+        r[j] = x[j] + tt * dir[j] - ti->v0[j];
+    double d1 = dot3(r, ti->e1), d2 = dot3(r, ti->e2);
+    double b1 = (ti->g22 * d1 - ti->g12 * d2) * ti->inv;
+    double b2 = (ti->g11 * d2 - ti->g12 * d1) * ti->inv;
+    return h->by_subpatch ? lrr__subpatch_at(h->g, (size_t)id, b1, b2)
+                          : lrr__patch_at(h->g, (size_t)id, b1, b2);
+}
+
 /* Accumulates the visible patches (or subpatches) of face f into row (k or n doubles). */
 static void integrate_face(const hemi_ctx *h, const double x[3], const face *f, double *row)
 {
-    double half = 0.5 * f->W;
-    for (int y = 0; y < f->H; y++) {
-        double sy = f->side ? (y + 0.5) / half : (y + 0.5) / half - 1;
+    for (int y = 0; y < f->H; y++)
         for (int xx = 0; xx < f->W; xx++) {
             size_t pix = (size_t)y * f->W + xx;
             int32_t id = f->item[pix];
-            if (id < 0)
-                continue;
-            double sx = (xx + 0.5) / half - 1;
-            double dir[3];
-            for (int j = 0; j < 3; j++)
-                dir[j] = sx * f->right[j] + sy * f->up[j] + f->fwd[j];
-            const tri_info *ti = &h->tri[id];
-            double w0[3] = {ti->v0[0] - x[0], ti->v0[1] - x[1], ti->v0[2] - x[2]};
-            double tt = dot3(ti->n, w0) / dot3(ti->n, dir);
-            double r[3];
-            for (int j = 0; j < 3; j++)
-                r[j] = x[j] + tt * dir[j] - ti->v0[j];
-            double d1 = dot3(r, ti->e1), d2 = dot3(r, ti->e2);
-            double b1 = (ti->g22 * d1 - ti->g12 * d2) * ti->inv;
-            double b2 = (ti->g11 * d2 - ti->g12 * d1) * ti->inv;
-            row[h->by_subpatch ? lrr__subpatch_at(h->g, (size_t)id, b1, b2)
-                               : lrr__patch_at(h->g, (size_t)id, b1, b2)] += f->weight[pix];
+            if (id >= 0)
+                row[pixel_target(h, x, f, xx, y, id)] += f->weight[pix];
         }
-    }
+}
+
+/* For the device integration: rewrites face f's item buffer from triangle ids to patch ids
+ * (-1 stays -1); the device then sums the multiplier map per patch in this same order. */
+static void resolve_face(const hemi_ctx *h, const double x[3], const face *f)
+{
+    for (int y = 0; y < f->H; y++)
+        for (int xx = 0; xx < f->W; xx++) {
+            size_t pix = (size_t)y * f->W + xx;
+            int32_t id = f->item[pix];
+            if (id >= 0)
+                f->item[pix] = (int32_t)pixel_target(h, x, f, xx, y, id);
+        }
 }
 
 typedef struct {
@@ -396,6 +414,11 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         for (int fi = 0; fi < 5; fi++)
             render_face(h, x, &faces[fi], t, id);
     }
+    if (!out) { /* device integration: hand over patch ids instead of a row */
+        for (int fi = 0; fi < 5; fi++)
+            resolve_face(h, x, &faces[fi]);
+        return;
+    }
     size_t cols = h->by_subpatch ? g->n : g->k;
     memset(sc->row, 0, cols * sizeof(double));
     for (int fi = 0; fi < 5; fi++)
@@ -411,10 +434,82 @@ lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
     return lrr__hemicube_rows(ctx, g, opts, 0, fbar);
 }
 
+/* Batches of hemicubes are rasterised and resolved to patch ids on the CPU (OpenMP, each
+ * receiver straight into its slice of the batch's id buffer), then integrated on the device.
+ * A batch is at most 256 hemicubes and 64 MiB of ids. */
+static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_options *opts,
+                              float *out)
+{
+    const lrr__geometry *g = h->g;
+    const unsigned R = h->mm->res;
+    const size_t P = 3 * (size_t)R * R;
+    if (g->k > INT32_MAX)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW,
+                          "k = %zu patches: the device integration uses int32 patch ids", g->k);
+    size_t batch = ((size_t)64 << 20) / (P * sizeof(int32_t));
+    if (batch > 256)
+        batch = 256;
+    if (batch < 1)
+        batch = 1;
+    if (batch > g->n)
+        batch = g->n ? g->n : 1;
+    lrr__cl_hemi *dev;
+    lrr_status st = lrr__cl_hemi_create(ctx, h->mm, g->k, g->d, batch, &dev);
+    if (st)
+        return st;
+    int32_t *ids;
+    if ((st = lrr__calloc(ctx, &ids, batch, P * sizeof(int32_t), "hemicube id batch"))) {
+        lrr__cl_hemi_destroy(dev);
+        return st;
+    }
+    int nthreads = opts->threads > 0 ? opts->threads : omp_get_max_threads();
+    for (size_t i0 = 0; i0 < g->n && !st; i0 += batch) {
+        const size_t i1 = i0 + batch < g->n ? i0 + batch : g->n;
+        volatile int failed = 0;
+        #pragma omp parallel num_threads(nthreads)
+        {
+            scratch sc = {0};
+            if (lrr__calloc(ctx, &sc.depth, P, sizeof(float), "hemicube depth buffer")) {
+                #pragma omp atomic write
+                failed = 1;
+            }
+            #pragma omp for schedule(dynamic, 4)
+            for (size_t i = i0; i < i1; i++) {
+                if (failed)
+                    continue;
+                sc.item = ids + (i - i0) * P;
+                hemicube_row(h, i, opts->seed, !opts->no_rotation, &sc, NULL);
+            }
+            lrr_aligned_free(sc.depth);
+        }
+        if (failed) {
+            st = LRR_ERR_NOMEM;
+            break;
+        }
+        if ((st = lrr__cl_hemi_rows(dev, ids, i1 - i0, out + i0 * g->k)))
+            break;
+        if (opts->progress && opts->progress(opts->progress_user, i1, g->n))
+            st = lrr__error(ctx, LRR_ERR_CANCELLED,
+                            "form-factor build cancelled after %zu of %zu receivers", i1, g->n);
+    }
+    lrr_aligned_free(ids);
+    lrr__cl_hemi_destroy(dev);
+    return st;
+}
+
 lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, int by_subpatch, float *out)
 {
     unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
+    const int on_device = opts->backend == LRR_BACKEND_OPENCL;
+    if (opts->backend != 0 && opts->backend != LRR_BACKEND_CPU && !on_device)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "build backend %d: must be 0, LRR_BACKEND_CPU or LRR_BACKEND_OPENCL",
+                          opts->backend);
+    if (on_device && by_subpatch)
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "the full form-factor matrix (lrr_reference_build) is integrated on "
+                          "the CPU only: use backend LRR_BACKEND_CPU");
     if (g->n_tri > INT32_MAX)
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "%zu triangles: the item buffer holds int32 ids",
                           g->n_tri);
@@ -454,6 +549,12 @@ lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
     hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch};
     const size_t cols = by_subpatch ? g->n : g->k;
 
+    if (on_device) {
+        st = device_rows(ctx, &h, opts, out);
+        lrr_aligned_free(tri);
+        lrr__multiplier_map_free(&mm);
+        return st;
+    }
     size_t rr = (size_t)R * R;
     int nthreads = opts->threads > 0 ? opts->threads : omp_get_max_threads();
     volatile int cancelled = 0, failed = 0;

@@ -153,6 +153,18 @@ lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
 lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, int by_subpatch, float *out);
 
+/* Hemicube integration on an OpenCL device (hemicube_opencl.c): rows of F̄ from a batch of
+ * resolved hemicubes (patch ids per pixel in the item-buffer layout, 3R² per hemicube, -1 for
+ * nothing). Without OpenCL support create returns LRR_ERR_UNSUPPORTED. */
+typedef struct lrr__cl_hemi lrr__cl_hemi;
+lrr_status lrr__cl_hemi_create(lrr_context *ctx, const lrr__multiplier_map *mm, size_t k,
+                               size_t d, size_t batch, lrr__cl_hemi **out);
+/* out (count×k) = rows of F̄ of `count` <= batch hemicubes. */
+lrr_status lrr__cl_hemi_rows(lrr__cl_hemi *h, const int32_t *ids, size_t count, float *out);
+void lrr__cl_hemi_destroy(lrr__cl_hemi *h);
+/* lib/kernels/hemicube.cl as a string (generated at build time). */
+extern const char lrr__kernel_hemicube_cl[];
+
 /* ------------------------------------------------------------ real-time kernels */
 /* One instruction-set variant of the two row kernels (realtime_kernel.c). */
 typedef struct lrr__kernel {
@@ -199,6 +211,8 @@ void lrr__cl_destroy(lrr__cl_solver *cl);
 const char *lrr__cl_name(const lrr__cl_solver *cl); /* "opencl:<device name>" */
 /* One full pass for validated E: E up, three kernels, B down. */
 lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B);
+/* The last frame's kernel and transfer times (profiling events; 0 before the first frame). */
+void lrr__cl_timings(const lrr__cl_solver *cl, double *kernel_ms, double *transfer_ms);
 /* Tests only: the work-group-per-row kernel (GPUs) instead of item-per-row (CPU devices). */
 void lrr__cl_use_groups(lrr__cl_solver *cl, int groups);
 void lrr__solver_opencl_groups(lrr_solver *s, int groups);

@@ -158,6 +158,15 @@ const char *lrr_solver_kernel(const lrr_solver *s)
     return s->kernel->name;
 }
 
+lrr_status lrr_solver_timings(const lrr_solver *s, double *kernel_ms, double *transfer_ms)
+{
+    if (!s->cl)
+        return lrr__error(s->op->ctx, LRR_ERR_UNSUPPORTED,
+                          "lrr_solver_timings: only OpenCL solvers have device timings");
+    lrr__cl_timings(s->cl, kernel_ms, transfer_ms);
+    return LRR_OK;
+}
+
 lrr_status lrr_solver_set_cache(lrr_solver *s, size_t max_bytes)
 {
     const lrr_operator *op = s->op;

@@ -6,6 +6,8 @@
  * F̄ (in its storage), its row scales, M and rho go to the device once, at create; per frame
  * E goes up, three kernels run on the solver's in-order queue, and B comes down.
  * Every frame is a full pass: the CPU's sparse and incremental paths stay on the CPU.
+ * The queue has CL_QUEUE_PROFILING_ENABLE: each frame's kernel time (the three kernels'
+ * END - START) and transfer time (E up, B down) are kept for lrr_solver_timings.
  *
  * Device choice: the first GPU over all platforms, else the first CPU device; the environment
  * variable LRR_OPENCL_DEVICE overrides it with "P:D" (platform and device index) or a
@@ -41,6 +43,11 @@ lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B)
     (void)cl, (void)E, (void)B;
     return LRR_ERR_UNSUPPORTED;
 }
+void lrr__cl_timings(const lrr__cl_solver *cl, double *kernel_ms, double *transfer_ms)
+{
+    (void)cl;
+    *kernel_ms = *transfer_ms = 0;
+}
 void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 {
     (void)cl, (void)groups;
@@ -48,9 +55,8 @@ void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 
 #else
 
-#define CL_TARGET_OPENCL_VERSION 120
-#include <CL/cl.h>
-#include <ctype.h>
+#include "opencl_util.h"
+
 #include <stdio.h>
 
 /* Work-group size of fbar_groups on GPUs: a few warps/wavefronts per row keep loads
@@ -69,39 +75,8 @@ struct lrr__cl_solver {
     size_t group_size;
     int use_groups;      /* fbar_groups (GPUs) rather than fbar_rows (CPU devices) */
     char name[160];      /* "opencl:<device name>" */
+    double kernel_ms, transfer_ms; /* the last frame's, from profiling events (0 before one) */
 };
-
-static const char *cl_code_name(cl_int e)
-{
-    switch (e) {
-#define C(x) case x: return #x;
-    C(CL_DEVICE_NOT_FOUND) C(CL_DEVICE_NOT_AVAILABLE) C(CL_COMPILER_NOT_AVAILABLE)
-    C(CL_MEM_OBJECT_ALLOCATION_FAILURE) C(CL_OUT_OF_RESOURCES) C(CL_OUT_OF_HOST_MEMORY)
-    C(CL_BUILD_PROGRAM_FAILURE) C(CL_INVALID_VALUE) C(CL_INVALID_DEVICE_TYPE)
-    C(CL_INVALID_PLATFORM) C(CL_INVALID_DEVICE) C(CL_INVALID_CONTEXT)
-    C(CL_INVALID_COMMAND_QUEUE) C(CL_INVALID_MEM_OBJECT) C(CL_INVALID_BUILD_OPTIONS)
-    C(CL_INVALID_PROGRAM) C(CL_INVALID_PROGRAM_EXECUTABLE) C(CL_INVALID_KERNEL_NAME)
-    C(CL_INVALID_KERNEL) C(CL_INVALID_ARG_INDEX) C(CL_INVALID_ARG_VALUE)
-    C(CL_INVALID_ARG_SIZE) C(CL_INVALID_KERNEL_ARGS) C(CL_INVALID_WORK_DIMENSION)
-    C(CL_INVALID_WORK_GROUP_SIZE) C(CL_INVALID_WORK_ITEM_SIZE) C(CL_INVALID_GLOBAL_OFFSET)
-    C(CL_INVALID_EVENT_WAIT_LIST) C(CL_INVALID_OPERATION) C(CL_INVALID_BUFFER_SIZE)
-    C(CL_INVALID_GLOBAL_WORK_SIZE) C(CL_MISALIGNED_SUB_BUFFER_OFFSET)
-    C(CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST)
-#undef C
-    case -1001: return "CL_PLATFORM_NOT_FOUND_KHR";
-    default: return "an unknown OpenCL error";
-    }
-}
-
-/* Records a failed OpenCL call: which call, on what, and the CL error code. */
-static lrr_status cl_fail(lrr_context *ctx, cl_int err, const char *call, const char *what)
-{
-    lrr_status st = err == CL_OUT_OF_HOST_MEMORY || err == CL_MEM_OBJECT_ALLOCATION_FAILURE
-                        ? LRR_ERR_NOMEM
-                        : LRR_ERR_UNSUPPORTED;
-    return lrr__error(ctx, st, "OpenCL: %s (%s) failed: %s (%d)", call, what, cl_code_name(err),
-                      (int)err);
-}
 
 void lrr__cl_destroy(lrr__cl_solver *cl)
 {
@@ -134,99 +109,6 @@ void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
     cl->use_groups = groups != 0;
 }
 
-/* "platform name / device name" of one device, as LRR_OPENCL_DEVICE is matched against. */
-static void device_label(cl_platform_id p, cl_device_id d, char *label, size_t size)
-{
-    char pn[128] = "", dn[128] = "";
-    clGetPlatformInfo(p, CL_PLATFORM_NAME, sizeof pn - 1, pn, NULL);
-    clGetDeviceInfo(d, CL_DEVICE_NAME, sizeof dn - 1, dn, NULL);
-    snprintf(label, size, "%s / %s", pn, dn);
-}
-
-static int contains_nocase(const char *hay, const char *needle)
-{
-    size_t nl = strlen(needle);
-    for (; *hay; hay++) {
-        size_t i = 0;
-        while (i < nl && hay[i] &&
-               tolower((unsigned char)hay[i]) == tolower((unsigned char)needle[i]))
-            i++;
-        if (i == nl)
-            return 1;
-    }
-    return nl == 0;
-}
-
-/* Picks the device (see the top of the file). */
-static lrr_status pick_device(lrr_context *ctx, cl_device_id *out)
-{
-    enum { MAX_PLATFORMS = 16, MAX_DEVICES = 32 };
-    cl_platform_id plat[MAX_PLATFORMS];
-    cl_uint np = 0;
-    cl_int err = clGetPlatformIDs(MAX_PLATFORMS, plat, &np);
-    if (err == -1001 /* CL_PLATFORM_NOT_FOUND_KHR: the ICD loader found no driver */ ||
-        (err == CL_SUCCESS && np == 0))
-        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
-                          "no OpenCL platform found (no driver registered with the ICD loader; "
-                          "on Debian: apt-get install pocl-opencl-icd, or a GPU vendor's ICD)");
-    if (err != CL_SUCCESS)
-        return cl_fail(ctx, err, "clGetPlatformIDs", "listing platforms");
-    if (np > MAX_PLATFORMS)
-        np = MAX_PLATFORMS;
-    const char *want = getenv("LRR_OPENCL_DEVICE");
-    if (want && !want[0])
-        want = NULL;
-    unsigned wp = 0, wd = 0;
-    char tail;
-    const int by_index = want && sscanf(want, "%u:%u%c", &wp, &wd, &tail) == 2;
-    cl_device_id gpu = NULL, cpu = NULL;
-    char seen[200] = ""; /* the devices there are, for the error messages */
-    for (cl_uint p = 0; p < np; p++) {
-        cl_device_id dev[MAX_DEVICES];
-        cl_uint nd = 0;
-        err = clGetDeviceIDs(plat[p], CL_DEVICE_TYPE_ALL, MAX_DEVICES, dev, &nd);
-        if (err == CL_DEVICE_NOT_FOUND)
-            continue;
-        if (err != CL_SUCCESS)
-            return cl_fail(ctx, err, "clGetDeviceIDs", "listing a platform's devices");
-        if (nd > MAX_DEVICES)
-            nd = MAX_DEVICES;
-        for (cl_uint d = 0; d < nd; d++) {
-            char label[260];
-            device_label(plat[p], dev[d], label, sizeof label);
-            char entry[300];
-            size_t used = strlen(seen);
-            snprintf(entry, sizeof entry, "%s%u:%u %s", used ? "; " : "", (unsigned)p,
-                     (unsigned)d, label);
-            size_t len = strlen(entry), room = sizeof seen - 1 - used;
-            memcpy(seen + used, entry, len < room ? len : room); /* truncated when long */
-            seen[used + (len < room ? len : room)] = '\0';
-            if (want) {
-                if (by_index ? (p == wp && d == wd) : contains_nocase(label, want)) {
-                    *out = dev[d];
-                    return LRR_OK;
-                }
-                continue;
-            }
-            cl_device_type type = 0;
-            clGetDeviceInfo(dev[d], CL_DEVICE_TYPE, sizeof type, &type, NULL);
-            if ((type & CL_DEVICE_TYPE_GPU) && !gpu)
-                gpu = dev[d];
-            if ((type & CL_DEVICE_TYPE_CPU) && !cpu)
-                cpu = dev[d];
-        }
-    }
-    if (want)
-        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
-                          "LRR_OPENCL_DEVICE='%s' matches no OpenCL device (have: %s)", want,
-                          seen[0] ? seen : "none");
-    if (!gpu && !cpu)
-        return lrr__error(ctx, LRR_ERR_UNSUPPORTED, "no OpenCL GPU or CPU device found (have: %s)",
-                          seen[0] ? seen : "none");
-    *out = gpu ? gpu : cpu;
-    return LRR_OK;
-}
-
 static lrr_status new_buffer(lrr__cl_solver *cl, cl_mem_flags flags, size_t bytes,
                              const void *host, const char *what, cl_mem *out)
 {
@@ -234,7 +116,7 @@ static lrr_status new_buffer(lrr__cl_solver *cl, cl_mem_flags flags, size_t byte
     *out = clCreateBuffer(cl->context, flags | (host ? CL_MEM_COPY_HOST_PTR : 0),
                           bytes ? bytes : 4, (void *)host, &err);
     if (err != CL_SUCCESS)
-        return cl_fail(cl->op->ctx, err, "clCreateBuffer", what);
+        return lrr__cl_fail(cl->op->ctx, err, "clCreateBuffer", what);
     return LRR_OK;
 }
 
@@ -247,7 +129,7 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
     cl_int err;
     cl->program = clCreateProgramWithSource(cl->context, 1, &src, NULL, &err);
     if (err != CL_SUCCESS)
-        return cl_fail(ctx, err, "clCreateProgramWithSource", "lib/kernels/realtime.cl");
+        return lrr__cl_fail(ctx, err, "clCreateProgramWithSource", "lib/kernels/realtime.cl");
     char opts[64];
     const int storage = cl->op->storage == LRR_STORAGE_F16    ? 1
                         : cl->op->storage == LRR_STORAGE_BF16 ? 2
@@ -270,7 +152,7 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
         return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
                           "OpenCL: clBuildProgram (lib/kernels/realtime.cl, %s) failed: %s "
                           "(%d); build log: %s%s",
-                          opts, cl_code_name(err), (int)err, log[0] ? log : "(empty)",
+                          opts, lrr__cl_code_name(err), (int)err, log[0] ? log : "(empty)",
                           len > LOG_MAX + 1 ? " [...]" : "");
     }
     static const char *const names[] = {"segsum", "smw", "fbar_rows", "fbar_groups"};
@@ -278,7 +160,7 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
     for (int i = 0; i < 4; i++) {
         *ks[i] = clCreateKernel(cl->program, names[i], &err);
         if (err != CL_SUCCESS)
-            return cl_fail(ctx, err, "clCreateKernel", names[i]);
+            return lrr__cl_fail(ctx, err, "clCreateKernel", names[i]);
     }
     return LRR_OK;
 }
@@ -307,7 +189,7 @@ static lrr_status set_args(lrr__cl_solver *cl)
     for (size_t i = 0; i < sizeof a / sizeof a[0]; i++) {
         cl_int err = clSetKernelArg(a[i].kn, a[i].index, a[i].size, a[i].value);
         if (err != CL_SUCCESS)
-            return cl_fail(op->ctx, err, "clSetKernelArg", a[i].what);
+            return lrr__cl_fail(op->ctx, err, "clSetKernelArg", a[i].what);
     }
     const cl_kernel prod[2] = {cl->rows, cl->groups};
     const cl_mem *bufs[6] = {&cl->fbar, &cl->scale, &cl->z, &cl->e, &cl->rho, &cl->b};
@@ -323,7 +205,7 @@ static lrr_status set_args(lrr__cl_solver *cl)
         if (err == CL_SUCCESS)
             err = clSetKernelArg(prod[i], 7, sizeof(cl_mem), bufs[5]);
         if (err != CL_SUCCESS)
-            return cl_fail(op->ctx, err, "clSetKernelArg", what);
+            return lrr__cl_fail(op->ctx, err, "clSetKernelArg", what);
     }
     return LRR_OK;
 }
@@ -337,7 +219,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
         return lrr__error(ctx, LRR_ERR_OVERFLOW,
                           "OpenCL: n = %zu, k = %zu exceed the kernels' 32-bit indices", n, k);
     cl_device_id dev;
-    lrr_status st = pick_device(ctx, &dev);
+    lrr_status st = lrr__cl_pick_device(ctx, &dev);
     if (st)
         return st;
 
@@ -352,7 +234,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
         err = clGetDeviceInfo(dev, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof max_alloc, &max_alloc,
                               NULL);
     if (err != CL_SUCCESS)
-        return cl_fail(ctx, err, "clGetDeviceInfo", "device memory sizes");
+        return lrr__cl_fail(ctx, err, "clGetDeviceInfo", "device memory sizes");
     if ((cl_ulong)fbar_bytes > max_alloc || (cl_ulong)fbar_bytes + other > global_mem)
         return lrr__error(ctx, LRR_ERR_NOMEM,
                           "OpenCL: F̄ needs %zu bytes (and %zu more for M, E, B, rho); the "
@@ -381,11 +263,11 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
     const float one = 1.0f;
     cl->context = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
     if (err != CL_SUCCESS)
-        st = cl_fail(ctx, err, "clCreateContext", dn);
+        st = lrr__cl_fail(ctx, err, "clCreateContext", dn);
     if (!st) {
-        cl->queue = clCreateCommandQueue(cl->context, dev, 0, &err);
+        cl->queue = clCreateCommandQueue(cl->context, dev, CL_QUEUE_PROFILING_ENABLE, &err);
         if (err != CL_SUCCESS)
-            st = cl_fail(ctx, err, "clCreateCommandQueue", dn);
+            st = lrr__cl_fail(ctx, err, "clCreateCommandQueue", dn);
     }
     if (st || (st = build_program(cl, dev)) ||
         (st = new_buffer(cl, ro, fbar_bytes, half ? (const void *)op->fbar16 : op->fbar, "F̄",
@@ -406,45 +288,75 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
     return LRR_OK;
 }
 
+void lrr__cl_timings(const lrr__cl_solver *cl, double *kernel_ms, double *transfer_ms)
+{
+    *kernel_ms = cl->kernel_ms;
+    *transfer_ms = cl->transfer_ms;
+}
+
+/* END - START of a finished command in milliseconds (0 when the profile is unavailable). */
+static double event_ms(cl_event ev)
+{
+    cl_ulong t0 = 0, t1 = 0;
+    if (clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL) !=
+            CL_SUCCESS ||
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL) !=
+            CL_SUCCESS ||
+        t1 < t0)
+        return 0;
+    return (double)(t1 - t0) * 1e-6;
+}
+
 lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B)
 {
     const size_t n = cl->op->n, k = cl->op->k, bytes = 3 * n * sizeof(float);
     const char *call = "clEnqueueWriteBuffer", *what = "E";
+    /* ev: E up, the three kernels, B down; profiled once the blocking read returns */
+    cl_event ev[5] = {NULL, NULL, NULL, NULL, NULL};
     /* E goes up without blocking; the blocking read of B ends the in-order queue's work */
-    cl_int err = clEnqueueWriteBuffer(cl->queue, cl->e, CL_FALSE, 0, bytes, E, 0, NULL, NULL);
+    cl_int err = clEnqueueWriteBuffer(cl->queue, cl->e, CL_FALSE, 0, bytes, E, 0, NULL, &ev[0]);
     if (err != CL_SUCCESS)
         goto fail;
     call = "clEnqueueNDRangeKernel";
     size_t g1 = k, g2[2] = {k, 3};
     what = "segsum";
-    err = clEnqueueNDRangeKernel(cl->queue, cl->segsum, 1, NULL, &g1, NULL, 0, NULL, NULL);
+    err = clEnqueueNDRangeKernel(cl->queue, cl->segsum, 1, NULL, &g1, NULL, 0, NULL, &ev[1]);
     if (err != CL_SUCCESS)
         goto fail;
     what = "smw";
-    err = clEnqueueNDRangeKernel(cl->queue, cl->smw, 2, NULL, g2, NULL, 0, NULL, NULL);
+    err = clEnqueueNDRangeKernel(cl->queue, cl->smw, 2, NULL, g2, NULL, 0, NULL, &ev[2]);
     if (err != CL_SUCCESS)
         goto fail;
     if (cl->use_groups) {
         size_t local = cl->group_size, global = n * cl->group_size;
         what = "fbar_groups";
         err = clEnqueueNDRangeKernel(cl->queue, cl->groups, 1, NULL, &global, &local, 0, NULL,
-                                     NULL);
+                                     &ev[3]);
     } else {
         size_t global = n;
         what = "fbar_rows";
-        err = clEnqueueNDRangeKernel(cl->queue, cl->rows, 1, NULL, &global, NULL, 0, NULL, NULL);
+        err = clEnqueueNDRangeKernel(cl->queue, cl->rows, 1, NULL, &global, NULL, 0, NULL,
+                                     &ev[3]);
     }
     if (err != CL_SUCCESS)
         goto fail;
     call = "clEnqueueReadBuffer";
     what = "B";
-    err = clEnqueueReadBuffer(cl->queue, cl->b, CL_TRUE, 0, bytes, B, 0, NULL, NULL);
+    err = clEnqueueReadBuffer(cl->queue, cl->b, CL_TRUE, 0, bytes, B, 0, NULL, &ev[4]);
     if (err != CL_SUCCESS)
         goto fail;
+    /* the in-order queue has finished every command once the blocking read returned */
+    cl->kernel_ms = event_ms(ev[1]) + event_ms(ev[2]) + event_ms(ev[3]);
+    cl->transfer_ms = event_ms(ev[0]) + event_ms(ev[4]);
+    for (int i = 0; i < 5; i++)
+        clReleaseEvent(ev[i]);
     return LRR_OK;
 fail:
     clFinish(cl->queue); /* the caller's E must not be read after we return */
-    return cl_fail(cl->op->ctx, err, call, what);
+    for (int i = 0; i < 5; i++)
+        if (ev[i])
+            clReleaseEvent(ev[i]);
+    return lrr__cl_fail(cl->op->ctx, err, call, what);
 }
 
 #endif

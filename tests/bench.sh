@@ -48,7 +48,8 @@ help_mentions() {
         fail "lrr-bench $cmd --help (exit $rc), missing:$missing"
     fi
 }
-help_mentions table --scene --cells --hemicube --csv --plot --memory-budget --repeat 'MB = 10^6'
+help_mentions table --scene --cells --hemicube --csv --plot --memory-budget --repeat 'MB = 10^6' \
+    --backend opencl_ratio_to_ours
 help_mentions stress --csv --hemicube --quick
 help_mentions hemicube --csv --seeds rotation
 
@@ -174,7 +175,9 @@ fi
 run --help
 if [ "$rc" -eq 0 ] && grep -q 'realtime' "$T/out"; then pass "lrr-bench --help lists realtime"; else fail "lrr-bench --help does not list realtime"; fi
 help_mentions realtime --n --k --cells --scene --hemicube --repeat --csv 'Timing does' \
-    'impl,storage,n,k,ms_median'
+    'impl,storage,n,k,ms_median' --backend 'backend,kernel_ms,transfer_ms,device'
+run realtime --backend gpu
+if [ "$rc" -eq 2 ] && grep -q -- '--backend' "$T/err"; then pass "realtime --backend gpu: exit 2"; else fail "realtime --backend gpu: exit $rc"; fi
 run realtime --n 384
 if [ "$rc" -eq 2 ] && grep -q -- '--k' "$T/err"; then pass "realtime --n without --k: exit 2"; else fail "realtime --n without --k: exit $rc"; fi
 run realtime --n 384 --k 24 --cells tiny
@@ -232,6 +235,61 @@ else
     fail "realtime text output lacks target/batch/threading lines"
 fi
 if [ -z "$(ls -A "$T/rt_tmp")" ]; then pass "realtime left no temporary .lrr file"; else fail "realtime left in TMPDIR: $(ls -A "$T/rt_tmp")"; fi
+if head -n 1 "$RCSV" | grep -q ',backend,kernel_ms,transfer_ms,device\(,\|$\)' &&
+    awk -F, 'NR == 1 { for (j = 1; j <= NF; j++) c[$j] = j; next }
+        $c["backend"] != "cpu" || $c["kernel_ms"] != "nan" || $c["transfer_ms"] != "nan" ||
+        $c["device"] != "cpu" { bad = 1 } END { exit bad }' "$RCSV"; then
+    pass "realtime --backend cpu: the backend columns, cpu,nan,nan,cpu on every row"
+else
+    fail "realtime --backend cpu: backend columns missing or wrong"
+fi
+
+# realtime --backend opencl: skipped where no OpenCL device or platform is available
+OCSV="$T/realtime_opencl.csv"
+TMPDIR="$T/rt_tmp" "$BENCH" realtime --backend opencl --n 384 --k 24 --repeat 3 --hemicube 16 \
+    --csv "$OCSV" >"$T/out" 2>"$T/err"
+rc=$?
+if [ "$rc" -ne 0 ] && grep -q -e 'not built into' -e 'no OpenCL platform' \
+    -e 'no OpenCL GPU or CPU device' -e 'matches no OpenCL device' "$T/err"; then
+    pass "realtime --backend opencl: skipped ($(grep -o -m 1 -e 'not built into[^(]*' \
+        -e 'no OpenCL platform found' -e 'no OpenCL GPU or CPU device found' \
+        -e 'matches no OpenCL device' "$T/err"))"
+elif [ "$rc" -ne 0 ] || [ ! -s "$OCSV" ]; then
+    fail "realtime --backend opencl: exit $rc"
+    show_err
+else
+    bad=$(awk -F, '
+        NR == 1 {
+            for (j = 1; j <= NF; j++) c[$j] = j
+            if (!c["backend"] || !c["kernel_ms"] || !c["transfer_ms"] || !c["device"])
+                { print "header lacks backend,kernel_ms,transfer_ms,device"; exit }
+            next
+        }
+        $c["backend"] == "opencl" {
+            ocl[$2] = 1
+            for (q = 0; q < 2; q++) {
+                name = q ? "transfer_ms" : "kernel_ms"
+                v = $c[name]
+                if (v !~ /^[0-9.eE+-]+$/ || !(v + 0 > 0)) print $2 " opencl " name " = " v
+            }
+            if ($c["device"] !~ /^opencl:/) print $2 " opencl device = " $c["device"]
+            next
+        }
+        $c["backend"] == "cpu" {
+            if ($c["kernel_ms"] != "nan" || $c["transfer_ms"] != "nan")
+                print $1 " " $2 " cpu row: kernel_ms " $c["kernel_ms"] ", transfer_ms " $c["transfer_ms"]
+            cpu = 1
+            next
+        }
+        { print "backend " $c["backend"] }
+        END { if (!cpu || !ocl["f32"] || !ocl["f16"] || !ocl["bf16"]) print "cpu rows or opencl f32/f16/bf16 rows missing" }' "$OCSV")
+    if [ -z "$bad" ] && grep -q '^opencl: ' "$T/out"; then
+        pass "realtime --backend opencl: opencl rows with kernel_ms, transfer_ms > 0, cpu rows nan"
+    else
+        fail "realtime --backend opencl CSV:"
+        echo "$bad" | sed 's/^/    /'
+    fi
+fi
 
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then

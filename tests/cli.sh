@@ -264,6 +264,28 @@ else
 fi
 run solve "$LRRFILE" --backend gpu
 expect_rc 2 "solve --backend gpu is a usage error"
+# Hemicube integration on the device builds the same operator (same skip rule as above).
+CLFILE="$T/small-cl.lrr"
+run preprocess cornell -o "$CLFILE" --patches 30 --levels 1 --hemicube 32 --threads 2 \
+    --backend opencl
+if [ "$rc" -ne 0 ] && grep -Eq 'not built into|no OpenCL platform' "$T/err"; then
+    pass "preprocess --backend opencl: skipped, no OpenCL here ($(head -n 1 "$T/err"))"
+elif [ "$rc" -eq 0 ] && [ "$(value backend)" = opencl ]; then
+    run solve "$CLFILE" --repeat 1
+    m=$(value mean_b_r)
+    if [ "$rc" -eq 0 ] && awk -v a="$mean1" -v b="$m" \
+        'BEGIN { r = b - a; if (r < 0) r = -r; exit !(a > 0 && r <= 1e-5 * a) }'; then
+        pass "preprocess --backend opencl: mean_b_r = $m vs $mean1"
+    else
+        fail "preprocess --backend opencl, then solve: mean_b_r '$m' vs '$mean1' (exit $rc)"
+        show_err
+    fi
+else
+    fail "preprocess --backend opencl (exit $rc, backend '$(value backend)')"
+    show_err
+fi
+run preprocess cornell -o "$CLFILE" --backend gpu
+expect_rc 2 "preprocess --backend gpu is a usage error"
 LRR_SIMD=c "$LRR" solve "$LRRFILE" --repeat 1 >"$T/out" 2>"$T/err"
 rc=$?
 if [ "$rc" -eq 0 ] && [ "$(value kernel)" = c ]; then pass "LRR_SIMD=c forces the portable kernel"; else fail "LRR_SIMD=c: exit $rc, kernel '$(value kernel)'"; fi

@@ -44,7 +44,7 @@ static lrr_operator *build(lrr_context *ctx, size_t ntri, const float *v, double
     LRR_CHECK(ctx, lrr_scene_create(ctx, ntri, v, rho, em, "test", &s));
     lrr_subdivision sd = {max_area, 0, levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {R, seed, 0, NULL, NULL, 0};
+    lrr_build_options o = {R, seed, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);
@@ -189,8 +189,8 @@ static void test_reproducible(void **state)
     lrr_subdivision sd = {0, 30, 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     lrr_operator *a, *b, *c;
-    lrr_build_options o1 = {32, 5, 1, NULL, NULL, 0}, o2 = {32, 5, 2, NULL, NULL, 0},
-                      o3 = {32, 6, 2, NULL, NULL, 0};
+    lrr_build_options o1 = {32, 5, 1, NULL, NULL, 0, 0}, o2 = {32, 5, 2, NULL, NULL, 0, 0},
+                      o3 = {32, 6, 2, NULL, NULL, 0, 0};
     LRR_CHECK(ctx, lrr_operator_build(s, &o1, &a));
     LRR_CHECK(ctx, lrr_operator_build(s, &o2, &b));
     LRR_CHECK(ctx, lrr_operator_build(s, &o3, &c));
@@ -198,7 +198,7 @@ static void test_reproducible(void **state)
     assert_true(memcmp(a->fbar, c->fbar, a->n * a->k * sizeof(float)) != 0);
     /* without the rotation the seed changes nothing, and the flag survives a file */
     lrr_operator *d, *e;
-    lrr_build_options o4 = {32, 5, 2, NULL, NULL, 1}, o5 = {32, 6, 2, NULL, NULL, 1};
+    lrr_build_options o4 = {32, 5, 2, NULL, NULL, 1, 0}, o5 = {32, 6, 2, NULL, NULL, 1, 0};
     LRR_CHECK(ctx, lrr_operator_build(s, &o4, &d));
     LRR_CHECK(ctx, lrr_operator_build(s, &o5, &e));
     assert_memory_equal(d->fbar, e->fbar, d->n * d->k * sizeof(float));

@@ -9,7 +9,7 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
     lrr_subdivision sd = {0, K, levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {32, 2, 0, NULL, NULL, 0};
+    lrr_build_options o = {32, 2, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);
@@ -175,6 +175,46 @@ static void test_errors(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* lrr_solver_timings: device kernel and transfer times of the last frame, within its wall
+ * time; a CPU solver has none. */
+static void test_timings(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_operator *op = cornell_op(ctx, 216, 1);
+    const size_t n = op->n;
+    float *e = test_emission(op), *b = malloc(3 * n * sizeof *b);
+    assert_non_null(b);
+    lrr_solver *cl, *cpu;
+    LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl));
+    double kms = -1, tms = -1;
+    LRR_CHECK(ctx, lrr_solver_timings(cl, &kms, &tms));
+    assert_true(kms == 0 && tms == 0); /* no frame yet */
+    LRR_CHECK(ctx, lrr_solve(cl, e, b)); /* warm-up */
+    for (int rep = 0; rep < 3; rep++) {
+        double t0 = lrr__now();
+        LRR_CHECK(ctx, lrr_solve(cl, e, b));
+        double wall_ms = (lrr__now() - t0) * 1e3;
+        LRR_CHECK(ctx, lrr_solver_timings(cl, &kms, &tms));
+        print_message("n = %zu, k = %zu: kernel %.4f ms + transfer %.4f ms, wall %.4f ms\n",
+                      n, op->k, kms, tms, wall_ms);
+        assert_true(isfinite(kms) && kms > 0);
+        assert_true(isfinite(tms) && tms > 0);
+        /* slack: device and host clocks differ in resolution */
+        assert_true(kms + tms <= wall_ms + 0.05);
+    }
+    LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &cpu));
+    LRR_CHECK(ctx, lrr_solve(cpu, e, b));
+    assert_int_equal(lrr_solver_timings(cpu, &kms, &tms), LRR_ERR_UNSUPPORTED);
+    lrr_solver_destroy(cpu);
+    lrr_solver_destroy(cl);
+    free(b);
+    free(e);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+}
+
 int main(void)
 {
     /* skip when there is no OpenCL to test: not built in, or no platform on this machine */
@@ -208,6 +248,7 @@ int main(void)
         cmocka_unit_test(test_odd_sizes),
         cmocka_unit_test(test_cornell_216),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_timings),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

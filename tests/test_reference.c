@@ -34,7 +34,7 @@ static void test_fbar_is_f_v_over_d(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 1, 24, 1);
-    lrr_build_options o = {32, 9, 0, NULL, NULL, 0};
+    lrr_build_options o = {32, 9, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
@@ -76,7 +76,7 @@ static void test_methods_agree(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 0, 40, 1);
-    lrr_build_options o = {32, 3, 0, NULL, NULL, 0};
+    lrr_build_options o = {32, 3, 0, NULL, NULL, 0, 0};
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_reference_build(s, &o, 0, &ref));
     const size_t n = lrr_reference_size(ref);
@@ -117,7 +117,7 @@ static void test_direct_equals_operator_at_d1(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 0, 150, 0);
-    lrr_build_options o = {64, 5, 0, NULL, NULL, 0};
+    lrr_build_options o = {64, 5, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
@@ -158,7 +158,7 @@ static void test_furnace(void **state)
     LRR_CHECK(ctx, lrr_scene_create(ctx, 12, v, rho, em, "furnace", &s));
     lrr_subdivision sd = {0, 48, 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {64, 1, 0, NULL, NULL, 0};
+    lrr_build_options o = {64, 1, 0, NULL, NULL, 0, 0};
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_reference_build(s, &o, 0, &ref));
     const size_t n = lrr_reference_size(ref);
@@ -202,7 +202,7 @@ static void test_errors(void **state)
         fail_msg("message does not name the memory needed (%s): %s", need, msg);
     assert_int_equal(lrr_reference_bytes(SIZE_MAX / 2), SIZE_MAX);
     /* the direct solve needs 8n² more: a budget that fits F only refuses it */
-    lrr_build_options o = {16, 1, 0, NULL, NULL, 0};
+    lrr_build_options o = {16, 1, 0, NULL, NULL, 0, 0};
     LRR_CHECK(ctx, lrr_reference_build(s, &o, lrr_reference_bytes(info.subpatches), &ref));
     const size_t n = lrr_reference_size(ref);
     float *E = malloc(3 * n * sizeof *E), *B = malloc(3 * n * sizeof *B);

@@ -81,7 +81,7 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
     lrr_subdivision sd = {0, K, levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {32, 4, 0, NULL, NULL, 0};
+    lrr_build_options o = {32, 4, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);

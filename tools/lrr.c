@@ -115,15 +115,18 @@ static const char preprocess_help[] =
     "Usage: lrr preprocess SCENE -o FILE.lrr [OPTIONS]\n"
     "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
     "saves it atomically. Prints 'key: value' lines: n, k, d, hemicube, seed,\n"
-    "build_seconds, cond_r, cond_g, cond_b, storage, memory_mb, output. Warns on stderr when a\n"
-    "condition estimate is so large (cond × FLT_EPSILON > 1e-3) that M_c, stored in single\n"
-    "precision, may not carry the solution to 0.1%.\n"
+    "build_seconds, cond_r, cond_g, cond_b, storage, memory_mb, backend, output. Warns on\n"
+    "stderr when a condition estimate is so large (cond × FLT_EPSILON > 1e-3) that M_c,\n"
+    "stored in single precision, may not carry the solution to 0.1%.\n"
     "\n" SCENE_HELP "\n"
     "Options:\n"
     "  -o, --output FILE    where to write the operator (required)\n"
     "  --storage S          f32 (default), f16 or bf16: how F̄ is stored. 16-bit halves the\n"
     "                       file, the memory and the bytes each frame reads; f16 rows carry\n"
-    "                       a power-of-two scale, and M is recomputed from the rounded F̄\n" BUILD_HELP
+    "                       a power-of-two scale, and M is recomputed from the rounded F̄\n"
+    "  --backend B          cpu (default) or opencl: where the hemicube pixels are integrated\n"
+    "                       into F̄ (rasterisation stays on the CPU; LRR_OPENCL_DEVICE picks\n"
+    "                       the device as for 'lrr solve'; the same F̄ to rounding)\n" BUILD_HELP
     "  -h, --help           show this help\n" SUBDIV_HELP;
 
 static const char solve_help[] =
@@ -658,10 +661,12 @@ static int cmd_preprocess(int argc, char *argv[])
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'},
         {"storage", required_argument, NULL, OPT_STORAGE},
+        {"backend", required_argument, NULL, OPT_BACKEND},
         SUBDIV_LONGOPTS,
         BUILD_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
+    int on_device = 0;
     subdiv_args sa;
     subdiv_init(&sa);
     build_args ba;
@@ -676,6 +681,14 @@ static int cmd_preprocess(int argc, char *argv[])
                 cli_usage_error(prog, "--storage: '%s' is not one of f32, f16, bf16", optarg);
                 return CLI_EXIT_USAGE;
             }
+            continue;
+        }
+        if (c == OPT_BACKEND) {
+            if (strcmp(optarg, "cpu") != 0 && strcmp(optarg, "opencl") != 0) {
+                cli_usage_error(prog, "--backend: '%s' is not one of cpu, opencl", optarg);
+                return CLI_EXIT_USAGE;
+            }
+            on_device = strcmp(optarg, "opencl") == 0;
             continue;
         }
         int r = subdiv_option(&sa, prog, c, optarg);
@@ -720,6 +733,7 @@ static int cmd_preprocess(int argc, char *argv[])
     if (rc == CLI_EXIT_OK) {
         cli_progress bar;
         lrr_build_options bo = build_start(&ba, &bar);
+        bo.backend = on_device ? LRR_BACKEND_OPENCL : LRR_BACKEND_CPU;
         s = lrr_operator_build(scene, &bo, &op);
         cli_progress_finish(&bar);
         if (s == LRR_OK)
@@ -733,6 +747,7 @@ static int cmd_preprocess(int argc, char *argv[])
     }
     if (rc == CLI_EXIT_OK) {
         print_operator_info(op);
+        printf("backend: %s\n", on_device ? "opencl" : "cpu");
         printf("output: %s\n", output);
     }
     lrr_operator_destroy(op);
