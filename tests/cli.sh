@@ -262,6 +262,19 @@ elif [ "$rc" -eq 1 ] && grep -q 'LRR_OPENCL_DEVICE' "$T/err"; then
 else
     fail "LRR_OPENCL_DEVICE=no-such-device: exit $rc, stderr: $(cat "$T/err")"
 fi
+# No OpenCL platform at all (the ICD loader pointed at an empty vendor directory): the
+# documented error, exit 1, never a crash.
+mkdir -p "$T/no-icd"
+OCL_ICD_VENDORS="$T/no-icd" "$LRR" solve "$LRRFILE" --backend opencl --repeat 1 \
+    >"$T/out" 2>"$T/err"
+rc=$?
+if [ "$rc" -eq 1 ] && grep -q 'not built into' "$T/err"; then
+    pass "no OpenCL platform: skipped, OpenCL not built in"
+elif [ "$rc" -eq 1 ] && grep -q 'no OpenCL platform found' "$T/err"; then
+    pass "no OpenCL platform: exit 1, $(head -n 1 "$T/err")"
+else
+    fail "no OpenCL platform: exit $rc, stderr: $(cat "$T/err")"
+fi
 run solve "$LRRFILE" --backend gpu
 expect_rc 2 "solve --backend gpu is a usage error"
 # Hemicube integration on the device builds the same operator (same skip rule as above).
