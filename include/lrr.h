@@ -273,8 +273,11 @@ LRR_API LRR_NODISCARD lrr_status lrr_solver_create(const lrr_operator *op, lrr_b
                                                    lrr_solver **out) LRR_NONNULL(1, 3);
 LRR_API void lrr_solver_destroy(lrr_solver *solver);
 
-/* The instruction-set variant the CPU solver runs: "c", "avx2" or "avx512" (the widest this
- * CPU supports; the environment variable LRR_SIMD, read by lrr_solver_create, forces one). */
+/* What runs the frames: for a CPU solver the instruction-set variant, "c", "avx2" or
+ * "avx512" (the widest this CPU supports; the environment variable LRR_SIMD, read by
+ * lrr_solver_create, forces one); for an OpenCL solver "opencl:<device name>" (the device
+ * is the first GPU, else the first CPU device; LRR_OPENCL_DEVICE picks another by a
+ * substring of "platform / device" or by "P:D"). The string lives as long as the solver. */
 LRR_API const char *lrr_solver_kernel(const lrr_solver *solver) LRR_NONNULL(1);
 
 /* An OpenCL solver's device times for its last lrr_solve, from OpenCL profiling events, in
@@ -289,17 +292,18 @@ LRR_API LRR_NODISCARD lrr_status lrr_solver_timings(const lrr_solver *solver, do
  * Each frame takes the cheapest of three paths (see lrr_solver_set_path): a pass over F̄; or,
  * when few patches emit, a sum of cached columns of F̄ M_c (each new emitting patch costs one
  * extra pass the first time); or, when few patches changed since the previous frame, an
- * update of the previous B. All give the same B up to float rounding. */
+ * update of the previous B. All give the same B up to float rounding. An OpenCL solver
+ * always makes the full pass on its device: E goes up, B comes down. */
 LRR_API LRR_NODISCARD lrr_status lrr_solve(lrr_solver *solver, const float *emission,
                                            float *radiosity) LRR_NONNULL(1, 2, 3);
 
 /* count frames at once (animation frames, light presets): emission and radiosity are
  * count×n×3, frame after frame. Every frame is validated first (an error names the frame
- * and leaves radiosity untouched). With float storage, at least 8 frames and F̄ larger than
- * 32 MiB and than a quarter of the last-level cache, this is three small sgemm and one
- * n×k×3·count sgemm (OpenBLAS) per 64 frames, which
- * is compute-bound rather than memory-bound (n = 55296, k = 864: 3.3 ms per frame for 16
- * frames against 8.0 ms one at a time); otherwise a loop of lrr_solve. */
+ * and leaves radiosity untouched). On the CPU with float storage, at least 8 frames and F̄
+ * larger than 32 MiB and than a quarter of the last-level cache, this is three small sgemm
+ * and one n×k×3·count sgemm (OpenBLAS) per 64 frames, which is compute-bound rather than
+ * memory-bound (n = 55296, k = 864: 3.3 ms per frame for 16 frames against 8.0 ms one at a
+ * time); otherwise a loop of lrr_solve. */
 LRR_API LRR_NODISCARD lrr_status lrr_solve_batch(lrr_solver *solver, size_t count,
                                                  const float *emission, float *radiosity)
     LRR_NONNULL(1, 3, 4);
@@ -312,13 +316,14 @@ typedef enum lrr_path {
 } lrr_path;
 
 /* Forces a path (for measurements and tests); a path that cannot serve a frame (nothing to
- * increment from, more columns than the cache holds) falls back to LRR_PATH_FULL. */
+ * increment from, more columns than the cache holds) falls back to LRR_PATH_FULL. An OpenCL
+ * solver accepts only LRR_PATH_AUTO and LRR_PATH_FULL (LRR_ERR_UNSUPPORTED otherwise). */
 LRR_API LRR_NODISCARD lrr_status lrr_solver_set_path(lrr_solver *solver, lrr_path path)
     LRR_NONNULL(1);
 /* The path the last frame took. */
 LRR_API lrr_path lrr_solver_last_path(const lrr_solver *solver) LRR_NONNULL(1);
 /* Memory for cached columns (n×3 floats each; default a quarter of F̄'s bytes; 0 disables
- * the sparse and incremental paths). Empties the cache. */
+ * the sparse and incremental paths). Empties the cache. No effect on an OpenCL solver. */
 LRR_API LRR_NODISCARD lrr_status lrr_solver_set_cache(lrr_solver *solver, size_t max_bytes)
     LRR_NONNULL(1);
 
