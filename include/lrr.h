@@ -402,6 +402,71 @@ LRR_API LRR_NODISCARD lrr_status lrr_render_png(const lrr_operator *op, const fl
                                                 const lrr_render_options *opts,
                                                 const char *path) LRR_NONNULL(1, 2, 4);
 
+/* ---------------------------------------------------------------- light probes */
+/* An environment map in the latitude–longitude layout: W×H pixels with W = 2H, row 0 at the
+ * zenith (theta = 0), column 0 at phi = 0. Pixel (u, v) looks along
+ *   theta = π (v + 0.5) / H,  phi = 2π (u + 0.5) / W,
+ *   ω = (sin theta cos phi, cos theta, sin theta sin phi)      (+y up)
+ * and covers the solid angle sin theta · 2π² / (W·H). Pixels are linear RGB radiance. */
+typedef struct lrr_probe lrr_probe;
+
+/* Loads a Radiance RGBE (.hdr) probe through stb_image. Other formats (OpenEXR included)
+ * give LRR_ERR_FORMAT; W != 2H gives LRR_ERR_DIM naming the size and the expected layout;
+ * a non-finite or negative pixel gives LRR_ERR_FORMAT naming its column x and row y.
+ * Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_probe_load(lrr_context *ctx, const char *path,
+                                                lrr_probe **out) LRR_NONNULL(1, 2, 3);
+/* A probe from width×height×3 floats (row-major, RGB interleaved), copied; the same checks
+ * (LRR_ERR_DIM for the size, LRR_ERR_INVALID_ARG for a bad pixel). */
+LRR_API LRR_NODISCARD lrr_status lrr_probe_create(lrr_context *ctx, size_t width, size_t height,
+                                                  const float *rgb, lrr_probe **out)
+    LRR_NONNULL(1, 4, 5);
+LRR_API void lrr_probe_destroy(lrr_probe *probe);
+LRR_API void lrr_probe_size(const lrr_probe *probe, size_t *width, size_t *height)
+    LRR_NONNULL(1, 2, 3);
+
+/* Ground truth E(n) = Σ_pixels Q(u,v) max(0, n·ω(u,v)), Q = P sin theta · 2π²/(W·H), for m
+ * unit normals (m×3) into out (m×3), summed in blocks of normals × pixels with OpenMP and
+ * accumulated in double. Normals must be finite and non-zero (they are normalised). */
+LRR_API LRR_NODISCARD lrr_status lrr_probe_irradiance(const lrr_probe *probe, size_t m,
+                                                      const float *normals, float *out)
+    LRR_NONNULL(1, 3, 4);
+
+/* A directional light: dir a unit vector from the scene towards the light, rgb its radiance
+ * × solid angle, so that its irradiance on a normal n is rgb · max(0, n·dir). */
+typedef struct lrr_light {
+    float dir[3];
+    float rgb[3];
+} lrr_light;
+
+/* Median cut (Debevec 2005) into `count` lights (1 <= count <= W·H). The regions are
+ * rectangles of pixels; a region is cut across its longer side (its width measured as
+ * width × sin theta at its centre) where the two halves' energies (luminance × solid angle)
+ * are closest. A power of two splits every region each pass (log2 count passes); any other
+ * count is the adaptive variant: the region with the most energy is split until there are
+ * `count`. Each light sits at its region's energy centroid (in pixel coordinates) and carries
+ * the region's summed radiance × solid angle. A region of one pixel that must be split again
+ * gives a second, black light. */
+LRR_API LRR_NODISCARD lrr_status lrr_probe_median_cut(const lrr_probe *probe, size_t count,
+                                                      lrr_light *out) LRR_NONNULL(1, 3);
+
+/* The projection of the probe onto the real spherical harmonics of order 2 (9 basis
+ * functions): coeffs is 9×3 (coefficient i of channel c at 3i + c), basis order
+ * Y00, Y1-1(y), Y10(z), Y11(x), Y2-2(xy), Y2-1(yz), Y20(3z²-1), Y21(xz), Y22(x²-y²). */
+LRR_API LRR_NODISCARD lrr_status lrr_probe_sh9(const lrr_probe *probe, float coeffs[27])
+    LRR_NONNULL(1, 2);
+/* Irradiance of SH9 radiance coefficients (Ramamoorthi–Hanrahan: the bands scaled by π,
+ * 2π/3, π/4) for m normals (m×3) into out (m×3). */
+LRR_API LRR_NODISCARD lrr_status lrr_sh9_irradiance(const float coeffs[27], size_t m,
+                                                    const float *normals, float *out)
+    LRR_NONNULL(1, 3, 4);
+/* Irradiance of `count` lights for m normals (m×3) into out (m×3). */
+LRR_API LRR_NODISCARD lrr_status lrr_lights_irradiance(const lrr_light *lights, size_t count,
+                                                       size_t m, const float *normals,
+                                                       float *out) LRR_NONNULL(1, 4, 5);
+/* m points spread uniformly over the unit sphere (a Fibonacci spiral), m×3. */
+LRR_API void lrr_sphere_points(size_t m, float *out) LRR_NONNULL(2);
+
 /* ---------------------------------------------------------------- memory */
 /* 64-byte aligned allocation for SIMD and device buffers; size 0 gives NULL. */
 LRR_API void *lrr_aligned_alloc(size_t size);

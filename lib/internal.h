@@ -219,6 +219,17 @@ void lrr__solver_opencl_groups(lrr_solver *s, int groups);
 /* lib/kernels/realtime.cl as a string (generated at build time). */
 extern const char lrr__kernel_realtime_cl[];
 
+/* ------------------------------------------------------------ light probes */
+struct lrr_probe {
+    lrr_context *ctx;
+    size_t w, h;
+    float *rgb;          /* w×h×3 radiance */
+    /* per pixel (index v·w + u), structure of arrays for the irradiance sum */
+    float *dir;          /* 3 arrays of w·h: x, y, z */
+    float *q;            /* 3 arrays of w·h: radiance × solid angle, r, g, b */
+    double *energy;      /* w·h: luminance × solid angle (median cut) */
+};
+
 /* ------------------------------------------------------------ misc */
 /* Below about this many multiply-adds (or bytes touched) a parallel region costs more than it
  * saves: waking the OpenMP team takes microseconds when idle, and milliseconds on a loaded

@@ -565,6 +565,50 @@ else
     fail "ill-conditioned scene: exit $rc, cond_r '$(value cond_r)', stderr: $(cat "$T/err")"
 fi
 
+# ---------------------------------------------------------------- light probes
+PROBE=${LRR_DATA_DIR:-data}/probes/studio.hdr
+if [ -r "$PROBE" ]; then
+    help_mentions probe --method --sources --normals --lights --json
+    run probe "$PROBE" --sources 8 --normals 256 --lights "$T/lights.csv"
+    mean=$(value mean_error_pct)
+    if [ "$rc" -eq 0 ] && awk -v x="$mean" 'BEGIN { exit !(x + 0 == x && x >= 0 && x < 1e30) }' &&
+        [ "$(value sources)" = 8 ] && [ "$(value iterations)" = 3 ] &&
+        [ "$(wc -l <"$T/lights.csv")" -eq 9 ] && head -n 1 "$T/lights.csv" | grep -qx 'x,y,z,r,g,b'; then
+        pass "lrr probe median-cut: mean_error_pct $mean, 8 lights written"
+    else
+        fail "lrr probe median-cut: exit $rc, mean_error_pct '$mean'"; show_err
+    fi
+    run probe "$PROBE" --method sh9 --normals 256 --json
+    json_ok=1
+    [ "$rc" -eq 0 ] && [ "$(wc -l <"$T/out")" -eq 1 ] || json_ok=0
+    for k in mean_error_pct max_error_pct sources iterations seconds; do
+        grep -q "\"$k\": " "$T/out" || json_ok=0
+    done
+    if [ "$json_ok" -eq 1 ] && command -v python3 >/dev/null 2>&1; then
+        python3 -c 'import json, math, sys
+d = json.loads(open(sys.argv[1]).read())
+assert math.isfinite(d["mean_error_pct"]) and d["sources"] == 9' "$T/out" 2>"$T/err" ||
+            json_ok=0
+    fi
+    if [ "$json_ok" -eq 1 ]; then
+        pass "lrr probe --method sh9 --json: one line, the keys present"
+    else
+        fail "lrr probe --json (exit $rc): $(cat "$T/out")"; show_err
+    fi
+    run probe "$PROBE" --method irradiance
+    if [ "$rc" -eq 2 ] && grep -q 'not implemented yet (issue 6 item 4)' "$T/err"; then
+        pass "lrr probe --method irradiance: not implemented yet (exit 2)"
+    else
+        fail "lrr probe --method irradiance: exit $rc"; show_err
+    fi
+    run probe "$PROBE" --method nope
+    expect_rc 2 "lrr probe --method nope"
+    run probe "$T/missing.hdr"
+    expect_rc 1 "lrr probe on a missing file"
+else
+    fail "probe $PROBE not found (LRR_DATA_DIR)"
+fi
+
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then
     rm -rf "$T"

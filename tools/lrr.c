@@ -8,6 +8,7 @@
  *   lrr reference SCENE   the full n×n form factors and a classic solver, for comparison
  *   lrr compare A B       error measures of one radiosity CSV against another
  *   lrr demo              the Cornell box from start to picture
+ *   lrr probe PROBE       fit lights or SH9 to a light probe and measure the irradiance error
  *
  * Exit status: 0 success, 1 a failure while working (library error, I/O), 2 a malformed
  * command line, 3 a reference solve that did not converge. Uses only the public API (lrr.h).
@@ -62,7 +63,11 @@ enum {
     OPT_METHOD,
     OPT_TOL,
     OPT_MAX_ITERATIONS,
-    OPT_MEMORY_BUDGET
+    OPT_MEMORY_BUDGET,
+    OPT_SOURCES,
+    OPT_NORMALS,
+    OPT_JSON,
+    OPT_LIGHTS
 };
 
 /* ------------------------------------------------------------------ help texts */
@@ -78,6 +83,7 @@ static const char main_help[] =
     "  reference SCENE      full n×n form factors and a classic solver, to measure against\n"
     "  compare A.csv B.csv  errors of the radiosity in A against the reference B\n"
     "  demo                 the Cornell box from scene to picture\n"
+    "  probe PROBE.hdr      fit lights (median cut) or SH9 to a light probe, measure errors\n"
     "\n"
     "Options:\n"
     "  -h, --help           show this help (COMMAND --help: help on a command)\n"
@@ -222,6 +228,27 @@ static const char demo_help[] =
     "\n"
     "Options:\n"
     "  --out DIR            where to write cornell.lrr and cornell.png (default ./out)\n"
+    "  -h, --help           show this help\n";
+
+static const char probe_help[] =
+    "Usage: lrr probe PROBE.hdr [OPTIONS]\n"
+    "Loads a latitude-longitude light probe (Radiance .hdr, width = 2 x height, row 0 the\n"
+    "zenith), fits it, and compares the fit's irradiance with the ground truth\n"
+    "E(n) = sum Q max(0, n.w) (Q = radiance x pixel solid angle) on M normals of a\n"
+    "Fibonacci sphere. Prints 'key: value' lines: probe, width, height, method, sources,\n"
+    "normals, iterations, seconds (the fit), truth_seconds (the ground truth),\n"
+    "mean_error_pct and max_error_pct (mean and max over normals and RGB of\n"
+    "|approx - truth| / truth in percent, over entries with truth > 1e-6 x the largest).\n"
+    "\n"
+    "Options:\n"
+    "  --method M           median-cut (default), sh9 (order-2 spherical harmonics, 9\n"
+    "                       coefficients per channel) or irradiance (not implemented yet)\n"
+    "  --sources N          lights for median-cut (default 16; a power of two is the\n"
+    "                       classic cut, other counts the adaptive variant)\n"
+    "  --normals M          normals to measure on (default 1024)\n"
+    "  --lights OUT.csv     write the lights: x,y,z,r,g,b (direction towards the light,\n"
+    "                       radiance x solid angle); median-cut only\n"
+    "  --json               print one JSON object on one line instead\n"
     "  -h, --help           show this help\n";
 
 /* ------------------------------------------------------------------ option parsing */
@@ -1443,6 +1470,220 @@ done:
     return rc;
 }
 
+/* ------------------------------------------------------------------ lrr probe */
+#define PROBE_DEFAULT_SOURCES 16u
+#define PROBE_DEFAULT_NORMALS 1024u
+
+static int write_lights_csv(const char *path, const lrr_light *lights, size_t count)
+{
+    cli_outfile out;
+    if (cli_outfile_open(&out, path) != 0)
+        return cli_fail(LRR_ERR_IO, "'%s': cannot create: %s", path, strerror(errno));
+    fprintf(out.f, "x,y,z,r,g,b\n");
+    for (size_t i = 0; i < count; i++)
+        fprintf(out.f, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", lights[i].dir[0], lights[i].dir[1],
+                lights[i].dir[2], lights[i].rgb[0], lights[i].rgb[1], lights[i].rgb[2]);
+    if (ferror(out.f)) {
+        cli_outfile_abort(&out);
+        return cli_fail(LRR_ERR_IO, "'%s': write failed", path);
+    }
+    if (cli_outfile_commit(&out) != 0)
+        return cli_fail(LRR_ERR_IO, "'%s': cannot write: %s", path, strerror(errno));
+    return CLI_EXIT_OK;
+}
+
+/* Prints a string as a JSON string literal. */
+static void json_string(const char *s)
+{
+    putchar('"');
+    for (; *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            printf("\\%c", c);
+        else if (c < 0x20)
+            printf("\\u%04x", c);
+        else
+            putchar(c);
+    }
+    putchar('"');
+}
+
+static int cmd_probe(int argc, char *argv[])
+{
+    static const char prog[] = "lrr probe";
+    static const struct option longopts[] = {{"method", required_argument, NULL, OPT_METHOD},
+                                             {"sources", required_argument, NULL, OPT_SOURCES},
+                                             {"normals", required_argument, NULL, OPT_NORMALS},
+                                             {"lights", required_argument, NULL, OPT_LIGHTS},
+                                             {"json", no_argument, NULL, OPT_JSON},
+                                             {"help", no_argument, NULL, 'h'},
+                                             {NULL, 0, NULL, 0}};
+    const char *method = "median-cut", *lights_path = NULL;
+    size_t sources = PROBE_DEFAULT_SOURCES, normals = PROBE_DEFAULT_NORMALS;
+    int json = 0, sources_given = 0;
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        switch (c) {
+        case 'h':
+            fputs(probe_help, stdout);
+            return CLI_EXIT_OK;
+        case OPT_METHOD:
+            method = optarg;
+            break;
+        case OPT_SOURCES:
+            if (cli_parse_size(prog, "--sources", optarg, 1, (size_t)1 << 24, &sources) != 0)
+                return CLI_EXIT_USAGE;
+            sources_given = 1;
+            break;
+        case OPT_NORMALS:
+            if (cli_parse_size(prog, "--normals", optarg, 1, (size_t)1 << 24, &normals) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_LIGHTS:
+            lights_path = optarg;
+            break;
+        case OPT_JSON:
+            json = 1;
+            break;
+        default:
+            return bad_option(prog, c, argv);
+        }
+    }
+    const char *path = one_positional(prog, "PROBE", argc, argv);
+    if (!path)
+        return CLI_EXIT_USAGE;
+    int sh9 = 0;
+    if (strcmp(method, "sh9") == 0) {
+        sh9 = 1;
+    } else if (strcmp(method, "irradiance") == 0) {
+        cli_usage_error(prog, "--method irradiance: not implemented yet (issue 6 item 4)");
+        return CLI_EXIT_USAGE;
+    } else if (strcmp(method, "median-cut") != 0) {
+        cli_usage_error(prog, "--method: '%s' is not one of median-cut, irradiance, sh9",
+                        method);
+        return CLI_EXIT_USAGE;
+    }
+    if (sh9 && sources_given) {
+        cli_usage_error(prog, "--sources applies to --method median-cut only");
+        return CLI_EXIT_USAGE;
+    }
+    if (sh9 && lights_path) {
+        cli_usage_error(prog, "--lights applies to --method median-cut only");
+        return CLI_EXIT_USAGE;
+    }
+    if (lights_path && !*lights_path) {
+        cli_usage_error(prog, "--lights: the file name is empty");
+        return CLI_EXIT_USAGE;
+    }
+
+    lrr_context *ctx = NULL;
+    lrr_probe *probe = NULL;
+    lrr_light *lights = NULL;
+    float *dirs = NULL, *truth = NULL, *approx = NULL;
+    int rc = CLI_EXIT_FAIL;
+    lrr_status st = lrr_context_create(&ctx);
+    if (st != LRR_OK)
+        return cli_lib_error(NULL, st);
+    st = lrr_probe_load(ctx, path, &probe);
+    if (st != LRR_OK) {
+        rc = cli_lib_error(ctx, st);
+        goto done;
+    }
+    size_t w, h;
+    lrr_probe_size(probe, &w, &h);
+    if (!sh9 && sources > w * h) {
+        cli_usage_error(prog, "--sources: %zu is more than the probe's %zu pixels", sources,
+                        w * h);
+        rc = CLI_EXIT_USAGE;
+        goto done;
+    }
+    dirs = cli_alloc_rgb(normals);
+    truth = cli_alloc_rgb(normals);
+    approx = cli_alloc_rgb(normals);
+    if (!dirs || !truth || !approx)
+        goto done;
+    lrr_sphere_points(normals, dirs);
+    double t0 = cli_now();
+    st = lrr_probe_irradiance(probe, normals, dirs, truth);
+    double truth_seconds = cli_now() - t0;
+    if (st != LRR_OK) {
+        rc = cli_lib_error(ctx, st);
+        goto done;
+    }
+    size_t iterations = 1, n_sources = 9;
+    t0 = cli_now();
+    if (sh9) {
+        float coeffs[27];
+        st = lrr_probe_sh9(probe, coeffs);
+        if (st == LRR_OK)
+            st = lrr_sh9_irradiance(coeffs, normals, dirs, approx);
+    } else {
+        lights = calloc(sources, sizeof *lights);
+        if (!lights) {
+            rc = cli_fail(LRR_ERR_NOMEM, "cannot allocate %zu lights", sources);
+            goto done;
+        }
+        st = lrr_probe_median_cut(probe, sources, lights);
+        if (st == LRR_OK)
+            st = lrr_lights_irradiance(lights, sources, normals, dirs, approx);
+        n_sources = sources;
+        if ((sources & (sources - 1)) == 0)
+            for (iterations = 0; ((size_t)1 << iterations) < sources; iterations++)
+                ;
+        else
+            iterations = sources - 1;
+    }
+    double seconds = cli_now() - t0;
+    if (st != LRR_OK) {
+        rc = cli_lib_error(ctx, st);
+        goto done;
+    }
+    double tmax = 0;
+    for (size_t i = 0; i < 3 * normals; i++)
+        tmax = fmax(tmax, truth[i]);
+    double sum = 0, emax = 0;
+    size_t counted = 0;
+    for (size_t i = 0; i < 3 * normals; i++) {
+        if (!(truth[i] > 1e-6 * tmax))
+            continue;
+        double e = fabs((double)approx[i] - truth[i]) / truth[i];
+        sum += e;
+        emax = fmax(emax, e);
+        counted++;
+    }
+    double mean_pct = counted ? 100 * sum / (double)counted : NAN;
+    double max_pct = counted ? 100 * emax : NAN;
+    if (lights_path && (rc = write_lights_csv(lights_path, lights, sources)) != CLI_EXIT_OK)
+        goto done;
+    if (json) {
+        printf("{\"probe\": ");
+        json_string(path);
+        printf(", \"width\": %zu, \"height\": %zu, \"method\": \"%s\", \"sources\": %zu, "
+               "\"normals\": %zu, \"iterations\": %zu, \"seconds\": %.6g, "
+               "\"truth_seconds\": %.6g, \"mean_error_pct\": %.6g, \"max_error_pct\": %.6g}\n",
+               w, h, sh9 ? "sh9" : "median-cut", n_sources, normals, iterations, seconds,
+               truth_seconds, counted ? mean_pct : -1.0, counted ? max_pct : -1.0);
+    } else {
+        printf("probe: %s\nwidth: %zu\nheight: %zu\nmethod: %s\nsources: %zu\nnormals: %zu\n"
+               "iterations: %zu\nseconds: %.6g\ntruth_seconds: %.6g\nmean_error_pct: %.6g\n"
+               "max_error_pct: %.6g\n",
+               path, w, h, sh9 ? "sh9" : "median-cut", n_sources, normals, iterations, seconds,
+               truth_seconds, mean_pct, max_pct);
+        if (lights_path)
+            printf("lights: %s\n", lights_path);
+    }
+    rc = CLI_EXIT_OK;
+done:
+    free(lights);
+    free(dirs);
+    free(truth);
+    free(approx);
+    lrr_probe_destroy(probe);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
 /* ------------------------------------------------------------------ main */
 static int print_version(void)
 {
@@ -1467,7 +1708,8 @@ int main(int argc, char *argv[])
                     {"render", cmd_render},
                     {"reference", cmd_reference},
                     {"compare", cmd_compare},
-                    {"demo", cmd_demo}};
+                    {"demo", cmd_demo},
+                    {"probe", cmd_probe}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;
