@@ -450,6 +450,39 @@ typedef struct lrr_light {
 LRR_API LRR_NODISCARD lrr_status lrr_probe_median_cut(const lrr_probe *probe, size_t count,
                                                       lrr_light *out) LRR_NONNULL(1, 3);
 
+/* Irradiance optimisation: `count` lights fitted by Levenberg–Marquardt to the probe's
+ * irradiance on m normals of lrr_sphere_points. Parameters per light: rgb and the angles of
+ * its direction; objective Σ over normals and RGB of r², r = w (Σ_l rgb_l max(0, n·dir_l) − E),
+ * w = 1 / max(E, 1e-4 · max E) (relative, the default) or 1 (absolute). Each iteration solves
+ * (JᵀJ + λ diag JᵀJ) δ = −Jᵀr (analytic J, LAPACKE dposv), clamps radiances at 0 and keeps the
+ * step only if the objective decreases, so the objective is monotone and rgb >= 0. */
+typedef struct lrr_fit_options {
+    size_t max_iterations; /* accepted steps at most; 0 = 100 */
+    double tolerance;      /* stop when a step lowers the objective by less than this fraction;
+                              0 = 1e-6 */
+    int absolute;          /* nonzero: absolute residuals instead of relative */
+    int warm_start;        /* nonzero: start from the lights in out, else from median cut */
+    double *history;       /* optional: history[0] the starting objective, history[k] the one
+                              after iteration k, for k < history_len */
+    size_t history_len;
+} lrr_fit_options;
+
+typedef struct lrr_fit_stats {
+    size_t iterations;        /* accepted LM steps */
+    int converged;            /* 1: tolerance met or no step decreases; 0: hit the cap */
+    double initial_objective; /* at the start (median cut or the given lights) */
+    double final_objective;
+    double seconds;           /* wall clock, ground truth included */
+} lrr_fit_stats;
+
+/* opts and stats may be NULL. 1 <= count <= W·H, m >= 1; LRR_ERR_INVALID_ARG otherwise (and for
+ * a bad option or a warm-start light with a zero or non-finite direction). Memory: about
+ * 8 · (15 m · count + 50 count²) bytes. Thread safety: distinct probes from any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe, size_t count,
+                                                          size_t m, const lrr_fit_options *opts,
+                                                          lrr_light *out, lrr_fit_stats *stats)
+    LRR_NONNULL(1, 5);
+
 /* The projection of the probe onto the real spherical harmonics of order 2 (9 basis
  * functions): coeffs is 9×3 (coefficient i of channel c at 3i + c), basis order
  * Y00, Y1-1(y), Y10(z), Y11(x), Y2-2(xy), Y2-1(yz), Y20(3z²-1), Y21(xz), Y22(x²-y²). */

@@ -568,7 +568,7 @@ fi
 # ---------------------------------------------------------------- light probes
 PROBE=${LRR_DATA_DIR:-data}/probes/studio.hdr
 if [ -r "$PROBE" ]; then
-    help_mentions probe --method --sources --normals --lights --json
+    help_mentions probe --method --sources --normals --lights --json --max-iterations
     run probe "$PROBE" --sources 8 --normals 256 --lights "$T/lights.csv"
     mean=$(value mean_error_pct)
     if [ "$rc" -eq 0 ] && awk -v x="$mean" 'BEGIN { exit !(x + 0 == x && x >= 0 && x < 1e30) }' &&
@@ -595,12 +595,17 @@ assert math.isfinite(d["mean_error_pct"]) and d["sources"] == 9' "$T/out" 2>"$T/
     else
         fail "lrr probe --json (exit $rc): $(cat "$T/out")"; show_err
     fi
-    run probe "$PROBE" --method irradiance
-    if [ "$rc" -eq 2 ] && grep -q 'not implemented yet (issue 6 item 4)' "$T/err"; then
-        pass "lrr probe --method irradiance: not implemented yet (exit 2)"
+    run probe "$PROBE" --method irradiance --sources 8 --normals 256 --max-iterations 20
+    mean=$(sed -n 's/^mean_error_pct: //p' "$T/out")
+    it=$(sed -n 's/^iterations: //p' "$T/out")
+    if [ "$rc" = 0 ] && grep -q '^method: irradiance$' "$T/out" && [ -n "$it" ] &&
+        [ "$it" -le 20 ] && awk -v e="$mean" 'BEGIN { exit !(e + 0 > 0 && e + 0 < 5) }'; then
+        pass "lrr probe --method irradiance: mean_error_pct $mean after $it iterations"
     else
-        fail "lrr probe --method irradiance: exit $rc"; show_err
+        fail "lrr probe --method irradiance: exit $rc: $(cat "$T/out")"; show_err
     fi
+    run probe "$PROBE" --method sh9 --max-iterations 5
+    expect_rc 2 "lrr probe --max-iterations without --method irradiance"
     run probe "$PROBE" --method nope
     expect_rc 2 "lrr probe --method nope"
     run probe "$T/missing.hdr"

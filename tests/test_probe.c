@@ -285,12 +285,129 @@ static void test_shipped(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* mean relative error (%) of lights against the truth on m sphere points */
+static double lights_mean_error(const lrr_light *L, size_t n, size_t m, const float *dirs,
+                                const float *truth)
+{
+    float *approx = calloc(3 * m, sizeof(float));
+    assert_non_null(approx);
+    assert_int_equal(lrr_lights_irradiance(L, n, m, dirs, approx), LRR_OK);
+    double tmax = 0, sum = 0;
+    size_t counted = 0;
+    for (size_t i = 0; i < 3 * m; i++)
+        tmax = fmax(tmax, truth[i]);
+    for (size_t i = 0; i < 3 * m; i++)
+        if (truth[i] > 1e-6 * tmax) {
+            sum += fabs((double)approx[i] - truth[i]) / truth[i];
+            counted++;
+        }
+    free(approx);
+    return 100 * sum / (double)counted;
+}
+
+/* Irradiance optimisation on the studio probe: monotone objective, rgb >= 0, unit directions,
+ * lower error than median cut at the same count, and no NaN at 128 lights. */
+static void test_fit_irradiance(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_probe *p;
+    LRR_CHECK(ctx, lrr_probe_load(ctx, LRR_DATA_DIR "/probes/studio.hdr", &p));
+    const size_t m = 256;
+    float *dirs = calloc(3 * m, sizeof(float)), *truth = calloc(3 * m, sizeof(float));
+    assert_non_null(dirs);
+    assert_non_null(truth);
+    lrr_sphere_points(m, dirs);
+    LRR_CHECK(ctx, lrr_probe_irradiance(p, m, dirs, truth));
+    const size_t counts[] = {8, 64, 128}, caps[] = {100, 30, 8};
+    for (size_t k = 0; k < 3; k++) {
+        size_t n = counts[k];
+        lrr_light *mc = calloc(n, sizeof *mc), *fit = calloc(n, sizeof *fit);
+        assert_non_null(mc);
+        assert_non_null(fit);
+        LRR_CHECK(ctx, lrr_probe_median_cut(p, n, mc));
+        double hist[101];
+        lrr_fit_options o = {0};
+        o.max_iterations = caps[k];
+        o.history = hist;
+        o.history_len = 101;
+        lrr_fit_stats fs;
+        LRR_CHECK(ctx, lrr_probe_fit_irradiance(p, n, m, &o, fit, &fs));
+        assert_true(fs.iterations >= 1 && fs.iterations <= caps[k]);
+        assert_true(isfinite(fs.final_objective));
+        assert_true(fs.final_objective < fs.initial_objective);
+        assert_true(hist[0] == fs.initial_objective);
+        for (size_t i = 1; i <= fs.iterations; i++)
+            assert_true(hist[i] <= hist[i - 1]);
+        assert_true(hist[fs.iterations] == fs.final_objective);
+        for (size_t l = 0; l < n; l++) {
+            double len = 0;
+            for (int c = 0; c < 3; c++) {
+                assert_true(fit[l].rgb[c] >= 0 && isfinite(fit[l].rgb[c]));
+                len += (double)fit[l].dir[c] * fit[l].dir[c];
+            }
+            assert_true(fabs(sqrt(len) - 1) < 1e-5);
+        }
+        double e_mc = lights_mean_error(mc, n, m, dirs, truth);
+        double e_fit = lights_mean_error(fit, n, m, dirs, truth);
+        assert_true(isfinite(e_fit));
+        assert_true(e_fit < e_mc);
+        free(mc);
+        free(fit);
+    }
+    /* bad arguments name themselves */
+    lrr_light L;
+    assert_int_equal(lrr_probe_fit_irradiance(p, 0, m, NULL, &L, NULL), LRR_ERR_INVALID_ARG);
+    assert_int_equal(lrr_probe_fit_irradiance(p, 1, 0, NULL, &L, NULL), LRR_ERR_INVALID_ARG);
+    free(dirs);
+    free(truth);
+    lrr_probe_destroy(p);
+    lrr_context_destroy(ctx);
+}
+
+/* One bright pixel and one light: median cut is exact and the optimiser keeps it so. */
+static void test_fit_single_pixel(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    size_t w = 64, h = 32, u = 10, v = 7, m = 128;
+    float *pix = probe_pixels(w, h);
+    pix[3 * (v * w + u)] = 3;
+    pix[3 * (v * w + u) + 1] = 2;
+    pix[3 * (v * w + u) + 2] = 1;
+    lrr_probe *p;
+    LRR_CHECK(ctx, lrr_probe_create(ctx, w, h, pix, &p));
+    lrr_light L;
+    lrr_fit_stats fs;
+    LRR_CHECK(ctx, lrr_probe_fit_irradiance(p, 1, m, NULL, &L, &fs));
+    float *dirs = calloc(3 * m, sizeof(float)), *truth = calloc(3 * m, sizeof(float)),
+          *approx = calloc(3 * m, sizeof(float));
+    assert_non_null(approx);
+    lrr_sphere_points(m, dirs);
+    LRR_CHECK(ctx, lrr_probe_irradiance(p, m, dirs, truth));
+    assert_int_equal(lrr_lights_irradiance(&L, 1, m, dirs, approx), LRR_OK);
+    double tmax = 0;
+    for (size_t i = 0; i < 3 * m; i++)
+        tmax = fmax(tmax, truth[i]);
+    assert_true(max_abs_diff(approx, truth, m) <= 1e-5 * tmax);
+    assert_true(fs.final_objective <= fs.initial_objective);
+    free(dirs);
+    free(truth);
+    free(approx);
+    free(pix);
+    lrr_probe_destroy(p);
+    lrr_context_destroy(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_single_pixel), cmocka_unit_test(test_constant),
         cmocka_unit_test(test_hemisphere),   cmocka_unit_test(test_median_cut_equal),
         cmocka_unit_test(test_errors),       cmocka_unit_test(test_shipped),
+        cmocka_unit_test(test_fit_irradiance), cmocka_unit_test(test_fit_single_pixel),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

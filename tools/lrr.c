@@ -242,12 +242,15 @@ static const char probe_help[] =
     "\n"
     "Options:\n"
     "  --method M           median-cut (default), sh9 (order-2 spherical harmonics, 9\n"
-    "                       coefficients per channel) or irradiance (not implemented yet)\n"
-    "  --sources N          lights for median-cut (default 16; a power of two is the\n"
-    "                       classic cut, other counts the adaptive variant)\n"
+    "                       coefficients per channel) or irradiance (lights fitted by\n"
+    "                       Levenberg-Marquardt to the irradiance on the M normals, started\n"
+    "                       from median cut; iterations = accepted LM steps)\n"
+    "  --sources N          lights for median-cut and irradiance (default 16; a power of two\n"
+    "                       is the classic cut, other counts the adaptive variant)\n"
+    "  --max-iterations K   irradiance: most LM steps (0 = the library's default, 100)\n"
     "  --normals M          normals to measure on (default 1024)\n"
     "  --lights OUT.csv     write the lights: x,y,z,r,g,b (direction towards the light,\n"
-    "                       radiance x solid angle); median-cut only\n"
+    "                       radiance x solid angle); median-cut and irradiance\n"
     "  --json               print one JSON object on one line instead\n"
     "  -h, --help           show this help\n";
 
@@ -1515,12 +1518,15 @@ static int cmd_probe(int argc, char *argv[])
                                              {"sources", required_argument, NULL, OPT_SOURCES},
                                              {"normals", required_argument, NULL, OPT_NORMALS},
                                              {"lights", required_argument, NULL, OPT_LIGHTS},
+                                             {"max-iterations", required_argument, NULL,
+                                              OPT_MAX_ITERATIONS},
                                              {"json", no_argument, NULL, OPT_JSON},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
     const char *method = "median-cut", *lights_path = NULL;
     size_t sources = PROBE_DEFAULT_SOURCES, normals = PROBE_DEFAULT_NORMALS;
-    int json = 0, sources_given = 0;
+    size_t max_iterations = 0;
+    int json = 0, sources_given = 0, max_iterations_given = 0;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
@@ -1543,6 +1549,12 @@ static int cmd_probe(int argc, char *argv[])
         case OPT_LIGHTS:
             lights_path = optarg;
             break;
+        case OPT_MAX_ITERATIONS:
+            if (cli_parse_size(prog, "--max-iterations", optarg, 0, (size_t)1 << 24,
+                               &max_iterations) != 0)
+                return CLI_EXIT_USAGE;
+            max_iterations_given = 1;
+            break;
         case OPT_JSON:
             json = 1;
             break;
@@ -1553,23 +1565,26 @@ static int cmd_probe(int argc, char *argv[])
     const char *path = one_positional(prog, "PROBE", argc, argv);
     if (!path)
         return CLI_EXIT_USAGE;
-    int sh9 = 0;
+    int sh9 = 0, optimise = 0;
     if (strcmp(method, "sh9") == 0) {
         sh9 = 1;
     } else if (strcmp(method, "irradiance") == 0) {
-        cli_usage_error(prog, "--method irradiance: not implemented yet (issue 6 item 4)");
-        return CLI_EXIT_USAGE;
+        optimise = 1;
     } else if (strcmp(method, "median-cut") != 0) {
         cli_usage_error(prog, "--method: '%s' is not one of median-cut, irradiance, sh9",
                         method);
         return CLI_EXIT_USAGE;
     }
     if (sh9 && sources_given) {
-        cli_usage_error(prog, "--sources applies to --method median-cut only");
+        cli_usage_error(prog, "--sources applies to --method median-cut and irradiance only");
         return CLI_EXIT_USAGE;
     }
     if (sh9 && lights_path) {
-        cli_usage_error(prog, "--lights applies to --method median-cut only");
+        cli_usage_error(prog, "--lights applies to --method median-cut and irradiance only");
+        return CLI_EXIT_USAGE;
+    }
+    if (!optimise && max_iterations_given) {
+        cli_usage_error(prog, "--max-iterations applies to --method irradiance only");
         return CLI_EXIT_USAGE;
     }
     if (lights_path && !*lights_path) {
@@ -1624,15 +1639,25 @@ static int cmd_probe(int argc, char *argv[])
             rc = cli_fail(LRR_ERR_NOMEM, "cannot allocate %zu lights", sources);
             goto done;
         }
-        st = lrr_probe_median_cut(probe, sources, lights);
+        if (optimise) {
+            lrr_fit_options fo = {0};
+            lrr_fit_stats fs = {0};
+            fo.max_iterations = max_iterations;
+            st = lrr_probe_fit_irradiance(probe, sources, normals, &fo, lights, &fs);
+            iterations = fs.iterations;
+        } else {
+            st = lrr_probe_median_cut(probe, sources, lights);
+        }
         if (st == LRR_OK)
             st = lrr_lights_irradiance(lights, sources, normals, dirs, approx);
         n_sources = sources;
-        if ((sources & (sources - 1)) == 0)
-            for (iterations = 0; ((size_t)1 << iterations) < sources; iterations++)
-                ;
-        else
-            iterations = sources - 1;
+        if (!optimise) {
+            if ((sources & (sources - 1)) == 0)
+                for (iterations = 0; ((size_t)1 << iterations) < sources; iterations++)
+                    ;
+            else
+                iterations = sources - 1;
+        }
     }
     double seconds = cli_now() - t0;
     if (st != LRR_OK) {
@@ -1662,13 +1687,13 @@ static int cmd_probe(int argc, char *argv[])
         printf(", \"width\": %zu, \"height\": %zu, \"method\": \"%s\", \"sources\": %zu, "
                "\"normals\": %zu, \"iterations\": %zu, \"seconds\": %.6g, "
                "\"truth_seconds\": %.6g, \"mean_error_pct\": %.6g, \"max_error_pct\": %.6g}\n",
-               w, h, sh9 ? "sh9" : "median-cut", n_sources, normals, iterations, seconds,
+               w, h, sh9 ? "sh9" : optimise ? "irradiance" : "median-cut", n_sources, normals, iterations, seconds,
                truth_seconds, counted ? mean_pct : -1.0, counted ? max_pct : -1.0);
     } else {
         printf("probe: %s\nwidth: %zu\nheight: %zu\nmethod: %s\nsources: %zu\nnormals: %zu\n"
                "iterations: %zu\nseconds: %.6g\ntruth_seconds: %.6g\nmean_error_pct: %.6g\n"
                "max_error_pct: %.6g\n",
-               path, w, h, sh9 ? "sh9" : "median-cut", n_sources, normals, iterations, seconds,
+               path, w, h, sh9 ? "sh9" : optimise ? "irradiance" : "median-cut", n_sources, normals, iterations, seconds,
                truth_seconds, mean_pct, max_pct);
         if (lights_path)
             printf("lights: %s\n", lights_path);
