@@ -2,7 +2,8 @@
  * Shared parts of lrr-bench (common.c): messages, option helpers, the machine description,
  * scenes, timing, cache size and read bandwidth, the real-time steps that the benchmarks
  * compare (lrr_solve, the paper's method, plain sgemv), comparison of radiosities and
- * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c.
+ * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c,
+ * probes.c.
  */
 #ifndef LRR_BENCH_H
 #define LRR_BENCH_H
@@ -41,7 +42,10 @@ enum {
     OPT_SEEDS,
     OPT_N,
     OPT_K,
-    OPT_BACKEND
+    OPT_BACKEND,
+    OPT_SOURCES,
+    OPT_NORMALS,
+    OPT_MAX_ITERATIONS
 };
 
 /* ------------------------------------------------------------------ commands */
@@ -49,6 +53,7 @@ int cmd_table(int argc, char *argv[]);
 int cmd_stress(int argc, char *argv[]);
 int cmd_hemicube(int argc, char *argv[]);
 int cmd_realtime(int argc, char *argv[]);
+int cmd_probes(int argc, char *argv[]);
 
 /* ------------------------------------------------------------------ messages */
 /* "lrr-bench: <message>" on stderr; returns CLI_EXIT_FAIL. */

@@ -13,6 +13,8 @@
  *   lrr-bench realtime  the real-time step alone: every implementation (fused f32/f16/bf16,
  *                       sgemv, sgemm, the paper's method, sparse and incremental paths) on
  *                       the same matrix against a bandwidth floor (realtime.c)
+ *   lrr-bench probes    light probes: error of median cut, irradiance optimisation and SH9
+ *                       against the number of sources, with the time per method (probes.c)
  * What they share (messages, options, timing, bandwidth, the baselines) is in common.c.
  *
  * Results go to stdout ('key: value' lines and aligned tables), progress to stderr. Exit
@@ -38,6 +40,8 @@ static const char main_help[] =
     "  realtime   the real-time step alone, all on one matrix: lrr's fused kernel with F̄ in\n"
     "             f32, f16 and bf16, three sgemv, one sgemm, the paper's method, the sparse\n"
     "             and incremental paths, against a bandwidth floor\n"
+    "  probes     light probes: error of median cut, irradiance optimisation and SH9\n"
+    "             against the number of sources (2..256), time per method\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help (COMMAND --help: help on a command)\n"
@@ -55,7 +59,8 @@ int main(int argc, char *argv[])
     } commands[] = {{"table", cmd_table},
                     {"stress", cmd_stress},
                     {"hemicube", cmd_hemicube},
-                    {"realtime", cmd_realtime}};
+                    {"realtime", cmd_realtime},
+                    {"probes", cmd_probes}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;

@@ -249,6 +249,31 @@ static void line(canvas *c, int x0, int y0, int x1, int y1, const unsigned char 
     }
 }
 
+/* Bresenham with a dash pattern (8 on, 5 off), two pixels thick vertically */
+static void line_styled(canvas *c, int x0, int y0, int x1, int y1, int dashed,
+                        const unsigned char col[3])
+{
+    int dx = abs(x1 - x0), dy = -abs(y1 - y0);
+    int sx = x0 < x1 ? 1 : -1, sy = y0 < y1 ? 1 : -1, err = dx + dy;
+    for (int k = 0;; k++) {
+        if (!dashed || k % 13 < 8) {
+            put(c, x0, y0, col);
+            put(c, x0, y0 + 1, col);
+        }
+        if (x0 == x1 && y0 == y1)
+            break;
+        int e2 = 2 * err;
+        if (e2 >= dy) {
+            err += dy;
+            x0 += sx;
+        }
+        if (e2 <= dx) {
+            err += dx;
+            y0 += sy;
+        }
+    }
+}
+
 static void draw_marker(canvas *c, int cx, int cy, int marker, int r,
                         const unsigned char fill[3], const unsigned char edge[3])
 {
@@ -460,6 +485,23 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
                      axis_px(&ay, b->y[i]), link);
     }
 
+    /* lines joining each series' consecutive points, under the markers */
+    for (size_t s = 0; s < spec->n_series; s++) {
+        const plot_series *se = &spec->series[s];
+        if (!se->line)
+            continue;
+        size_t prev = (size_t)-1;
+        for (size_t i = 0; i < se->count; i++) {
+            if (!point_ok(se, i))
+                continue;
+            if (prev != (size_t)-1)
+                line_styled(&c, axis_px(&ax, se->x[prev]), axis_px(&ay, se->y[prev]),
+                            axis_px(&ax, se->x[i]), axis_px(&ay, se->y[i]), se->line == 2,
+                            se->rgb);
+            prev = i;
+        }
+    }
+
     /* markers; their boxes are obstacles for the labels placed afterwards */
     enum { R_MARK = 6 };
     size_t nbox = 0, cap = points * 2 + 8;
@@ -579,11 +621,19 @@ int plot_write_png(const plot_spec *spec, const char *path)
     unsigned W = 0, H = 0;
     if (plot_render(spec, &rgb, &W, &H) != 0)
         return -1;
+    int r = plot_write_rgb_png(rgb, W, H, path);
+    int e = errno;
+    free(rgb);
+    errno = e;
+    return r;
+}
+
+int plot_write_rgb_png(const unsigned char *rgb, unsigned W, unsigned H, const char *path)
+{
     static const char suffix[] = ".tmpXXXXXX";
     size_t len = strlen(path);
     char *tmp = malloc(len + sizeof suffix);
     if (!tmp) {
-        free(rgb);
         errno = ENOMEM;
         return -1;
     }
@@ -593,7 +643,6 @@ int plot_write_png(const plot_spec *spec, const char *path)
     if (fd < 0) {
         int e = errno;
         free(tmp);
-        free(rgb);
         errno = e;
         return -1;
     }
@@ -620,7 +669,6 @@ int plot_write_png(const plot_spec *spec, const char *path)
     if (e)
         unlink(tmp);
     free(tmp);
-    free(rgb);
     if (e) {
         errno = e;
         return -1;

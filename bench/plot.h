@@ -17,6 +17,8 @@ typedef struct plot_series {
     size_t count;
     unsigned char rgb[3];      /* marker colour */
     int marker;                /* enum plot_marker */
+    int line;                  /* 0: markers only; 1: consecutive points joined by a solid
+                                  line, 2: by a dashed one (in array order) */
 } plot_series;
 
 typedef struct plot_spec {
@@ -36,6 +38,11 @@ int plot_render(const plot_spec *spec, unsigned char **rgb, unsigned *width, uns
 /* plot_render, then a PNG written to a temporary file next to `path`, synced and renamed.
  * Returns 0, or -1 with errno set (nothing is left behind under `path`). */
 int plot_write_png(const plot_spec *spec, const char *path);
+
+/* Writes an RGB buffer (width·height·3 bytes) as a PNG to a temporary file next to `path`,
+ * synced and renamed. Returns 0, or -1 with errno set (nothing is left behind). */
+int plot_write_rgb_png(const unsigned char *rgb, unsigned width, unsigned height,
+                       const char *path);
 
 /* Draws UTF-8 `text` (ASCII and '×'; anything else as '?') in the embedded 5×7 font (a
  * character takes 6 pixels across and 9 down with descenders, at scale 1) at (x, y) = top

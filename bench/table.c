@@ -574,8 +574,8 @@ static int write_table_plot(const char *path, const table_args *a, const cell_re
     snprintf(title, sizeof title, "%s: error against real-time step (hemicube %u, %d threads)",
              a->scene, a->hemicube, omp_get_max_threads());
     plot_series series[2] = {
-        {"ours (lrr_solve, full path)", x, y, labels, m, {31, 119, 180}, PLOT_CIRCLE},
-        {"paper's method (6 sgemv)", x2, y, NULL, m, {255, 127, 14}, PLOT_SQUARE}};
+        {"ours (lrr_solve, full path)", x, y, labels, m, {31, 119, 180}, PLOT_CIRCLE, 0},
+        {"paper's method (6 sgemv)", x2, y, NULL, m, {255, 127, 14}, PLOT_SQUARE, 0}};
     plot_spec spec = {title, "real-time step per frame [ms]",
                       "relative L2 error vs n×n Gauss-Seidel", 0, 0, series, 2, 1};
     if (plot_write_png(&spec, path) != 0)

@@ -410,9 +410,13 @@ LRR_API LRR_NODISCARD lrr_status lrr_render_png(const lrr_operator *op, const fl
  * and covers the solid angle sin theta · 2π² / (W·H). Pixels are linear RGB radiance. */
 typedef struct lrr_probe lrr_probe;
 
-/* Loads a Radiance RGBE (.hdr) probe through stb_image. Other formats (OpenEXR included)
- * give LRR_ERR_FORMAT; W != 2H gives LRR_ERR_DIM naming the size and the expected layout;
- * a non-finite or negative pixel gives LRR_ERR_FORMAT naming its column x and row y.
+/* Loads a probe: a path ending in .exr (any case) is read as OpenEXR (R, G, B half/float
+ * channels, scanline or tiled, any compression DWA included; finite negative pixels, the
+ * ringing of lossy compression, are clamped to 0), anything else as Radiance RGBE (.hdr)
+ * through stb_image. Unreadable, truncated or channel-less files and other formats give
+ * LRR_ERR_FORMAT naming the file; W != 2H gives LRR_ERR_DIM naming the size and the expected
+ * layout; a non-finite pixel (or a negative one in a .hdr) gives LRR_ERR_FORMAT naming its
+ * column x, row y and channel.
  * Thread safety: any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_probe_load(lrr_context *ctx, const char *path,
                                                 lrr_probe **out) LRR_NONNULL(1, 2, 3);
@@ -499,6 +503,26 @@ LRR_API LRR_NODISCARD lrr_status lrr_lights_irradiance(const lrr_light *lights, 
                                                        float *out) LRR_NONNULL(1, 4, 5);
 /* m points spread uniformly over the unit sphere (a Fibonacci spiral), m×3. */
 LRR_API void lrr_sphere_points(size_t m, float *out) LRR_NONNULL(2);
+
+/* Lighting a scene with directional lights (a fitted probe): the emission vector
+ *   E_i,c = rho_i,c Σ_l rgb_l,c · max(0, n_i·dir_l) · visible(x_i, dir_l)
+ * into emission (n×3), for the operator's subpatch centres x_i, normals n_i and reflectance
+ * rho_i. E is the *reflected* direct light, treated as emission (the first bounce), so
+ * B = lrr_solve(E) adds the interreflections (for the scene's own lights as well, add its
+ * stored emission to E). The lights are at infinity (the probe is distant): a light is seen
+ * from x_i unless an occlusion ray from x_i (moved off the surface by 1e-5 × the scene's
+ * bounding-box diagonal along n_i) towards dir_l hits one of the operator's input triangles
+ * (Embree 3, a BVH built once per call). Directions are in the scene's coordinates with the
+ * probes' convention: +y is up, the probe's row 0 (its zenith) lies along +y (see the
+ * latitude–longitude layout above), so a scene must be modelled y-up to be lit the right
+ * way round; there is no rotation. Directions need not be unit (they are normalised) but
+ * must be finite and non-zero and rgb finite and >= 0 (LRR_ERR_INVALID_ARG otherwise);
+ * count 0 (lights may then be NULL) gives E = 0. An Embree failure gives LRR_ERR_NOMEM or
+ * LRR_ERR_UNSUPPORTED with Embree's message. OpenMP over subpatches. Thread safety: any
+ * thread, distinct outputs. */
+LRR_API LRR_NODISCARD lrr_status lrr_probe_direct_light(const lrr_operator *op,
+                                                        const lrr_light *lights, size_t count,
+                                                        float *emission) LRR_NONNULL(1, 4);
 
 /* ---------------------------------------------------------------- memory */
 /* 64-byte aligned allocation for SIMD and device buffers; size 0 gives NULL. */

@@ -230,6 +230,13 @@ struct lrr_probe {
     double *energy;      /* w·h: luminance × solid angle (median cut) */
 };
 
+/* Reads the R, G, B channels (half or float) of a scanline or tiled OpenEXR file
+ * (lib/probe_exr.cpp, C++: DWA compression included) into a malloc'd w×h×3 float buffer,
+ * unvalidated. Errors (unreadable, truncated, no R/G/B channel) are recorded naming the
+ * file; no exception escapes. */
+lrr_status lrr__exr_read_rgb(lrr_context *ctx, const char *path, float **rgb, size_t *width,
+                             size_t *height);
+
 /* ------------------------------------------------------------ misc */
 /* Below about this many multiply-adds (or bytes touched) a parallel region costs more than it
  * saves: waking the OpenMP team takes microseconds when idle, and milliseconds on a loaded

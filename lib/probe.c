@@ -1,4 +1,5 @@
-/* Light probes: loading (Radiance .hdr through stb_image), validation, the ground-truth
+/* Light probes: loading (Radiance .hdr through stb_image, OpenEXR through probe_exr.cpp),
+ * validation, the ground-truth
  * irradiance sum and the irradiance of a set of directional lights. */
 #include "config.h"
 #include "internal.h"
@@ -118,17 +119,52 @@ lrr_status lrr_probe_create(lrr_context *ctx, size_t width, size_t height, const
     return probe_new(ctx, width, height, rgb, out);
 }
 
+/* True when path ends in ".exr" (any case). */
+static bool is_exr_path(const char *path)
+{
+    size_t n = strlen(path);
+    if (n < 4)
+        return false;
+    const char *e = path + n - 4;
+    return e[0] == '.' && (e[1] | 0x20) == 'e' && (e[2] | 0x20) == 'x' && (e[3] | 0x20) == 'r';
+}
+
+/* An OpenEXR probe: lossy compressions (DWA, B44) ring slightly below 0 near dark pixels
+ * (the shipped probes: up to -0.003); finite negatives are clamped to 0, as the .hdr copies
+ * were, while non-finite pixels are an error naming x, y and the channel. */
+static lrr_status load_exr(lrr_context *ctx, const char *path, lrr_probe **out)
+{
+    float *pix;
+    size_t w, h;
+    lrr_status st = lrr__exr_read_rgb(ctx, path, &pix, &w, &h);
+    if (st != LRR_OK)
+        return st;
+    if (h != 0 && w == 2 * h && w <= SIZE_MAX / 3 / h)
+        for (size_t i = 0; i < 3 * w * h; i++)
+            if (pix[i] < 0) /* false for NaN */
+                pix[i] = 0;
+    char source[512];
+    snprintf(source, sizeof source, "'%s'", path);
+    st = check_probe(ctx, w, h, pix, source, LRR_ERR_FORMAT);
+    if (st == LRR_OK)
+        st = probe_new(ctx, w, h, pix, out);
+    free(pix);
+    return st;
+}
+
 lrr_status lrr_probe_load(lrr_context *ctx, const char *path, lrr_probe **out)
 {
     *out = NULL;
+    if (is_exr_path(path))
+        return load_exr(ctx, path, out);
     if (!stbi_is_hdr(path)) {
         FILE *f = fopen(path, "rb");
         if (!f)
             return lrr__error(ctx, LRR_ERR_IO, "'%s': cannot open", path);
         fclose(f);
         return lrr__error(ctx, LRR_ERR_FORMAT,
-                          "'%s': not a Radiance RGBE (.hdr) file (the only probe format "
-                          "supported; OpenEXR is not yet)",
+                          "'%s': not a Radiance RGBE (.hdr) file (probes are read from .hdr "
+                          "and, by the .exr extension, OpenEXR files)",
                           path);
     }
     int w = 0, h = 0, comp = 0;

@@ -291,6 +291,55 @@ else
     fi
 fi
 
+# ---------------------------------------------------------------- probes
+help_mentions probes --sources --normals --max-iterations --csv --plot --quick sh9
+run probes --sources 0
+if [ "$rc" -eq 2 ] && grep -q -- '--sources' "$T/err"; then pass "probes --sources 0: exit 2"; else fail "probes --sources 0: exit $rc"; fi
+PROBE="${LRR_DATA_DIR:-./data}/probes/forest.hdr"
+if [ ! -f "$PROBE" ]; then
+    fail "probes: '$PROBE' is missing (LRR_DATA_DIR)"
+else
+    PCSV="$T/probes.csv"
+    PPNG="$T/probes.png"
+    run probes --quick --csv "$PCSV" --plot "$PPNG" "$PROBE"
+    if [ "$rc" -eq 0 ] && head -n 1 "$PCSV" | grep -q '^probe,method,sources,mean_error_pct,max_error_pct,iterations,seconds'; then
+        pass "probes --quick: CSV header"
+    else
+        fail "probes --quick (exit $rc): CSV header"
+        show_err
+    fi
+    bad=$(awk -F, 'NR > 1 {
+            rows[$2]++
+            for (i = 4; i <= 7; i++)
+                if ($i !~ /^[0-9.eE+-]+$/ || $i + 0 < 0) print "line " NR ": column " i " is " $i
+            if ($2 == "median-cut") mc[$3] = $4
+            if ($2 == "irradiance") ir[$3] = $4
+        }
+        END {
+            if (rows["median-cut"] != 3 || rows["irradiance"] != 3 || rows["sh9"] != 1)
+                print "rows: median-cut " rows["median-cut"] ", irradiance " rows["irradiance"] ", sh9 " rows["sh9"]
+            for (n in ir)
+                if (!(n in mc) || ir[n] + 0 > mc[n] + 0) print "N = " n ": irradiance " ir[n] " > median cut " mc[n]
+        }' "$PCSV" 2>&1)
+    if [ "$rc" -eq 0 ] && [ -z "$bad" ]; then
+        pass "probes --quick: 3 median-cut, 3 irradiance, 1 sh9 rows, finite, irradiance <= median cut"
+    else
+        fail "probes --quick CSV:"
+        echo "$bad" | sed 's/^/    /'
+    fi
+    if grep -q "reaches median cut's error at 2N" "$T/out"; then
+        pass "probes --quick: the 2N line"
+    else
+        fail "probes --quick: no 'reaches median cut's error at 2N' line"
+    fi
+    sig=$(od -An -tx1 -N8 "$PPNG" 2>/dev/null | tr -d ' \n')
+    if [ "$sig" = 89504e470d0a1a0a ]; then
+        pass "probes plot is a PNG ($(wc -c <"$PPNG" | tr -d ' ') bytes)"
+    else
+        fail "probes --plot: '$PPNG' is not a PNG (signature '$sig')"
+    fi
+fi
+
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then
     rm -rf "$T"

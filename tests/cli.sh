@@ -65,8 +65,9 @@ help_mentions() {
 }
 help_mentions info --max-patch-area --patches --levels cornell
 help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage --no-rotation
-help_mentions solve --csv --emission-scale --repeat --path --backend LRR_OPENCL_DEVICE
-help_mentions render -o --width --height --exposure --emission-scale
+help_mentions solve --csv --emission-scale --repeat --path --backend LRR_OPENCL_DEVICE --probe --sources \
+    --probe-method --probe-scale --no-scene-emission direct_light_seconds
+help_mentions render -o --width --height --exposure --emission-scale --probe --sources --probe-method
 help_mentions demo --out
 help_mentions reference --method jacobi gauss-seidel southwell direct --tol --max-iterations \
     --memory-budget --csv --hemicube --seed --threads --progress --patches --levels
@@ -612,6 +613,41 @@ assert math.isfinite(d["mean_error_pct"]) and d["sources"] == 9' "$T/out" 2>"$T/
     expect_rc 1 "lrr probe on a missing file"
 else
     fail "probe $PROBE not found (LRR_DATA_DIR)"
+fi
+
+# ---------------------------------------------------------------- probe lighting
+if [ -f "$PROBE" ]; then
+    finite_means() {
+        for k in mean_b_r mean_b_g mean_b_b; do
+            v=$(value "$k")
+            awk -v x="$v" 'BEGIN { exit !(x != "" && x + 0 == x + 0 && x + 0 > 0 && x + 0 < 1e30) }' || return 1
+        done
+    }
+    run solve "$LRRFILE" --probe "$PROBE" --sources 4 --repeat 1
+    if [ "$rc" -eq 0 ] && [ "$(value sources)" = 4 ] && [ "$(value probe)" = "$PROBE" ] &&
+        [ -n "$(value direct_light_seconds)" ] && finite_means; then
+        pass "solve --probe: mean_b_r $(value mean_b_r), direct light $(value direct_light_seconds) s"
+    else
+        fail "solve --probe (exit $rc): $(cat "$T/out")"; show_err
+    fi
+    run solve "$LRRFILE" --probe "$PROBE" --sources 4 --probe-method median-cut \
+        --no-scene-emission --probe-scale 2 --repeat 1
+    if [ "$rc" -eq 0 ] && finite_means; then
+        pass "solve --probe median-cut, probe light only: mean_b_r $(value mean_b_r)"
+    else
+        fail "solve --probe --probe-method median-cut --no-scene-emission (exit $rc)"; show_err
+    fi
+    run solve "$LRRFILE" --sources 4
+    expect_rc 2 "solve --sources without --probe"
+    run solve "$LRRFILE" --probe "$PROBE" --probe-method nope
+    expect_rc 2 "solve --probe-method nope"
+    run render "$LRRFILE" -o "$T/probe.png" --probe "$PROBE" --sources 4 --width 64 --height 64
+    if [ "$rc" -eq 0 ] && [ -s "$T/probe.png" ] &&
+        [ "$(head -c 8 "$T/probe.png" | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a ]; then
+        pass "render --probe writes a PNG"
+    else
+        fail "render --probe (exit $rc)"; show_err
+    fi
 fi
 
 # ---------------------------------------------------------------- summary

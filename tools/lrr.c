@@ -67,7 +67,11 @@ enum {
     OPT_SOURCES,
     OPT_NORMALS,
     OPT_JSON,
-    OPT_LIGHTS
+    OPT_LIGHTS,
+    OPT_PROBE,
+    OPT_PROBE_METHOD,
+    OPT_PROBE_SCALE,
+    OPT_NO_SCENE_EMISSION
 };
 
 /* ------------------------------------------------------------------ help texts */
@@ -155,10 +159,20 @@ static const char solve_help[] =
     "                       GPU, else the first CPU device; the environment variable\n"
     "                       LRR_OPENCL_DEVICE picks another, by index P:D or by a part of\n"
     "                       \"platform / device\" name). Every OpenCL frame is a full pass\n"
+    "  --probe PROBE        light the scene with a latitude-longitude probe (.hdr, +y up,\n"
+    "                       at infinity): its fitted directional lights give the reflected\n"
+    "                       direct light E_i = rho_i sum_l I_l max(0, n_i.w_l) visible(x_i, w_l)\n"
+    "                       (shadows by Embree occlusion rays), added to the stored emission\n"
+    "  --sources N          --probe: number of lights (1..65536, default 16)\n"
+    "  --probe-method M     --probe: irradiance (default; fitted by Levenberg-Marquardt) or\n"
+    "                       median-cut\n"
+    "  --probe-scale S      --probe: multiply the lights by S (finite, >= 0; default 1)\n"
+    "  --no-scene-emission  --probe: leave out the stored emission (probe light only)\n"
     "  -h, --help           show this help\n"
     "Also prints storage (of F̄), backend, path (that the last run took) and kernel (the\n"
     "SIMD variant, whose choice the environment variable LRR_SIMD=c|avx2|avx512 forces, or\n"
-    "opencl:<device name>).\n";
+    "opencl:<device name>); with --probe also probe, sources and direct_light_seconds (the\n"
+    "shadow rays).\n";
 
 static const char reference_help[] =
     "Usage: lrr reference SCENE --method M [OPTIONS]\n"
@@ -218,6 +232,15 @@ static const char render_help[] =
     "  --emission-scale S   multiply the stored emission by S (finite, >= 0; default 1)\n"
     "  --camera C           'cornell', 'fit' (frame the scene) or 'auto' (default: the\n"
     "                       Cornell camera for the built-in boxes)\n"
+    "  --probe PROBE        light the scene with a latitude-longitude probe (.hdr, +y up,\n"
+    "                       at infinity): its fitted directional lights give the reflected\n"
+    "                       direct light E_i = rho_i sum_l I_l max(0, n_i.w_l) visible(x_i, w_l)\n"
+    "                       (shadows by Embree occlusion rays), added to the stored emission\n"
+    "  --sources N          --probe: number of lights (1..65536, default 16)\n"
+    "  --probe-method M     --probe: irradiance (default; fitted by Levenberg-Marquardt) or\n"
+    "                       median-cut\n"
+    "  --probe-scale S      --probe: multiply the lights by S (finite, >= 0; default 1)\n"
+    "  --no-scene-emission  --probe: leave out the stored emission (probe light only)\n"
     "  -h, --help           show this help\n";
 
 static const char demo_help[] =
@@ -786,6 +809,129 @@ static int cmd_preprocess(int argc, char *argv[])
     return rc;
 }
 
+/* ------------------------------------------------------------------ probe lighting */
+#define PROBE_DEFAULT_SOURCES 16u
+#define PROBE_DEFAULT_NORMALS 1024u
+
+typedef struct probe_args {
+    const char *path;        /* --probe; NULL: none */
+    size_t sources;
+    int median_cut;          /* --probe-method median-cut */
+    double scale;            /* --probe-scale */
+    int no_scene_emission;
+    int probe_only_given;    /* an option that needs --probe was given */
+} probe_args;
+
+#define PROBE_LONGOPTS                                                                         \
+    {"probe", required_argument, NULL, OPT_PROBE},                                            \
+    {"sources", required_argument, NULL, OPT_SOURCES},                                        \
+    {"probe-method", required_argument, NULL, OPT_PROBE_METHOD},                              \
+    {"probe-scale", required_argument, NULL, OPT_PROBE_SCALE},                                \
+    {"no-scene-emission", no_argument, NULL, OPT_NO_SCENE_EMISSION}
+
+static void probe_args_init(probe_args *p)
+{
+    *p = (probe_args){NULL, PROBE_DEFAULT_SOURCES, 0, 1.0, 0, 0};
+}
+
+/* 1: handled, 0: not a probe option, -1: usage error (reported). */
+static int probe_option(probe_args *p, const char *prog, int c, const char *arg)
+{
+    switch (c) {
+    case OPT_PROBE:
+        p->path = arg;
+        return 1;
+    case OPT_SOURCES:
+        p->probe_only_given = 1;
+        return cli_parse_size(prog, "--sources", arg, 1, 65536, &p->sources) != 0 ? -1 : 1;
+    case OPT_PROBE_METHOD:
+        p->probe_only_given = 1;
+        if (strcmp(arg, "median-cut") == 0)
+            p->median_cut = 1;
+        else if (strcmp(arg, "irradiance") == 0)
+            p->median_cut = 0;
+        else {
+            cli_usage_error(prog, "--probe-method: '%s' is not one of irradiance, median-cut",
+                            arg);
+            return -1;
+        }
+        return 1;
+    case OPT_PROBE_SCALE:
+        p->probe_only_given = 1;
+        return cli_parse_double(prog, "--probe-scale", arg, 0.0, 0, 1e300, &p->scale) != 0 ? -1
+                                                                                         : 1;
+    case OPT_NO_SCENE_EMISSION:
+        p->probe_only_given = 1;
+        p->no_scene_emission = 1;
+        return 1;
+    default:
+        return 0;
+    }
+}
+
+static int probe_finish(const probe_args *p, const char *prog)
+{
+    if (p->path && !p->path[0]) {
+        cli_usage_error(prog, "--probe: the file name is empty");
+        return -1;
+    }
+    if (!p->path && p->probe_only_given) {
+        cli_usage_error(prog,
+                        "--sources, --probe-method, --probe-scale and --no-scene-emission "
+                        "need --probe");
+        return -1;
+    }
+    return 0;
+}
+
+/* e (n×3, the scaled stored emission) += the probe's direct light, or = it with
+ * --no-scene-emission; *seconds the time of lrr_probe_direct_light. */
+static int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *p,
+                           float *e, double *seconds)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    lrr_probe *probe = NULL;
+    lrr_light *lights = calloc(p->sources, sizeof *lights);
+    float *direct = cli_alloc_rgb(oi.n);
+    int rc = CLI_EXIT_OK;
+    lrr_status st = lights && direct ? lrr_probe_load(ctx, p->path, &probe) : LRR_ERR_NOMEM;
+    if (st == LRR_OK) {
+        if (p->median_cut) {
+            st = lrr_probe_median_cut(probe, p->sources, lights);
+        } else {
+            lrr_fit_stats fs;
+            st = lrr_probe_fit_irradiance(probe, p->sources, PROBE_DEFAULT_NORMALS, NULL, lights,
+                                          &fs);
+        }
+    }
+    if (st == LRR_OK) {
+        for (size_t l = 0; l < p->sources; l++)
+            for (int c = 0; c < 3; c++)
+                lights[l].rgb[c] = (float)(lights[l].rgb[c] * p->scale);
+        double t0 = cli_now();
+        st = lrr_probe_direct_light(op, lights, p->sources, direct);
+        *seconds = cli_now() - t0;
+    }
+    if (st != LRR_OK) {
+        rc = cli_lib_error(st == LRR_ERR_NOMEM && !probe ? NULL : ctx, st);
+    } else {
+        for (size_t i = 0; i < 3 * oi.n; i++) {
+            e[i] = p->no_scene_emission ? direct[i] : e[i] + direct[i];
+            if (!isfinite(e[i])) {
+                rc = cli_fail(LRR_ERR_INVALID_ARG,
+                              "--probe-scale %g: the emission of subpatch %zu overflows",
+                              p->scale, i / 3);
+                break;
+            }
+        }
+    }
+    free(direct);
+    free(lights);
+    lrr_probe_destroy(probe);
+    return rc;
+}
+
 /* ------------------------------------------------------------------ lrr solve */
 static int cmd_solve(int argc, char *argv[])
 {
@@ -796,9 +942,12 @@ static int cmd_solve(int argc, char *argv[])
         {"repeat", required_argument, NULL, OPT_REPEAT},
         {"path", required_argument, NULL, OPT_PATH},
         {"backend", required_argument, NULL, OPT_BACKEND},
+        PROBE_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     const char *csv = NULL;
+    probe_args pa;
+    probe_args_init(&pa);
     double scale = 1.0;
     unsigned repeat = DEFAULT_REPEAT;
     lrr_path path = LRR_PATH_FULL;
@@ -835,8 +984,13 @@ static int cmd_solve(int argc, char *argv[])
                 return CLI_EXIT_USAGE;
             }
             break;
-        default:
-            return bad_option(prog, c, argv);
+        default: {
+            int r = probe_option(&pa, prog, c, optarg);
+            if (r < 0)
+                return CLI_EXIT_USAGE;
+            if (r == 0)
+                return bad_option(prog, c, argv);
+        }
         }
     }
     const char *file = one_positional(prog, "FILE.lrr", argc, argv);
@@ -846,6 +1000,8 @@ static int cmd_solve(int argc, char *argv[])
         cli_usage_error(prog, "--csv: the file name is empty");
         return CLI_EXIT_USAGE;
     }
+    if (probe_finish(&pa, prog) != 0)
+        return CLI_EXIT_USAGE;
 
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
@@ -853,12 +1009,14 @@ static int cmd_solve(int argc, char *argv[])
         return cli_lib_error(NULL, s);
     lrr_operator *op = NULL;
     float *e = NULL, *b = NULL;
-    double ms = 0.0;
+    double ms = 0.0, direct_s = 0.0;
     lrr_path used = LRR_PATH_FULL;
     char kernel[KERNEL_NAME_MAX] = "";
     int rc = load_operator(ctx, file, &op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(op, scale, &e);
+    if (rc == CLI_EXIT_OK && pa.path)
+        rc = add_probe_light(ctx, op, &pa, e, &direct_s);
     if (rc == CLI_EXIT_OK) {
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi);
@@ -879,6 +1037,12 @@ static int cmd_solve(int argc, char *argv[])
         printf("path: %s\n", path_names[used]);
         printf("kernel: %s\n", kernel);
         printf("solve_ms: %.4f\n", ms);
+        if (pa.path) {
+            printf("probe: %s\n", pa.path);
+            printf("probe_method: %s\n", pa.median_cut ? "median-cut" : "irradiance");
+            printf("sources: %zu\n", pa.sources);
+            printf("direct_light_seconds: %.6f\n", direct_s);
+        }
         print_solution_summary(op, b);
         if (csv)
             printf("csv: %s\n", csv);
@@ -901,9 +1065,12 @@ static int cmd_render(int argc, char *argv[])
         {"exposure", required_argument, NULL, OPT_EXPOSURE},
         {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
         {"camera", required_argument, NULL, OPT_CAMERA},
+        PROBE_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     const char *output = NULL;
+    probe_args pa;
+    probe_args_init(&pa);
     lrr_render_options ro = {.width = 0, .height = 0, .exposure = 0.0, .use_cornell_camera = -1};
     double scale = 1.0;
     start_getopt();
@@ -944,8 +1111,13 @@ static int cmd_render(int argc, char *argv[])
                 return CLI_EXIT_USAGE;
             }
             break;
-        default:
-            return bad_option(prog, c, argv);
+        default: {
+            int r = probe_option(&pa, prog, c, optarg);
+            if (r < 0)
+                return CLI_EXIT_USAGE;
+            if (r == 0)
+                return bad_option(prog, c, argv);
+        }
         }
     }
     const char *path = one_positional(prog, "FILE.lrr", argc, argv);
@@ -956,6 +1128,8 @@ static int cmd_render(int argc, char *argv[])
         fprintf(stderr, "Try '%s --help'.\n", prog);
         return CLI_EXIT_USAGE;
     }
+    if (probe_finish(&pa, prog) != 0)
+        return CLI_EXIT_USAGE;
 
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
@@ -963,10 +1137,12 @@ static int cmd_render(int argc, char *argv[])
         return cli_lib_error(NULL, s);
     lrr_operator *op = NULL;
     float *e = NULL, *b = NULL;
-    double ms = 0.0;
+    double ms = 0.0, direct_s = 0.0;
     int rc = load_operator(ctx, path, &op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(op, scale, &e);
+    if (rc == CLI_EXIT_OK && pa.path)
+        rc = add_probe_light(ctx, op, &pa, e, &direct_s);
     if (rc == CLI_EXIT_OK) {
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi);
@@ -1474,8 +1650,6 @@ done:
 }
 
 /* ------------------------------------------------------------------ lrr probe */
-#define PROBE_DEFAULT_SOURCES 16u
-#define PROBE_DEFAULT_NORMALS 1024u
 
 static int write_lights_csv(const char *path, const lrr_light *lights, size_t count)
 {

@@ -1,0 +1,195 @@
+/* Direct light of directional sources (a fitted light probe) on the operator's subpatches,
+ * with shadows from Embree occlusion rays: the emission vector of the first bounce. */
+#include "config.h"
+#include "internal.h"
+
+#include <embree3/rtcore.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+/* Embree reports errors through a callback: the first one is kept here (one per call). */
+typedef struct embree_error {
+    enum RTCError code;
+    char message[256];
+} embree_error;
+
+static void embree_error_cb(void *user, enum RTCError code, const char *str)
+{
+    embree_error *e = user;
+    if (e->code != RTC_ERROR_NONE)
+        return;
+    e->code = code;
+    snprintf(e->message, sizeof e->message, "%s", str ? str : "(no message)");
+}
+
+static lrr_status embree_fail(lrr_context *ctx, const embree_error *err, const char *what)
+{
+    lrr_status s = err->code == RTC_ERROR_OUT_OF_MEMORY ? LRR_ERR_NOMEM : LRR_ERR_UNSUPPORTED;
+    return lrr__error(ctx, s, "lrr_probe_direct_light: Embree %s failed (error %d: %s)", what,
+                      (int)err->code, err->code != RTC_ERROR_NONE ? err->message : "unknown");
+}
+
+/* The scene of the operator's input triangles; NULL on failure (err filled). */
+static RTCScene build_scene(RTCDevice dev, const lrr__geometry *g, embree_error *err)
+{
+    RTCScene scene = rtcNewScene(dev);
+    if (!scene)
+        return NULL;
+    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
+    RTCGeometry geo = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    if (!geo) {
+        rtcReleaseScene(scene);
+        return NULL;
+    }
+    float *v = rtcSetNewGeometryBuffer(geo, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                       3 * sizeof(float), 3 * g->n_tri);
+    unsigned *ix = rtcSetNewGeometryBuffer(geo, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                           3 * sizeof(unsigned), g->n_tri);
+    if (!v || !ix) {
+        rtcReleaseGeometry(geo);
+        rtcReleaseScene(scene);
+        return NULL;
+    }
+    memcpy(v, g->vert, 9 * g->n_tri * sizeof(float));
+    for (size_t i = 0; i < 3 * g->n_tri; i++)
+        ix[i] = (unsigned)i;
+    rtcCommitGeometry(geo);
+    rtcAttachGeometry(scene, geo);
+    rtcReleaseGeometry(geo);
+    rtcCommitScene(scene);
+    if (err->code != RTC_ERROR_NONE) {
+        rtcReleaseScene(scene);
+        return NULL;
+    }
+    return scene;
+}
+
+lrr_status lrr_probe_direct_light(const lrr_operator *op, const lrr_light *lights, size_t count,
+                                  float *emission)
+{
+    lrr_context *ctx = op->ctx;
+    const size_t n = op->n;
+    if (count > 0 && !lights)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "lrr_probe_direct_light: lights is NULL with count %zu", count);
+    float *L = NULL;
+    lrr_status st = lrr__calloc(ctx, &L, count, 6 * sizeof(float), "direct light sources");
+    if (st != LRR_OK)
+        return st;
+    for (size_t l = 0; l < count; l++) {
+        const lrr_light *s = &lights[l];
+        double len = 0.0;
+        int ok = 1;
+        for (int c = 0; c < 3; c++) {
+            ok &= isfinite(s->dir[c]) && isfinite(s->rgb[c]) && s->rgb[c] >= 0.0f;
+            len += (double)s->dir[c] * s->dir[c];
+        }
+        if (!ok || !(len > 0.0) || !isfinite(len)) {
+            lrr_aligned_free(L);
+            return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                              "lrr_probe_direct_light: light %zu has a zero or non-finite "
+                              "direction or a negative or non-finite rgb",
+                              l);
+        }
+        len = sqrt(len);
+        for (int c = 0; c < 3; c++) {
+            L[6 * l + c] = (float)(s->dir[c] / len);
+            L[6 * l + 3 + c] = s->rgb[c];
+        }
+    }
+    memset(emission, 0, 3 * n * sizeof(float));
+    if (count == 0 || n == 0) {
+        lrr_aligned_free(L);
+        return LRR_OK;
+    }
+    const lrr__geometry *g = &op->geom;
+    if (g->n_tri > UINT32_MAX / 3) {
+        lrr_aligned_free(L);
+        return lrr__error(ctx, LRR_ERR_OVERFLOW,
+                          "lrr_probe_direct_light: %zu triangles exceed Embree's 32-bit indices",
+                          g->n_tri);
+    }
+
+    /* the ray origins move off the surface by 1e-5 × the scene's bounding-box diagonal */
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < 3 * g->n_tri; i++)
+        for (int c = 0; c < 3; c++) {
+            lo[c] = fmin(lo[c], g->vert[3 * i + c]);
+            hi[c] = fmax(hi[c], g->vert[3 * i + c]);
+        }
+    double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                       (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    const float eps = (float)(1e-5 * diag);
+
+    embree_error err = {RTC_ERROR_NONE, ""};
+    RTCDevice dev = rtcNewDevice(NULL);
+    if (!dev) {
+        lrr_aligned_free(L);
+        err.code = rtcGetDeviceError(NULL);
+        return embree_fail(ctx, &err, "device creation");
+    }
+    rtcSetDeviceErrorFunction(dev, embree_error_cb, &err);
+    RTCScene scene = build_scene(dev, g, &err);
+    if (!scene) {
+        st = embree_fail(ctx, &err, "scene build");
+        rtcReleaseDevice(dev);
+        lrr_aligned_free(L);
+        return st;
+    }
+
+    const float *ce = op->centre, *nr = op->normal, *rho = op->rho;
+    int bad = 0;
+#pragma omp parallel for schedule(dynamic, 64) reduction(| : bad)
+    for (size_t i = 0; i < n; i++) {
+        const float *x = ce + 3 * i, *nv = nr + 3 * i;
+        float sum[3] = {0.0f, 0.0f, 0.0f};
+        struct RTCIntersectContext ictx;
+        rtcInitIntersectContext(&ictx);
+        for (size_t l = 0; l < count; l++) {
+            const float *w = L + 6 * l;
+            float cosine = nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2];
+            if (!(cosine > 0.0f))
+                continue;
+            struct RTCRay ray;
+            ray.org_x = x[0] + eps * nv[0];
+            ray.org_y = x[1] + eps * nv[1];
+            ray.org_z = x[2] + eps * nv[2];
+            ray.tnear = 0.0f;
+            ray.dir_x = w[0];
+            ray.dir_y = w[1];
+            ray.dir_z = w[2];
+            ray.time = 0.0f;
+            ray.tfar = INFINITY;
+            ray.mask = UINT32_MAX;
+            ray.id = 0;
+            ray.flags = 0;
+            rtcOccluded1(scene, &ictx, &ray);
+            if (ray.tfar < 0.0f) /* -inf: something is in the way */
+                continue;
+            for (int c = 0; c < 3; c++)
+                sum[c] += w[3 + c] * cosine;
+        }
+        for (int c = 0; c < 3; c++) {
+            emission[3 * i + c] = rho[3 * i + c] * sum[c];
+            bad |= !isfinite(emission[3 * i + c]);
+        }
+    }
+    rtcReleaseScene(scene);
+    int failed = err.code != RTC_ERROR_NONE;
+    if (failed)
+        st = embree_fail(ctx, &err, "occlusion query");
+    rtcReleaseDevice(dev);
+    lrr_aligned_free(L);
+    if (failed) {
+        memset(emission, 0, 3 * n * sizeof(float));
+        return st;
+    }
+    if (bad) {
+        memset(emission, 0, 3 * n * sizeof(float));
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "lrr_probe_direct_light: the direct light overflows a float");
+    }
+    return LRR_OK;
+}
