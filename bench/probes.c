@@ -37,7 +37,7 @@ static const char probes_help[] =
     "Options:\n"
     "  --sources LIST       comma-separated source counts (default 2,4,8,16,32,64,128,256)\n"
     "  --normals M          normals for the error and the fit (default 1024)\n"
-    "  --max-iterations K   cap on the fit's accepted LM steps (default: the library's, 100)\n"
+    "  --max-iterations K   cap on the fit's accepted LM steps (default: the library's, 300)\n"
     "  --csv OUT.csv        write the results (rewritten after each probe): columns\n"
     "                       probe,method,sources,mean_error_pct,max_error_pct,iterations,\n"
     "                       seconds,normals,width,height,truth_seconds,converged,path\n"
@@ -544,7 +544,7 @@ int cmd_probes(int argc, char *argv[])
     printf("normals: %zu\nsources:", normals);
     for (size_t j = 0; j < n_sources; j++)
         printf("%s%zu", j ? "," : " ", sources[j]);
-    printf("\nmax_iterations: %zu%s\n", max_iterations ? max_iterations : 100,
+    printf("\nmax_iterations: %zu%s\n", max_iterations ? max_iterations : 300,
            max_iterations ? "" : " (library default)");
     printf("sh9: one row per probe, its 9 coefficients counted as 9 sources\n");
     size_t done = 0;

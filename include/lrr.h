@@ -461,7 +461,7 @@ LRR_API LRR_NODISCARD lrr_status lrr_probe_median_cut(const lrr_probe *probe, si
  * (JᵀJ + λ diag JᵀJ) δ = −Jᵀr (analytic J, LAPACKE dposv), clamps radiances at 0 and keeps the
  * step only if the objective decreases, so the objective is monotone and rgb >= 0. */
 typedef struct lrr_fit_options {
-    size_t max_iterations; /* accepted steps at most; 0 = 100 */
+    size_t max_iterations; /* accepted steps at most; 0 = 300 */
     double tolerance;      /* stop when a step lowers the objective by less than this fraction;
                               0 = 1e-6 */
     int absolute;          /* nonzero: absolute residuals instead of relative */

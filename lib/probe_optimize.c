@@ -18,7 +18,9 @@
 #include <string.h>
 
 #define PI 3.14159265358979323846
-#define DEFAULT_MAX_ITER 100
+/* Measured: studio with 128 sources converged after 125 steps; 100 stopped three of the 32
+ * runs of lrr-bench probes early (still improving). */
+#define DEFAULT_MAX_ITER 300
 #define DEFAULT_TOL 1e-6
 #define LAMBDA_MAX 1e12
 

@@ -270,7 +270,7 @@ static const char probe_help[] =
     "                       from median cut; iterations = accepted LM steps)\n"
     "  --sources N          lights for median-cut and irradiance (default 16; a power of two\n"
     "                       is the classic cut, other counts the adaptive variant)\n"
-    "  --max-iterations K   irradiance: most LM steps (0 = the library's default, 100)\n"
+    "  --max-iterations K   irradiance: most LM steps (0 = the library's default, 300)\n"
     "  --normals M          normals to measure on (default 1024)\n"
     "  --lights OUT.csv     write the lights: x,y,z,r,g,b (direction towards the light,\n"
     "                       radiance x solid angle); median-cut and irradiance\n"
