@@ -151,6 +151,41 @@ typedef struct lrr_scene_info {
 /* Thread safety: any thread (read only). */
 LRR_API void lrr_scene_get_info(const lrr_scene *scene, lrr_scene_info *info) LRR_NONNULL(1, 2);
 
+/* The scene doctor (`lrr check`), with exact predicates (CGAL). `name` is a scene file (read
+ * raw: zero-area triangles included) or a built-in name. Face numbers are the file's
+ * (lrr_scene_load's error messages use the same), or triangle indices for a built-in scene.
+ * Errors: degenerate triangles, intersecting pairs (both cross each other's plane: surfaces
+ * that pierce, light leaks), coplanar overlaps facing the same way (z-fighting), closed
+ * components (connected by shared edges, keyed by exact positions) with an edge traversed in
+ * the same direction by its two triangles. Warnings: open edges (used by one triangle) and
+ * contacts (coplanar overlaps facing opposite ways, e.g. a block standing on a floor). */
+typedef enum lrr_check_kind {
+    LRR_CHECK_DEGENERATE = 0,   /* face_a has (exactly) zero area */
+    LRR_CHECK_INTERSECT = 1,    /* face_a and face_b pierce each other */
+    LRR_CHECK_ZFIGHT = 2,       /* coplanar, interiors overlap, same facing */
+    LRR_CHECK_CONTACT = 3,      /* coplanar, interiors overlap, opposite facing (warning) */
+    LRR_CHECK_OPEN_EDGE = 4,    /* an edge of face_a used by no other triangle (warning) */
+    LRR_CHECK_ORIENTATION = 5   /* face_a is flipped against its closed component (face_b) */
+} lrr_check_kind;
+typedef struct lrr_check_finding {
+    lrr_check_kind kind;
+    size_t face_a, face_b; /* face_b == face_a for single-face findings */
+} lrr_check_finding;
+typedef struct lrr_check_report {
+    size_t triangles, degenerate, intersecting_pairs, coplanar_overlaps, contacts, open_edges,
+        inconsistent_components;
+    size_t n_findings;
+    lrr_check_finding *findings;
+    /* The raw triangles (n = triangles) and the repair: fix[t] 0 keep, 1 drop (degenerate),
+     * 2 flip (minority orientation of a closed component). */
+    float *vert, *rho, *emission; /* ×9, ×3, ×3 */
+    size_t *face;
+    unsigned char *fix;
+} lrr_check_report;
+LRR_API LRR_NODISCARD lrr_status lrr_scene_check(lrr_context *ctx, const char *name,
+                                                 lrr_check_report **out) LRR_NONNULL(1, 2, 3);
+LRR_API void lrr_check_report_destroy(lrr_check_report *report);
+
 /* Maps a point given by barycentric coordinates (b1, b2 of vertices 1 and 2; b0 = 1-b1-b2)
  * inside input triangle `triangle` to its subpatch index; returns (size_t)-1 when out of
  * range. Requires a subdivided scene. */

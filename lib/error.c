@@ -129,6 +129,48 @@ void *lrr_aligned_alloc(size_t size)
 
 void lrr_aligned_free(void *p) { free(p); }
 
+void lrr__context_fail_after(lrr_context *ctx, unsigned long n)
+{
+    pthread_mutex_lock(&ctx->lock);
+    ctx->alloc_count = 0;
+    ctx->fail_at = n;
+    pthread_mutex_unlock(&ctx->lock);
+}
+
+unsigned long lrr__context_alloc_count(lrr_context *ctx)
+{
+    pthread_mutex_lock(&ctx->lock);
+    unsigned long n = ctx->alloc_count;
+    pthread_mutex_unlock(&ctx->lock);
+    return n;
+}
+
+/* Counts one allocation on ctx; false when it is the one to fail. */
+static bool count_alloc(lrr_context *ctx)
+{
+    if (!ctx)
+        return true;
+    pthread_mutex_lock(&ctx->lock);
+    bool ok = ++ctx->alloc_count != ctx->fail_at;
+    pthread_mutex_unlock(&ctx->lock);
+    return ok;
+}
+
+void *lrr__alloc(lrr_context *ctx, size_t bytes)
+{
+    return count_alloc(ctx) ? malloc(bytes ? bytes : 1) : NULL;
+}
+
+void *lrr__zalloc(lrr_context *ctx, size_t bytes)
+{
+    return count_alloc(ctx) ? calloc(1, bytes ? bytes : 1) : NULL;
+}
+
+void *lrr__realloc(lrr_context *ctx, void *p, size_t bytes)
+{
+    return count_alloc(ctx) ? realloc(p, bytes ? bytes : 1) : NULL;
+}
+
 lrr_status lrr__calloc(lrr_context *ctx, void *out, size_t count, size_t elem, const char *what)
 {
     void **res = out;
@@ -137,7 +179,7 @@ lrr_status lrr__calloc(lrr_context *ctx, void *out, size_t count, size_t elem, c
     if (!lrr__mul_size(count, elem, &bytes) || bytes > SIZE_MAX - 64)
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "%s: %zu × %zu bytes overflows size_t", what,
                           count, elem);
-    void *p = lrr_aligned_alloc(bytes ? bytes : 64);
+    void *p = count_alloc(ctx) ? lrr_aligned_alloc(bytes ? bytes : 64) : NULL;
     if (!p)
         return lrr__error(ctx, LRR_ERR_NOMEM, "%s: cannot allocate %zu bytes (%.1f MiB)", what,
                           bytes, bytes / 1048576.0);

@@ -306,7 +306,7 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     put64(header + 56, checksum(header, 56));
 
     size_t plen = strlen(path);
-    char *tmp = malloc(plen + sizeof ".tmp.XXXXXX");
+    char *tmp = lrr__alloc(ctx, plen + sizeof ".tmp.XXXXXX");
     if (!tmp) {
         lrr_aligned_free(geom);
         return lrr__error(ctx, LRR_ERR_NOMEM, "file %s: no memory for the temporary name", path);

@@ -128,7 +128,7 @@ lrr_status lrr__cl_hemi_create(lrr_context *ctx, const lrr__multiplier_map *mm, 
     if (k > UINT32_MAX || batch > UINT32_MAX)
         return lrr__error(ctx, LRR_ERR_OVERFLOW,
                           "OpenCL hemicube integration: k = %zu exceeds 32 bits", k);
-    lrr__cl_hemi *h = calloc(1, sizeof *h);
+    lrr__cl_hemi *h = lrr__zalloc(ctx, sizeof *h);
     if (!h)
         return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate the OpenCL hemicube integrator");
     h->ctx = ctx;
@@ -160,7 +160,7 @@ lrr_status lrr__cl_hemi_create(lrr_context *ctx, const lrr__multiplier_map *mm, 
     if ((st = build(h, dev, fp64)))
         goto fail;
     /* the multiplier map in the item buffer's layout: top, then four copies of the side */
-    if (!(weights = malloc(h->P * h->real_size))) {
+    if (!(weights = lrr__alloc(ctx, h->P * h->real_size))) {
         st = lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate the multiplier map upload");
         goto fail;
     }

@@ -15,6 +15,11 @@ struct lrr_context {
     void *callback_user;
     lrr_status first_status;  /* first error since the last lrr_context_last_error() */
     char first_message[512];
+    /* Tests only (allocation-failure injection), guarded by lock: every allocation made
+     * through lrr__alloc/lrr__calloc/lrr__realloc with this context counts; when fail_at is
+     * non-zero the fail_at-th one returns NULL. */
+    unsigned long alloc_count;
+    unsigned long fail_at;
 };
 
 lrr_context *lrr__context_retain(lrr_context *ctx);
@@ -34,6 +39,16 @@ static inline bool lrr__mul_size(size_t a, size_t b, size_t *out)
 /* Allocates count*elem zeroed bytes, 64-byte aligned. On failure records LRR_ERR_OVERFLOW or
  * LRR_ERR_NOMEM naming `what`, sets *out = NULL. count == 0 gives a valid 64-byte block. */
 lrr_status lrr__calloc(lrr_context *ctx, void *out, size_t count, size_t elem, const char *what);
+/* malloc / zeroed malloc / realloc counted on ctx (which may be NULL): every library
+ * allocation goes through these or lrr__calloc so that tests can make one fail. They record
+ * no error; the caller does. Free with free() (or lrr_aligned_free, the same). */
+void *lrr__alloc(lrr_context *ctx, size_t bytes);
+void *lrr__zalloc(lrr_context *ctx, size_t bytes);
+void *lrr__realloc(lrr_context *ctx, void *p, size_t bytes);
+/* Tests only: makes the n-th allocation counted from now on ctx fail (0: none) and resets the
+ * count; lrr__context_alloc_count gives the number of allocations counted since. */
+void lrr__context_fail_after(lrr_context *ctx, unsigned long n);
+unsigned long lrr__context_alloc_count(lrr_context *ctx);
 
 /* ------------------------------------------------------------ geometry and hierarchy */
 /* Input triangles and their subdivision; shared by scenes and operators.
@@ -97,6 +112,12 @@ lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *v
                                   const float *rho, const float *emission,
                                   const size_t *face_ids, const char *source, int builtin,
                                   lrr_scene **out);
+
+/* scene_import.c: every imported triangle, degenerate ones included, with its face number
+ * (nothing validated); free the arrays with lrr_aligned_free. For the scene check. */
+lrr_status lrr__scene_import_raw(lrr_context *ctx, const char *path, size_t *n_tri,
+                                 float **vert, float **rho, float **emission,
+                                 size_t **face_ids);
 
 /* ------------------------------------------------------------ operator */
 struct lrr_operator {

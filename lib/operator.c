@@ -38,7 +38,7 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
                              lrr_operator **out)
 {
     *out = NULL;
-    lrr_operator *op = calloc(1, sizeof *op);
+    lrr_operator *op = lrr__zalloc(ctx, sizeof *op);
     if (!op)
         return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate an operator");
     op->ctx = lrr__context_retain(ctx);

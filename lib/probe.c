@@ -68,7 +68,7 @@ static lrr_status check_probe(lrr_context *ctx, size_t w, size_t h, const float 
 static lrr_status probe_new(lrr_context *ctx, size_t w, size_t h, const float *rgb,
                             lrr_probe **out)
 {
-    lrr_probe *p = calloc(1, sizeof *p);
+    lrr_probe *p = lrr__zalloc(ctx, sizeof *p);
     if (!p)
         return lrr__error(ctx, LRR_ERR_NOMEM, "probe: cannot allocate");
     p->ctx = lrr__context_retain(ctx);

@@ -56,7 +56,7 @@ extern "C" lrr_status lrr__exr_read_rgb(lrr_context *ctx, const char *path, floa
             return lrr__error(ctx, LRR_ERR_DIM, "'%s': OpenEXR data window of %lld×%lld pixels",
                               path, w, h);
         const size_t sw = (size_t)w, sh = (size_t)h;
-        pix = static_cast<float *>(std::malloc(sw * sh * 3 * sizeof(float)));
+        pix = static_cast<float *>(lrr__alloc(ctx, sw * sh * 3 * sizeof(float)));
         if (!pix)
             return lrr__error(ctx, LRR_ERR_NOMEM, "'%s': cannot allocate %zu×%zu RGB pixels",
                               path, sw, sh);

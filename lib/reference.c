@@ -78,7 +78,7 @@ lrr_status lrr_reference_build(const lrr_scene *scene, const lrr_build_options *
                           "the full form-factor matrix for n = %zu subpatches needs %.1f MB "
                           "(n² floats), more than the memory budget of %.1f MB",
                           n, need / 1e6, budget / 1e6);
-    lrr_reference *ref = calloc(1, sizeof *ref);
+    lrr_reference *ref = lrr__zalloc(ctx, sizeof *ref);
     if (!ref)
         return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate a reference");
     ref->ctx = lrr__context_retain(ctx);

@@ -610,6 +610,7 @@ static uint8_t tone(const srgb_table *t, double x)
 /* ------------------------------------------------------------------ PNG output */
 
 typedef struct membuf {
+    lrr_context *ctx;
     unsigned char *data;
     size_t len, cap;
     int failed;
@@ -629,7 +630,7 @@ static void membuf_write(void *user, void *data, int size)
             }
             cap *= 2;
         }
-        unsigned char *p = realloc(m->data, cap);
+        unsigned char *p = lrr__realloc(m->ctx, m->data, cap);
         if (!p) {
             m->failed = 1;
             return;
@@ -658,7 +659,7 @@ static lrr_status write_atomic(lrr_context *ctx, const char *path, const unsigne
                                size_t len)
 {
     size_t plen = strlen(path);
-    char *tmp = malloc(plen + 16);
+    char *tmp = lrr__alloc(ctx, plen + 16);
     if (!tmp)
         return lrr__error(ctx, LRR_ERR_NOMEM, "file %s: cannot allocate a temporary name", path);
     snprintf(tmp, plen + 16, "%s.tmp-XXXXXX", path);
@@ -779,7 +780,7 @@ lrr_status lrr_render_png(const lrr_operator *op, const float *radiosity,
     rtri *tris = NULL;
     framebuffer fb = {width, height, NULL, NULL, NULL};
     uint8_t *pixels = NULL;
-    membuf png = {0};
+    membuf png = {ctx, NULL, 0, 0, 0};
     lrr_status st;
     if ((st = lrr__calloc(ctx, &pos, n, 9 * sizeof *pos, "render: subpatch vertices")) ||
         (st = lrr__calloc(ctx, &corner_vertex, n, 3 * sizeof *corner_vertex,

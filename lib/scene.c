@@ -71,7 +71,7 @@ lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *v
         return lrr__error(ctx, LRR_ERR_GEOMETRY,
                           "%s: all %zu triangles have zero area; nothing is left", src, n_tri);
 
-    lrr_scene *s = calloc(1, sizeof *s);
+    lrr_scene *s = lrr__zalloc(ctx, sizeof *s);
     if (!s)
         return lrr__error(ctx, LRR_ERR_NOMEM, "%s: cannot allocate the scene", src);
     lrr_status st;

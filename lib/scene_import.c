@@ -499,3 +499,37 @@ lrr_status lrr_scene_load(lrr_context *ctx, const char *path, lrr_scene **out)
     free_state(&s);
     return st;
 }
+
+/* For `lrr check`: every triangle as imported, degenerate ones included, with its face number;
+ * nothing is validated. The caller frees the four arrays with lrr_aligned_free. */
+lrr_status lrr__scene_import_raw(lrr_context *ctx, const char *path, size_t *n_tri,
+                                 float **vert, float **rho, float **emission,
+                                 size_t **face_ids)
+{
+    *n_tri = 0;
+    *vert = *rho = *emission = NULL;
+    *face_ids = NULL;
+    lrr_status st = check_readable(ctx, path);
+    if (st != LRR_OK)
+        return st;
+    const struct aiScene *scene = aiImportFile(path, 0);
+    if (!scene) {
+        const char *why = aiGetErrorString();
+        return lrr__error(ctx, LRR_ERR_FORMAT, "file %s: cannot import: %s", path,
+                          why && *why ? why : "assimp gave no reason");
+    }
+    import_state s = {.ctx = ctx, .path = path, .scene = scene};
+    st = convert(&s);
+    aiReleaseImport(scene);
+    if (st == LRR_OK) {
+        *n_tri = s.n_tri;
+        *vert = s.vert;
+        *rho = s.rho;
+        *emission = s.em;
+        *face_ids = s.face_ids;
+        s.vert = s.rho = s.em = NULL;
+        s.face_ids = NULL;
+    }
+    free_state(&s);
+    return st;
+}

@@ -101,7 +101,7 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
         lrr_status st = lrr__cl_create(op, &cl);
         if (st)
             return st;
-        lrr_solver *s = calloc(1, sizeof *s);
+        lrr_solver *s = lrr__zalloc(op->ctx, sizeof *s);
         if (!s) {
             lrr__cl_destroy(cl);
             return lrr__error(op->ctx, LRR_ERR_NOMEM, "cannot allocate a solver");
@@ -119,7 +119,7 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
     lrr_status st = lrr__kernel_select(op->ctx, getenv("LRR_SIMD"), op->k, &kernel);
     if (st)
         return st;
-    lrr_solver *s = calloc(1, sizeof *s);
+    lrr_solver *s = lrr__zalloc(op->ctx, sizeof *s);
     if (!s)
         return lrr__error(op->ctx, LRR_ERR_NOMEM, "cannot allocate a solver");
     s->op = op;
@@ -301,8 +301,13 @@ static int ensure_columns(lrr_solver *s, const unsigned char *flag)
         s->used = 0;
     }
     if (!s->ones) {
-        if (lrr__calloc(op->ctx, &s->ones, n, 3 * sizeof(float), "solver ones") ||
-            lrr__calloc(op->ctx, &s->zeros, n, 3 * sizeof(float), "solver zeros")) {
+        /* optional: without them the frame takes the full path, so a failure here is not
+         * an error and records none (n×3 floats fit: the operator holds such arrays) */
+        s->ones = lrr__zalloc(op->ctx, n * 3 * sizeof(float));
+        s->zeros = lrr__zalloc(op->ctx, n * 3 * sizeof(float));
+        if (!s->ones || !s->zeros) {
+            lrr_aligned_free(s->zeros);
+            s->zeros = NULL;
             lrr_aligned_free(s->ones);
             s->ones = NULL;
             return 0;

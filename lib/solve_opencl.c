@@ -141,7 +141,7 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
         size_t len = 0;
         clGetProgramBuildInfo(cl->program, dev, CL_PROGRAM_BUILD_LOG, 0, NULL, &len);
         if (len > 0) {
-            char *full = malloc(len + 1);
+            char *full = lrr__alloc(ctx, len + 1);
             if (full && clGetProgramBuildInfo(cl->program, dev, CL_PROGRAM_BUILD_LOG, len,
                                               full, NULL) == CL_SUCCESS) {
                 full[len] = '\0';
@@ -243,7 +243,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
                           fbar_bytes, other, (unsigned long long)max_alloc,
                           (unsigned long long)global_mem);
 
-    lrr__cl_solver *cl = calloc(1, sizeof *cl);
+    lrr__cl_solver *cl = lrr__zalloc(ctx, sizeof *cl);
     if (!cl)
         return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate an OpenCL solver");
     cl->op = op;

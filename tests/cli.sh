@@ -650,6 +650,80 @@ if [ -f "$PROBE" ]; then
     fi
 fi
 
+# ---------------------------------------------------------------- lrr check
+run check cornell
+if [ "$rc" -eq 0 ] && [ "$(value intersecting_pairs)" = 0 ] && [ "$(value degenerate)" = 0 ] &&
+    [ "$(value contacts)" = 4 ]; then
+    pass "check cornell: no errors (contacts $(value contacts), open edges $(value open_edges))"
+else
+    fail "check cornell (exit $rc)"; show_err
+fi
+cat > "$T/broken.obj" <<'EOF'
+v 0 0 0
+v 2 0 0
+v 0 2 0
+v 0.5 -1 -1
+v 0.5 -1 1
+v 0.5 1 0
+v 3 0 0
+f 1 2 3
+f 4 5 6
+f 1 2 7
+EOF
+run check "$T/broken.obj"
+if [ "$rc" -eq 1 ] && grep -q 'face 0 and face 1 intersect' "$T/out" &&
+    grep -q 'face 2 is degenerate' "$T/out"; then
+    pass "check on a broken OBJ exits 1 naming the faces"
+else
+    fail "check broken.obj (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12
+fi
+cat > "$T/flipped.obj" <<'EOF'
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+v 5 5 5
+v 6 5 5
+f 1 4 3
+f 1 3 2
+f 5 6 7
+f 5 7 8
+f 1 2 6
+f 1 5 6
+f 4 8 7
+f 4 7 3
+f 1 5 8
+f 1 8 4
+f 2 3 7
+f 2 7 6
+f 9 10 9
+EOF
+run check "$T/flipped.obj" --fix "$T/fixed.obj"
+if [ "$rc" -eq 1 ] && [ "$(value inconsistent_components)" = 1 ] &&
+    grep -q 'face 5 is oriented against' "$T/out" && [ -s "$T/fixed.obj" ] &&
+    [ -s "$T/fixed.mtl" ]; then
+    pass "check --fix on a flipped face and a degenerate writes OBJ+MTL"
+else
+    fail "check --fix (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12; show_err
+fi
+run check "$T/fixed.obj"
+if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 12 ] && [ "$(value open_edges)" = 0 ] &&
+    grep -qx 'result: clean' "$T/out"; then
+    pass "check --fix output re-checks clean"
+else
+    fail "re-check of the --fix output (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12
+fi
+run check cornell --strict
+expect_rc 1 "check cornell --strict (warnings count)"
+run check
+expect_rc 2 "check without a scene"
+run check cornell --max-report x
+expect_rc 2 "check --max-report x"
+
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then
     rm -rf "$T"

@@ -1,0 +1,373 @@
+/* The scene doctor (lrr_scene_check): exact predicates from CGAL (Epick: predicates exact on
+ * the float coordinates, constructions only where noted). Only the extern "C" functions are
+ * visible to the C side; no exception escapes.
+ *
+ * Pairs come from CGAL::box_intersection_d on the triangles' bounding boxes; for each pair:
+ *   coplanar (all three of b on a's plane): interiors overlap when an edge of one properly
+ *     crosses an edge of the other, a vertex or the centroid (an approximate construction) of
+ *     one lies strictly inside the other, or both have the same three vertices. Same facing:
+ *     z-fighting (error); opposite facing: contact (warning: a block standing on a floor).
+ *   otherwise: counted as intersecting only when each crosses the other's plane strictly (so
+ *     a wall standing on a floor, touching it, is not) and they meet: sharing no vertex, by
+ *     CGAL::do_intersect; sharing one vertex, when the edge opposite it in one triangle meets
+ *     the other triangle; sharing an edge, never. */
+#include "config.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <map>
+#include <new>
+#include <utility>
+#include <vector>
+
+#include <sys/stat.h>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/box_intersection_d.h>
+#include <CGAL/intersections.h>
+
+extern "C" {
+#include "internal.h"
+}
+
+namespace {
+
+typedef CGAL::Exact_predicates_inexact_constructions_kernel K;
+typedef K::Point_3 P3;
+typedef K::Point_2 P2;
+typedef K::Triangle_3 T3;
+typedef K::Segment_3 S3;
+typedef CGAL::Box_intersection_d::Box_with_handle_d<double, 3, std::size_t,
+                                                     CGAL::Box_intersection_d::ID_EXPLICIT>
+    Box;
+typedef std::array<float, 3> Key;
+
+struct Checker {
+    std::size_t n;
+    const float *v;
+    std::vector<P3> p; /* 3 per triangle */
+    std::vector<char> degen;
+    std::vector<lrr_check_finding> found;
+    lrr_check_report *r;
+
+    Key key(std::size_t t, int i) const
+    {
+        return Key{{v[9 * t + 3 * i], v[9 * t + 3 * i + 1], v[9 * t + 3 * i + 2]}};
+    }
+    void add(lrr_check_kind k, std::size_t a, std::size_t b)
+    {
+        found.push_back(lrr_check_finding{k, r->face[a], r->face[b]});
+    }
+
+    /* 2D projection along the dominant axis of a's normal (signs preserved for coplanar
+     * points up to a common factor). */
+    static P2 proj(const P3 &q, int drop)
+    {
+        return drop == 0 ? P2(q.y(), q.z()) : drop == 1 ? P2(q.z(), q.x()) : P2(q.x(), q.y());
+    }
+    static bool strictly_inside(const P2 &q, const P2 *t, CGAL::Orientation o)
+    {
+        for (int i = 0; i < 3; i++)
+            if (CGAL::orientation(t[i], t[(i + 1) % 3], q) != o)
+                return false;
+        return true;
+    }
+    void coplanar(std::size_t a, std::size_t b, int shared)
+    {
+        K::Vector_3 nrm = CGAL::normal(p[3 * a], p[3 * a + 1], p[3 * a + 2]);
+        double ax = std::fabs(nrm.x()), ay = std::fabs(nrm.y()), az = std::fabs(nrm.z());
+        int drop = ax >= ay && ax >= az ? 0 : ay >= az ? 1 : 2;
+        P2 A[3], B[3];
+        for (int i = 0; i < 3; i++) {
+            A[i] = proj(p[3 * a + i], drop);
+            B[i] = proj(p[3 * b + i], drop);
+        }
+        CGAL::Orientation oa = CGAL::orientation(A[0], A[1], A[2]);
+        CGAL::Orientation ob = CGAL::orientation(B[0], B[1], B[2]);
+        if (oa == CGAL::COLLINEAR || ob == CGAL::COLLINEAR)
+            return;
+        bool overlap = shared == 3;
+        for (int i = 0; i < 3 && !overlap; i++)
+            for (int j = 0; j < 3 && !overlap; j++) {
+                const P2 &a0 = A[i], &a1 = A[(i + 1) % 3], &b0 = B[j], &b1 = B[(j + 1) % 3];
+                int s1 = CGAL::orientation(a0, a1, b0), s2 = CGAL::orientation(a0, a1, b1);
+                int s3 = CGAL::orientation(b0, b1, a0), s4 = CGAL::orientation(b0, b1, a1);
+                if (s1 * s2 < 0 && s3 * s4 < 0)
+                    overlap = true;
+            }
+        for (int i = 0; i < 3 && !overlap; i++)
+            overlap = strictly_inside(A[i], B, ob) || strictly_inside(B[i], A, oa);
+        if (!overlap)
+            overlap = strictly_inside(CGAL::centroid(A[0], A[1], A[2]), B, ob) ||
+                      strictly_inside(CGAL::centroid(B[0], B[1], B[2]), A, oa);
+        if (!overlap)
+            return;
+        if (oa == ob) {
+            r->coplanar_overlaps++;
+            add(LRR_CHECK_ZFIGHT, a, b);
+        } else {
+            r->contacts++;
+            add(LRR_CHECK_CONTACT, a, b);
+        }
+    }
+
+    void pair(std::size_t a, std::size_t b)
+    {
+        if (a > b)
+            std::swap(a, b);
+        int shared = 0, sa = -1, sb = -1;
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                if (p[3 * a + i] == p[3 * b + j]) {
+                    shared++;
+                    sa = i;
+                    sb = j;
+                }
+        const P3 *A = &p[3 * a], *B = &p[3 * b];
+        int ob[3], oa[3];
+        bool cop = true;
+        for (int i = 0; i < 3; i++) {
+            ob[i] = CGAL::orientation(A[0], A[1], A[2], B[i]);
+            oa[i] = CGAL::orientation(B[0], B[1], B[2], A[i]);
+            cop = cop && ob[i] == 0;
+        }
+        if (cop) {
+            coplanar(a, b, shared);
+            return;
+        }
+        auto straddles = [](const int *o) {
+            bool pos = false, neg = false;
+            for (int i = 0; i < 3; i++) {
+                pos = pos || o[i] > 0;
+                neg = neg || o[i] < 0;
+            }
+            return pos && neg;
+        };
+        if (!straddles(ob) || !straddles(oa) || shared >= 2)
+            return;
+        bool hit;
+        if (shared == 0) {
+            hit = CGAL::do_intersect(T3(A[0], A[1], A[2]), T3(B[0], B[1], B[2]));
+        } else {
+            S3 ea(A[(sa + 1) % 3], A[(sa + 2) % 3]), eb(B[(sb + 1) % 3], B[(sb + 2) % 3]);
+            hit = CGAL::do_intersect(ea, T3(B[0], B[1], B[2])) ||
+                  CGAL::do_intersect(eb, T3(A[0], A[1], A[2]));
+        }
+        if (hit) {
+            r->intersecting_pairs++;
+            add(LRR_CHECK_INTERSECT, a, b);
+        }
+    }
+
+    void run()
+    {
+        p.reserve(3 * n);
+        degen.assign(n, 0);
+        for (std::size_t t = 0; t < n; t++)
+            for (int i = 0; i < 3; i++)
+                p.push_back(P3(v[9 * t + 3 * i], v[9 * t + 3 * i + 1], v[9 * t + 3 * i + 2]));
+        std::vector<Box> boxes;
+        for (std::size_t t = 0; t < n; t++) {
+            if (CGAL::collinear(p[3 * t], p[3 * t + 1], p[3 * t + 2])) {
+                degen[t] = 1;
+                r->fix[t] = 1;
+                r->degenerate++;
+                add(LRR_CHECK_DEGENERATE, t, t);
+                continue;
+            }
+            CGAL::Bbox_3 bb = p[3 * t].bbox() + p[3 * t + 1].bbox() + p[3 * t + 2].bbox();
+            boxes.push_back(Box(bb, t));
+        }
+        std::vector<std::pair<std::size_t, std::size_t>> cand;
+        CGAL::box_self_intersection_d(boxes.begin(), boxes.end(), [&](const Box &x, const Box &y) {
+            cand.push_back(std::make_pair(std::min(x.handle(), y.handle()),
+                                          std::max(x.handle(), y.handle())));
+        });
+        std::sort(cand.begin(), cand.end());
+        for (const auto &c : cand)
+            pair(c.first, c.second);
+        topology();
+        std::sort(found.begin(), found.end(),
+                  [](const lrr_check_finding &x, const lrr_check_finding &y) {
+                      if (x.kind != y.kind)
+                          return x.kind < y.kind;
+                      return x.face_a != y.face_a ? x.face_a < y.face_a : x.face_b < y.face_b;
+                  });
+    }
+
+    /* Edges keyed by exact vertex positions; components by shared edges. */
+    void topology()
+    {
+        std::map<Key, std::size_t> vid;
+        std::vector<std::size_t> tv(3 * n);
+        for (std::size_t t = 0; t < n; t++)
+            for (int i = 0; i < 3; i++) {
+                auto it = vid.insert(std::make_pair(key(t, i), vid.size())).first;
+                tv[3 * t + i] = it->second;
+            }
+        /* undirected edge -> list of (triangle, forward?) */
+        std::map<std::pair<std::size_t, std::size_t>, std::vector<std::pair<std::size_t, bool>>>
+            edges;
+        for (std::size_t t = 0; t < n; t++) {
+            if (degen[t])
+                continue;
+            for (int i = 0; i < 3; i++) {
+                std::size_t x = tv[3 * t + i], y = tv[3 * t + (i + 1) % 3];
+                edges[std::make_pair(std::min(x, y), std::max(x, y))].push_back(
+                    std::make_pair(t, x < y));
+            }
+        }
+        std::vector<std::vector<std::pair<std::size_t, bool>>> adj(n); /* (nbr, same dir) */
+        std::vector<char> open(n, 0);
+        for (const auto &e : edges) {
+            const auto &u = e.second;
+            if (u.size() == 1) {
+                r->open_edges++;
+                open[u[0].first] = 1;
+                add(LRR_CHECK_OPEN_EDGE, u[0].first, u[0].first);
+                continue;
+            }
+            for (std::size_t i = 0; i < u.size(); i++)
+                for (std::size_t j = i + 1; j < u.size(); j++) {
+                    bool same = u[i].second == u[j].second;
+                    adj[u[i].first].push_back(std::make_pair(u[j].first, same));
+                    adj[u[j].first].push_back(std::make_pair(u[i].first, same));
+                }
+        }
+        std::vector<char> seen(n, 0), flip(n, 0);
+        for (std::size_t s = 0; s < n; s++) {
+            if (degen[s] || seen[s])
+                continue;
+            std::vector<std::size_t> comp{s};
+            seen[s] = 1;
+            bool closed = true, bad = false, conflict = false;
+            for (std::size_t k = 0; k < comp.size(); k++) {
+                std::size_t t = comp[k];
+                closed = closed && !open[t];
+                for (const auto &nb : adj[t]) {
+                    /* consistent: the neighbour traverses the edge the other way */
+                    char want = (char)(flip[t] ^ (nb.second ? 1 : 0));
+                    if (nb.second)
+                        bad = true;
+                    if (!seen[nb.first]) {
+                        seen[nb.first] = 1;
+                        flip[nb.first] = want;
+                        comp.push_back(nb.first);
+                    } else if (flip[nb.first] != want) {
+                        conflict = true;
+                    }
+                }
+            }
+            if (!closed || !bad)
+                continue;
+            r->inconsistent_components++;
+            std::size_t nflip = 0;
+            for (std::size_t t : comp)
+                nflip += (std::size_t)flip[t];
+            char minority = 2 * nflip <= comp.size() ? 1 : 0;
+            std::size_t rep = s;
+            for (std::size_t t : comp)
+                if (flip[t] != minority) {
+                    rep = t;
+                    break;
+                }
+            for (std::size_t t : comp)
+                if (flip[t] == minority) {
+                    add(LRR_CHECK_ORIENTATION, t, rep);
+                    if (!conflict) /* non-orientable (or non-manifold): report only */
+                        r->fix[t] = 2;
+                }
+        }
+    }
+};
+
+bool is_file(const char *name)
+{
+    struct stat st;
+    return stat(name, &st) == 0;
+}
+
+} // namespace
+
+extern "C" void lrr_check_report_destroy(lrr_check_report *r)
+{
+    if (!r)
+        return;
+    std::free(r->findings);
+    lrr_aligned_free(r->vert);
+    lrr_aligned_free(r->rho);
+    lrr_aligned_free(r->emission);
+    lrr_aligned_free(r->face);
+    std::free(r->fix);
+    std::free(r);
+}
+
+extern "C" lrr_status lrr_scene_check(lrr_context *ctx, const char *name, lrr_check_report **out)
+{
+    *out = nullptr;
+    lrr_check_report *r = static_cast<lrr_check_report *>(std::calloc(1, sizeof *r));
+    if (!r)
+        return lrr__error(ctx, LRR_ERR_NOMEM, "scene check: out of memory");
+    lrr_status st;
+    std::size_t n = 0;
+    if (is_file(name)) {
+        st = lrr__scene_import_raw(ctx, name, &n, &r->vert, &r->rho, &r->emission, &r->face);
+    } else {
+        lrr_scene *s = nullptr;
+        st = lrr_scene_builtin(ctx, name, &s);
+        if (st == LRR_OK) {
+            n = s->geom.n_tri;
+            if ((st = lrr__calloc(ctx, &r->vert, n, 9 * sizeof(float), "check vertices")) ||
+                (st = lrr__calloc(ctx, &r->rho, n, 3 * sizeof(float), "check reflectance")) ||
+                (st = lrr__calloc(ctx, &r->emission, n, 3 * sizeof(float), "check emission")) ||
+                (st = lrr__calloc(ctx, &r->face, n, sizeof(std::size_t), "check faces"))) {
+            } else {
+                std::memcpy(r->vert, s->geom.vert, n * 9 * sizeof(float));
+                std::memcpy(r->rho, s->rho, n * 3 * sizeof(float));
+                std::memcpy(r->emission, s->emission, n * 3 * sizeof(float));
+                for (std::size_t t = 0; t < n; t++)
+                    r->face[t] = t;
+            }
+            lrr_scene_destroy(s);
+        }
+    }
+    if (st == LRR_OK) {
+        for (std::size_t j = 0; j < 9 * n && st == LRR_OK; j++)
+            if (!std::isfinite(r->vert[j]))
+                st = lrr__error(ctx, LRR_ERR_GEOMETRY, "%s: face %zu: a coordinate is %g", name,
+                                r->face[j / 9], (double)r->vert[j]);
+    }
+    if (st == LRR_OK)
+        st = lrr__calloc(ctx, &r->fix, n ? n : 1, 1, "check repair flags");
+    if (st != LRR_OK) {
+        lrr_check_report_destroy(r);
+        return st;
+    }
+    r->triangles = n;
+    try {
+        Checker c{n, r->vert, {}, {}, {}, r};
+        c.run();
+        r->n_findings = c.found.size();
+        r->findings = static_cast<lrr_check_finding *>(
+            std::malloc((c.found.size() ? c.found.size() : 1) * sizeof(lrr_check_finding)));
+        if (!r->findings)
+            throw std::bad_alloc();
+        if (!c.found.empty())
+            std::memcpy(r->findings, c.found.data(), c.found.size() * sizeof(lrr_check_finding));
+    } catch (const std::bad_alloc &) {
+        lrr_check_report_destroy(r);
+        return lrr__error(ctx, LRR_ERR_NOMEM, "%s: out of memory checking the scene", name);
+    } catch (const std::exception &e) {
+        lrr_check_report_destroy(r);
+        return lrr__error(ctx, LRR_ERR_GEOMETRY, "%s: scene check failed: %s", name, e.what());
+    } catch (...) {
+        lrr_check_report_destroy(r);
+        return lrr__error(ctx, LRR_ERR_GEOMETRY, "%s: scene check failed", name);
+    }
+    *out = r;
+    return LRR_OK;
+}

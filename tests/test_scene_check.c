@@ -1,0 +1,138 @@
+/* The scene doctor (lib/scene_check.cpp, lrr_scene_check): degenerates, intersections,
+ * coplanar overlaps (z-fighting vs contact), open edges and inconsistent orientation. */
+#include <unistd.h> /* getpid, used by testutil.h */
+
+#include "testutil.h"
+
+static lrr_check_report *check(lrr_context *ctx, const char *name)
+{
+    lrr_check_report *r = NULL;
+    LRR_CHECK(ctx, lrr_scene_check(ctx, name, &r));
+    assert_non_null(r);
+    return r;
+}
+
+static size_t count_kind(const lrr_check_report *r, lrr_check_kind k)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < r->n_findings; i++)
+        n += r->findings[i].kind == k;
+    return n;
+}
+
+static void test_closed_box_clean(void **state)
+{
+    lrr_check_report *r = check(*state, LRR_TEST_DATA "/check_box.obj");
+    assert_int_equal(r->triangles, 12);
+    assert_int_equal(r->degenerate, 0);
+    assert_int_equal(r->intersecting_pairs, 0);
+    assert_int_equal(r->coplanar_overlaps, 0);
+    assert_int_equal(r->contacts, 0);
+    assert_int_equal(r->open_edges, 0);
+    assert_int_equal(r->inconsistent_components, 0);
+    assert_int_equal(r->n_findings, 0);
+    lrr_check_report_destroy(r);
+}
+
+static void test_flipped_face_named(void **state)
+{
+    lrr_check_report *r = check(*state, LRR_TEST_DATA "/check_box_flipped.obj");
+    assert_int_equal(r->inconsistent_components, 1);
+    assert_int_equal(r->open_edges, 0);
+    assert_int_equal(r->intersecting_pairs, 0);
+    assert_int_equal(count_kind(r, LRR_CHECK_ORIENTATION), 1);
+    assert_int_equal(r->findings[0].kind, LRR_CHECK_ORIENTATION);
+    assert_int_equal(r->findings[0].face_a, 5);
+    for (size_t t = 0; t < r->triangles; t++)
+        assert_int_equal(r->fix[t], r->face[t] == 5 ? 2 : 0);
+    lrr_check_report_destroy(r);
+}
+
+static void test_crossing_pair(void **state)
+{
+    lrr_check_report *r = check(*state, LRR_TEST_DATA "/check_crossing.obj");
+    assert_int_equal(r->intersecting_pairs, 1);
+    assert_int_equal(r->coplanar_overlaps, 0);
+    assert_int_equal(count_kind(r, LRR_CHECK_INTERSECT), 1);
+    for (size_t i = 0; i < r->n_findings; i++)
+        if (r->findings[i].kind == LRR_CHECK_INTERSECT) {
+            assert_int_equal(r->findings[i].face_a, 0);
+            assert_int_equal(r->findings[i].face_b, 1);
+        }
+    lrr_check_report_destroy(r);
+}
+
+static void test_coplanar_overlap(void **state)
+{
+    lrr_check_report *r = check(*state, LRR_TEST_DATA "/check_coplanar.obj");
+    assert_int_equal(r->coplanar_overlaps, 1);
+    assert_int_equal(r->contacts, 0);
+    assert_int_equal(r->intersecting_pairs, 0);
+    assert_int_equal(r->findings[0].kind, LRR_CHECK_ZFIGHT);
+    assert_int_equal(r->findings[0].face_a, 0);
+    assert_int_equal(r->findings[0].face_b, 1);
+    lrr_check_report_destroy(r);
+}
+
+static void test_degenerate_named(void **state)
+{
+    lrr_check_report *r = check(*state, LRR_TEST_DATA "/degenerate.obj");
+    assert_int_equal(r->triangles, 2);
+    assert_int_equal(r->degenerate, 1);
+    assert_int_equal(r->findings[0].kind, LRR_CHECK_DEGENERATE);
+    assert_int_equal(r->findings[0].face_a, 1);
+    assert_int_equal(r->fix[1], 1);
+    assert_int_equal(r->fix[0], 0);
+    lrr_check_report_destroy(r);
+}
+
+/* The blocks stand on the floor: their side faces touch it (not an intersection) and their
+ * bottoms lie on it facing down (contacts, warnings); the open front gives open edges. */
+static void test_cornell_contacts_only(void **state)
+{
+    lrr_check_report *r = check(*state, "cornell");
+    assert_int_equal(r->triangles, 36);
+    assert_int_equal(r->degenerate, 0);
+    assert_int_equal(r->intersecting_pairs, 0);
+    assert_int_equal(r->coplanar_overlaps, 0);
+    assert_int_equal(r->inconsistent_components, 0);
+    assert_int_equal(r->contacts, 4);
+    assert_true(r->open_edges > 0);
+    lrr_check_report_destroy(r);
+}
+
+static void test_missing_file(void **state)
+{
+    lrr_check_report *r = NULL;
+    assert_int_not_equal(lrr_scene_check(*state, "no-such-scene", &r), LRR_OK);
+    assert_null(r);
+}
+
+static int setup(void **state)
+{
+    lrr_context *ctx = NULL;
+    if (lrr_context_create(&ctx) != LRR_OK)
+        return -1;
+    *state = ctx;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    lrr_context_destroy(*state);
+    return 0;
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_closed_box_clean, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_flipped_face_named, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_crossing_pair, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_coplanar_overlap, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_degenerate_named, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_cornell_contacts_only, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_missing_file, setup, teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
