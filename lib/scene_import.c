@@ -477,9 +477,10 @@ static lrr_status convert(import_state *s)
     return LRR_OK;
 }
 
-lrr_status lrr_scene_load(lrr_context *ctx, const char *path, lrr_scene **out)
+/* Reads path through assimp into s (arrays owned by s; free_state frees them). */
+static lrr_status import_file(lrr_context *ctx, const char *path, import_state *s)
 {
-    *out = NULL;
+    memset(s, 0, sizeof *s);
     lrr_status st = check_readable(ctx, path);
     if (st != LRR_OK)
         return st;
@@ -490,9 +491,20 @@ lrr_status lrr_scene_load(lrr_context *ctx, const char *path, lrr_scene **out)
         return lrr__error(ctx, LRR_ERR_FORMAT, "file %s: cannot import: %s", path,
                           why && *why ? why : "assimp gave no reason");
     }
-    import_state s = {.ctx = ctx, .path = path, .scene = scene};
-    st = convert(&s);
+    s->ctx = ctx;
+    s->path = path;
+    s->scene = scene;
+    st = convert(s);
     aiReleaseImport(scene);
+    s->scene = NULL;
+    return st;
+}
+
+lrr_status lrr_scene_load(lrr_context *ctx, const char *path, lrr_scene **out)
+{
+    *out = NULL;
+    import_state s;
+    lrr_status st = import_file(ctx, path, &s);
     if (st == LRR_OK)
         st = lrr__scene_from_arrays(ctx, s.n_tri, s.vert, s.rho, s.em, s.face_ids, path,
                                     LRR__SCENE_FILE, out);
@@ -509,18 +521,8 @@ lrr_status lrr__scene_import_raw(lrr_context *ctx, const char *path, size_t *n_t
     *n_tri = 0;
     *vert = *rho = *emission = NULL;
     *face_ids = NULL;
-    lrr_status st = check_readable(ctx, path);
-    if (st != LRR_OK)
-        return st;
-    const struct aiScene *scene = aiImportFile(path, 0);
-    if (!scene) {
-        const char *why = aiGetErrorString();
-        return lrr__error(ctx, LRR_ERR_FORMAT, "file %s: cannot import: %s", path,
-                          why && *why ? why : "assimp gave no reason");
-    }
-    import_state s = {.ctx = ctx, .path = path, .scene = scene};
-    st = convert(&s);
-    aiReleaseImport(scene);
+    import_state s;
+    lrr_status st = import_file(ctx, path, &s);
     if (st == LRR_OK) {
         *n_tri = s.n_tri;
         *vert = s.vert;
