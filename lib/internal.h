@@ -152,6 +152,10 @@ uint16_t lrr__f32_to_f16(float f);
 float lrr__f16_to_f32(uint16_t h);
 uint16_t lrr__f32_to_bf16(float f);
 float lrr__bf16_to_f32(uint16_t b);
+/* The options of lrr_operator_build and lrr_reference_build with defaults filled in
+ * (opts may be NULL); checks that the scene is subdivided and the thread count. */
+lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_options *opts,
+                                      lrr_build_options *o);
 /* Recomputes m and cond from fbar and rho (double precision LAPACKE). */
 lrr_status lrr__operator_factor(lrr_operator *op);
 

@@ -162,24 +162,35 @@ lrr_status lrr__operator_factor(lrr_operator *op)
     return st;
 }
 
+lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_options *opts,
+                                      lrr_build_options *o)
+{
+    if (!scene->geom.depth)
+        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG,
+                          "the scene is not subdivided: call lrr_scene_subdivide first");
+    memset(o, 0, sizeof *o);
+    if (opts)
+        *o = *opts;
+    if (o->hemicube_resolution == 0)
+        o->hemicube_resolution = 128;
+    if (o->threads < 0)
+        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0",
+                          o->threads);
+    return LRR_OK;
+}
+
 lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *opts,
                               lrr_operator **out)
 {
     *out = NULL;
     lrr_context *ctx = scene->ctx;
-    if (!scene->geom.depth)
-        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
-                          "the scene is not subdivided: call lrr_scene_subdivide first");
-    lrr_build_options o = {0};
-    if (opts)
-        o = *opts;
-    if (o.hemicube_resolution == 0)
-        o.hemicube_resolution = 128;
-    if (o.threads < 0)
-        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0", o.threads);
+    lrr_build_options o;
+    lrr_status st = lrr__build_options_resolve(scene, opts, &o);
+    if (st)
+        return st;
     double t0 = lrr__now();
     lrr_operator *op;
-    lrr_status st = lrr__operator_new(ctx, &scene->geom, LRR_STORAGE_F32, &op);
+    st = lrr__operator_new(ctx, &scene->geom, LRR_STORAGE_F32, &op);
     if (st)
         return st;
     op->builtin = scene->builtin;

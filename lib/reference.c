@@ -57,16 +57,10 @@ lrr_status lrr_reference_build(const lrr_scene *scene, const lrr_build_options *
 {
     *out = NULL;
     lrr_context *ctx = scene->ctx;
-    if (!scene->geom.depth)
-        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
-                          "the scene is not subdivided: call lrr_scene_subdivide first");
-    lrr_build_options o = {0};
-    if (opts)
-        o = *opts;
-    if (o.hemicube_resolution == 0)
-        o.hemicube_resolution = 128;
-    if (o.threads < 0)
-        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0", o.threads);
+    lrr_build_options o;
+    lrr_status st = lrr__build_options_resolve(scene, opts, &o);
+    if (st)
+        return st;
     const size_t n = scene->geom.n;
     size_t budget = memory_budget ? memory_budget : DEFAULT_BUDGET;
     size_t need = lrr_reference_bytes(n);
@@ -84,7 +78,6 @@ lrr_status lrr_reference_build(const lrr_scene *scene, const lrr_build_options *
     ref->ctx = lrr__context_retain(ctx);
     ref->n = n;
     ref->budget = budget;
-    lrr_status st;
     if ((st = lrr__calloc(ctx, &ref->f, n * n, sizeof(float), "full F (n×n floats)")) ||
         (st = lrr__calloc(ctx, &ref->rho, n, 3 * sizeof(float), "reflectances (n×3)")) ||
         (st = lrr__calloc(ctx, &ref->emission, n, 3 * sizeof(float), "emission (n×3)")) ||
