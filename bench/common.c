@@ -170,6 +170,17 @@ void progress_begin(cli_progress *bar, const char *label, lrr_build_options *bo)
 /* ------------------------------------------------------------------ timing */
 /* Two warm-up runs, then `repeat` timed runs (0: adaptive, at least MIN_RUNS and at least
  * MIN_SECONDS in all). Returns 0 or the frame's non-zero status. */
+void timing_from_samples(double *v, size_t runs, timing *t)
+{
+    t->min = t->max = v[0];
+    for (size_t r = 1; r < runs; r++) {
+        t->min = fmin(t->min, v[r]);
+        t->max = fmax(t->max, v[r]);
+    }
+    t->median = cli_median(v, runs); /* reorders v */
+    t->runs = runs;
+}
+
 int time_frames(frame_fn fn, void *user, unsigned repeat, timing *t)
 {
     int rc = fn(user);
@@ -195,13 +206,7 @@ int time_frames(frame_fn fn, void *user, unsigned repeat, timing *t)
         }
         v[r] = 1e3 * (cli_now() - a);
     }
-    t->min = t->max = v[0];
-    for (size_t r = 1; r < runs; r++) {
-        t->min = fmin(t->min, v[r]);
-        t->max = fmax(t->max, v[r]);
-    }
-    t->median = cli_median(v, runs);
-    t->runs = runs;
+    timing_from_samples(v, runs, t);
     free(v);
     return 0;
 }
@@ -342,14 +347,10 @@ int ours_step(void *user)
 /* ------------------------------------------------------------------ OpenCL */
 int parse_backend(const char *prog, const char *text, int *opencl)
 {
-    if (strcmp(text, "cpu") == 0)
-        *opencl = 0;
-    else if (strcmp(text, "opencl") == 0)
-        *opencl = 1;
-    else {
-        cli_usage_error(prog, "--backend: '%s' is neither 'cpu' nor 'opencl'", text);
+    lrr_backend b;
+    if (cli_parse_backend(prog, text, &b) != 0)
         return -1;
-    }
+    *opencl = b == LRR_BACKEND_OPENCL;
     return 0;
 }
 
@@ -376,6 +377,27 @@ int opencl_probe(lrr_context *ctx)
     lrr_solver_destroy(sv);
     lrr_operator_destroy(op);
     return rc;
+}
+
+int bench_start(const char *scene, int opencl, lrr_context **out)
+{
+    *out = NULL;
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return lib_fail(NULL, s, "context");
+    /* a scene that cannot be read fails now, not after the bandwidth measurement */
+    lrr_scene *probe = NULL;
+    int rc = open_scene(ctx, scene, &probe);
+    lrr_scene_destroy(probe);
+    if (rc == CLI_EXIT_OK && opencl)
+        rc = opencl_probe(ctx);
+    if (rc != CLI_EXIT_OK) {
+        lrr_context_destroy(ctx);
+        return rc;
+    }
+    *out = ctx;
+    return CLI_EXIT_OK;
 }
 
 int cl_step(void *user)

@@ -37,6 +37,8 @@ int cli_parse_size(const char *prog, const char *opt, const char *text, size_t m
                    size_t max, size_t *out);
 int cli_parse_unsigned(const char *prog, const char *opt, const char *text, unsigned min,
                        unsigned max, unsigned *out);
+/* "cpu" or "opencl" (the --backend option of lrr and lrr-bench). */
+int cli_parse_backend(const char *prog, const char *text, lrr_backend *out);
 /* Finite numbers in [min, max]; min_open != 0 excludes min itself (for "> 0"). */
 int cli_parse_double(const char *prog, const char *opt, const char *text, double min,
                      int min_open, double max, double *out);

@@ -84,6 +84,19 @@ int cli_parse_size(const char *prog, const char *opt, const char *text, size_t m
     return 0;
 }
 
+int cli_parse_backend(const char *prog, const char *text, lrr_backend *out)
+{
+    if (strcmp(text, "cpu") == 0)
+        *out = LRR_BACKEND_CPU;
+    else if (strcmp(text, "opencl") == 0)
+        *out = LRR_BACKEND_OPENCL;
+    else {
+        cli_usage_error(prog, "--backend: '%s' is not one of cpu, opencl", text);
+        return -1;
+    }
+    return 0;
+}
+
 int cli_parse_unsigned(const char *prog, const char *opt, const char *text, unsigned min,
                        unsigned max, unsigned *out)
 {

@@ -738,11 +738,10 @@ static int cmd_preprocess(int argc, char *argv[])
             continue;
         }
         if (c == OPT_BACKEND) {
-            if (strcmp(optarg, "cpu") != 0 && strcmp(optarg, "opencl") != 0) {
-                cli_usage_error(prog, "--backend: '%s' is not one of cpu, opencl", optarg);
+            lrr_backend b;
+            if (cli_parse_backend(prog, optarg, &b) != 0)
                 return CLI_EXIT_USAGE;
-            }
-            on_device = strcmp(optarg, "opencl") == 0;
+            on_device = b == LRR_BACKEND_OPENCL;
             continue;
         }
         int r = subdiv_option(&sa, prog, c, optarg);
@@ -983,14 +982,8 @@ static int cmd_solve(int argc, char *argv[])
                 return CLI_EXIT_USAGE;
             break;
         case OPT_BACKEND:
-            if (strcmp(optarg, "cpu") == 0) {
-                backend = LRR_BACKEND_CPU;
-            } else if (strcmp(optarg, "opencl") == 0) {
-                backend = LRR_BACKEND_OPENCL;
-            } else {
-                cli_usage_error(prog, "--backend: '%s' is not one of cpu, opencl", optarg);
+            if (cli_parse_backend(prog, optarg, &backend) != 0)
                 return CLI_EXIT_USAGE;
-            }
             break;
         default: {
             int r = probe_option(&pa, prog, c, optarg);
