@@ -92,6 +92,8 @@ typedef int (*frame_fn)(void *user);
 /* Two warm-up runs, then `repeat` timed runs (0: adaptive, at least MIN_RUNS and at least
  * MIN_SECONDS in all). Returns 0 or the frame's non-zero status. */
 int time_frames(frame_fn fn, void *user, unsigned repeat, timing *t);
+/* min, max and median of runs ≥ 1 samples (ms); v is reordered. */
+void timing_from_samples(double *v, size_t runs, timing *t);
 
 /* Size of the last-level cache in bytes (the highest cache index sysfs lists), 0 if unknown. */
 size_t llc_bytes(void);
@@ -143,6 +145,10 @@ int sgemv_step(void *user);
 /* ------------------------------------------------------------------ OpenCL */
 /* --backend cpu|opencl: *opencl = 0 or 1; -1 after a usage message. */
 int parse_backend(const char *prog, const char *text, int *opencl);
+/* The context of a table or realtime run, after checking that the scene can be read and,
+ * with opencl, that an OpenCL solver can be created (so a bad setup fails before the long
+ * measurements). Returns CLI_EXIT_OK or the exit status, having printed why. */
+int bench_start(const char *scene, int opencl, lrr_context **out);
 /* Whether an OpenCL solver can be created (on a one-triangle operator): CLI_EXIT_OK, or
  * "lrr-bench: --backend opencl: <library message>" (e.g. no OpenCL platform) and
  * CLI_EXIT_FAIL. */

@@ -228,13 +228,7 @@ static int rt_time(frame_fn fn, void *user, unsigned repeat, timing *t)
         v[runs++] = 1e3 * s;
         total += s;
     }
-    t->min = t->max = v[0];
-    for (size_t r = 1; r < runs; r++) {
-        t->min = fmin(t->min, v[r]);
-        t->max = fmax(t->max, v[r]);
-    }
-    t->median = cli_median(v, runs);
-    t->runs = runs;
+    timing_from_samples(v, runs, t);
     free(v);
     return 0;
 }
@@ -969,21 +963,8 @@ int cmd_realtime(int argc, char *argv[])
     }
 
     lrr_context *ctx = NULL;
-    lrr_status s = lrr_context_create(&ctx);
-    if (s != LRR_OK) {
-        rc = lib_fail(NULL, s, "context");
+    if ((rc = bench_start(a.scene, a.opencl, &ctx)) != CLI_EXIT_OK)
         goto out;
-    }
-    lrr_scene *probe = NULL;
-    if ((rc = open_scene(ctx, a.scene, &probe)) != CLI_EXIT_OK) {
-        lrr_context_destroy(ctx);
-        goto out;
-    }
-    lrr_scene_destroy(probe);
-    if (a.opencl && (rc = opencl_probe(ctx)) != CLI_EXIT_OK) {
-        lrr_context_destroy(ctx);
-        goto out;
-    }
     rt_cell *res = calloc(a.n_cells, sizeof *res);
     if (!res) {
         lrr_context_destroy(ctx);

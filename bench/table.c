@@ -724,22 +724,8 @@ int cmd_table(int argc, char *argv[])
     }
 
     lrr_context *ctx = NULL;
-    lrr_status s = lrr_context_create(&ctx);
-    if (s != LRR_OK) {
-        rc = lib_fail(NULL, s, "context");
+    if ((rc = bench_start(a.scene, a.opencl, &ctx)) != CLI_EXIT_OK)
         goto out;
-    }
-    /* a scene that cannot be read fails now, not after the bandwidth measurement */
-    lrr_scene *probe = NULL;
-    if ((rc = open_scene(ctx, a.scene, &probe)) != CLI_EXIT_OK) {
-        lrr_context_destroy(ctx);
-        goto out;
-    }
-    lrr_scene_destroy(probe);
-    if (a.opencl && (rc = opencl_probe(ctx)) != CLI_EXIT_OK) {
-        lrr_context_destroy(ctx);
-        goto out;
-    }
     cell_result *res = calloc(a.n_cells, sizeof *res);
     if (!res) {
         lrr_context_destroy(ctx);
