@@ -171,26 +171,6 @@ static int default_probes(char ***paths, size_t *count)
     return CLI_EXIT_OK;
 }
 
-static void errors_pct(size_t m, const float *truth, const float *approx, double *mean_pct,
-                       double *max_pct)
-{
-    double tmax = 0;
-    for (size_t i = 0; i < 3 * m; i++)
-        tmax = fmax(tmax, truth[i]);
-    double sum = 0, emax = 0;
-    size_t counted = 0;
-    for (size_t i = 0; i < 3 * m; i++) {
-        if (!(truth[i] > 1e-6 * tmax))
-            continue;
-        double e = fabs((double)approx[i] - truth[i]) / truth[i];
-        sum += e;
-        emax = fmax(emax, e);
-        counted++;
-    }
-    *mean_pct = counted ? 100 * sum / (double)counted : NAN;
-    *max_pct = counted ? 100 * emax : NAN;
-}
-
 static size_t median_cut_passes(size_t n)
 {
     size_t p = 0;
@@ -383,7 +363,7 @@ static int run_probe(lrr_context *ctx, const char *path, const size_t *sources,
                 rc = lib_fail(ctx, st, method_names[m]);
                 goto done;
             }
-            errors_pct(normals, truth, approx, &r->mean_pct, &r->max_pct);
+            cli_irradiance_error_pct(normals, truth, approx, &r->mean_pct, &r->max_pct);
             res->n_rows++;
             note("%s: %s %zu sources: %.3g%% mean, %.3g s", res->name, method_names[m], n,
                  r->mean_pct, r->seconds);
@@ -404,7 +384,7 @@ static int run_probe(lrr_context *ctx, const char *path, const size_t *sources,
             rc = lib_fail(ctx, st, "sh9");
             goto done;
         }
-        errors_pct(normals, truth, approx, &r->mean_pct, &r->max_pct);
+        cli_irradiance_error_pct(normals, truth, approx, &r->mean_pct, &r->max_pct);
         res->n_rows++;
     }
     rc = CLI_EXIT_OK;

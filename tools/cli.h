@@ -43,6 +43,13 @@ int cli_parse_backend(const char *prog, const char *text, lrr_backend *out);
 int cli_parse_double(const char *prog, const char *opt, const char *text, double min,
                      int min_open, double max, double *out);
 
+/* ------------------------------------------------------------------ probes */
+/* The error of an irradiance approximation against the truth (m normals × RGB), as lrr probe
+ * and lrr-bench probes report it: mean and max of |approx − truth| / truth in percent over
+ * the entries whose truth exceeds 1e-6 of the largest (NaN when none does). */
+void cli_irradiance_error_pct(size_t m, const float *truth, const float *approx,
+                              double *mean_pct, double *max_pct);
+
 /* ------------------------------------------------------------------ time */
 double cli_now(void); /* monotonic seconds */
 

@@ -348,3 +348,23 @@ double cli_median(double *v, size_t n)
     qsort(v, n, sizeof *v, cmp_double);
     return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
+
+void cli_irradiance_error_pct(size_t m, const float *truth, const float *approx,
+                              double *mean_pct, double *max_pct)
+{
+    double tmax = 0;
+    for (size_t i = 0; i < 3 * m; i++)
+        tmax = fmax(tmax, truth[i]);
+    double sum = 0, emax = 0;
+    size_t counted = 0;
+    for (size_t i = 0; i < 3 * m; i++) {
+        if (!(truth[i] > 1e-6 * tmax))
+            continue;
+        double e = fabs((double)approx[i] - truth[i]) / truth[i];
+        sum += e;
+        emax = fmax(emax, e);
+        counted++;
+    }
+    *mean_pct = counted ? 100 * sum / (double)counted : NAN;
+    *max_pct = counted ? 100 * emax : NAN;
+}

@@ -1839,21 +1839,8 @@ static int cmd_probe(int argc, char *argv[])
         rc = cli_lib_error(ctx, st);
         goto done;
     }
-    double tmax = 0;
-    for (size_t i = 0; i < 3 * normals; i++)
-        tmax = fmax(tmax, truth[i]);
-    double sum = 0, emax = 0;
-    size_t counted = 0;
-    for (size_t i = 0; i < 3 * normals; i++) {
-        if (!(truth[i] > 1e-6 * tmax))
-            continue;
-        double e = fabs((double)approx[i] - truth[i]) / truth[i];
-        sum += e;
-        emax = fmax(emax, e);
-        counted++;
-    }
-    double mean_pct = counted ? 100 * sum / (double)counted : NAN;
-    double max_pct = counted ? 100 * emax : NAN;
+    double mean_pct, max_pct;
+    cli_irradiance_error_pct(normals, truth, approx, &mean_pct, &max_pct);
     if (lights_path && (rc = write_lights_csv(lights_path, lights, sources)) != CLI_EXIT_OK)
         goto done;
     if (json) {
@@ -1863,7 +1850,7 @@ static int cmd_probe(int argc, char *argv[])
                "\"normals\": %zu, \"iterations\": %zu, \"seconds\": %.6g, "
                "\"truth_seconds\": %.6g, \"mean_error_pct\": %.6g, \"max_error_pct\": %.6g}\n",
                w, h, sh9 ? "sh9" : optimise ? "irradiance" : "median-cut", n_sources, normals, iterations, seconds,
-               truth_seconds, counted ? mean_pct : -1.0, counted ? max_pct : -1.0);
+               truth_seconds, isnan(mean_pct) ? -1.0 : mean_pct, isnan(max_pct) ? -1.0 : max_pct);
     } else {
         printf("probe: %s\nwidth: %zu\nheight: %zu\nmethod: %s\nsources: %zu\nnormals: %zu\n"
                "iterations: %zu\nseconds: %.6g\ntruth_seconds: %.6g\nmean_error_pct: %.6g\n"
