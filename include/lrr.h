@@ -217,7 +217,25 @@ typedef struct lrr_build_options {
                                      OpenCL device (rasterisation stays on the CPU; same F̄ to
                                      rounding; LRR_ERR_UNSUPPORTED without OpenCL, and for
                                      lrr_reference_build) */
+    size_t memory_budget;         /* bytes the operator may take (F̄, M, per-subpatch arrays
+                                     and the build's working buffers); 0 = no limit. Beyond
+                                     it the build returns LRR_ERR_BUDGET naming the amount
+                                     needed, before allocating anything large. */
+    size_t adaptive_patches;      /* K > 0: adaptive hierarchy. The scene's patches become the
+                                     subpatches (levels must be 0) and are regrouped into at
+                                     most K patches, nodes of each triangle's quadtree, split
+                                     where the sampled form-factor columns vary most (see
+                                     lrr_operator_build). 0 = uniform (each patch d subpatches) */
+    size_t adaptive_samples;      /* receivers sampled to estimate the within-patch variance;
+                                     0 = 256 */
+    int adaptive_split;           /* which patch the adaptive selection splits next:
+                                     LRR_SPLIT_VARIANCE (0) or LRR_SPLIT_AREA */
 } lrr_build_options;
+
+/* LRR_SPLIT_VARIANCE: the patch whose subpatches' form-factor columns vary most (sampled).
+ * LRR_SPLIT_AREA: the largest patch, i.e. uniform subdivision over the same subpatches and
+ * at the same patch count: the baseline the adaptive hierarchy is measured against. */
+enum { LRR_SPLIT_VARIANCE = 0, LRR_SPLIT_AREA = 1 };
 
 /* Builds F̄ by one hemicube per subpatch, then M_c = (I_k - Vᵀ diag(rho_c) F̄)^{-1} per
  * channel in double precision (LAPACKE dgetrf/dgetri, dgecon condition estimates), stored in
@@ -270,7 +288,9 @@ LRR_API void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
     LRR_NONNULL(1, 3);
 
 typedef struct lrr_operator_info {
-    size_t n, k, d, triangles;
+    size_t n, k, d, triangles; /* d = 0 for an adaptive hierarchy (patch sizes vary) */
+    size_t d_min, d_max;    /* fewest and most subpatches in one patch (both d if uniform) */
+    double selection_seconds; /* adaptive selection's share of build_seconds (0 if uniform) */
     lrr_storage storage;    /* how F̄ is held */
     double condition[3];    /* 1-norm condition estimates of G_c (dgecon) */
     double build_seconds;   /* wall time of lrr_operator_build (as stored, after a load) */
