@@ -312,6 +312,9 @@ LRR_API const float *lrr_operator_emission(const lrr_operator *op) LRR_NONNULL(1
 LRR_API const float *lrr_operator_area(const lrr_operator *op) LRR_NONNULL(1);
 LRR_API const float *lrr_operator_centre(const lrr_operator *op) LRR_NONNULL(1);
 LRR_API const float *lrr_operator_normal(const lrr_operator *op) LRR_NONNULL(1);
+/* k+1 offsets: patch p holds subpatches offsets[p] .. offsets[p+1]-1 (p·d in a uniform
+ * hierarchy; varying in an adaptive one). Valid for the operator's life. */
+LRR_API const size_t *lrr_operator_patch_offsets(const lrr_operator *op) LRR_NONNULL(1);
 
 /* ---------------------------------------------------------------- solver */
 typedef enum lrr_backend {

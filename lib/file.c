@@ -1,18 +1,21 @@
 /* The versioned binary operator file (.lrr): lrr_operator_save / lrr_operator_load.
  *
- * Format, version 1. All integers and floats are little-endian (IEEE 754); offsets and sizes
- * are in bytes from the start of the file.
+ * Format, versions 1 and 2. All integers and floats are little-endian (IEEE 754); offsets and
+ * sizes are in bytes from the start of the file. Version 2 adds the adaptive hierarchy
+ * (d = 0 and a PATCHES section); uniform operators are still written as version 1, so
+ * readers that know only version 1 keep reading them.
  *
  *   Header, 64 bytes at offset 0
  *      0  magic        8 bytes  "LRROPER\0"
- *      8  version      u32      1
+ *      8  version      u32      1 (uniform) or 2 (adaptive)
  *     12  endianness   u32      0x01020304 (reads 0x04030201 on a byte-swapped file)
  *     16  header_size  u32      64
- *     20  sections     u32      number of entries in the section table (6, or 7 with
- *                               ROWSCALE)
+ *     20  sections     u32      number of entries in the section table (6, plus ROWSCALE
+ *                               and PATCHES where present)
  *     24  n            u64      subpatches
  *     32  k            u64      patches
- *     40  d            u64      subpatches per patch (n = k·d, d = 4^levels)
+ *     40  d            u64      subpatches per patch (n = k·d, d = 4^levels); 0 in
+ *                               version 2: patch sizes vary, given by PATCHES
  *     48  dtype        u32      storage of FBAR: 0 = float32, 1 = binary16, 2 = bfloat16
  *                               (RHO, EMISSION, M and ROWSCALE are float32 always)
  *     52  reserved     u32      0
@@ -40,6 +43,10 @@
  *                 (bit 0: built without the random rotation; other bits 0), seed u64:
  *                 size 48
  *     7 ROWSCALE  n float, positive powers of two; present exactly when dtype is 1 or 2
+ *     8 PATCHES   (version 2, adaptive hierarchy only) selection_seconds f64, then k u8:
+ *                 the quadtree depth of each patch within its triangle, in patch order;
+ *                 GEOMETRY then has levels 0 and its depths are the subpatch depths, and
+ *                 the nodes must tile every triangle (size 8 + k)
  *   Centres, normals and areas are not stored: they are recomputed from the geometry.
  *   (dtype 1 and 2 came after the first files: a reader that knows only float32 refuses them
  *   by their dtype, so the version stayed 1.)
@@ -79,7 +86,8 @@
 #define LRR__FILE_LITTLE_ENDIAN 0
 #endif
 
-#define FILE_VERSION 1u
+#define FILE_VERSION 1u          /* uniform hierarchy */
+#define FILE_VERSION_ADAPTIVE 2u /* adds PATCHES */
 #define ENDIAN_MARK 0x01020304u
 #define HEADER_SIZE 64u
 #define ENTRY_SIZE 32u
@@ -93,14 +101,16 @@ static const char MAGIC[8] = {'L', 'R', 'R', 'O', 'P', 'E', 'R', '\0'};
 
 enum {
     SEC_GEOMETRY = 1, SEC_RHO, SEC_EMISSION, SEC_FBAR, SEC_M, SEC_INFO, SEC_ROWSCALE,
+    SEC_PATCHES,
     SEC_COUNT = 6,     /* sections every file has */
-    SEC_KNOWN = 7      /* sections this reader knows */
+    SEC_KNOWN = 8      /* sections this reader knows */
 };
+#define PATCHES_PREFIX 8u
 
 static const char *section_name(uint32_t id)
 {
-    static const char *const names[] = {"?",    "GEOMETRY", "RHO",     "EMISSION",
-                                        "FBAR", "M",        "INFO",    "ROWSCALE"};
+    static const char *const names[] = {"?",    "GEOMETRY", "RHO",      "EMISSION", "FBAR",
+                                        "M",    "INFO",     "ROWSCALE", "PATCHES"};
     return id >= 1 && id <= SEC_KNOWN ? names[id] : "unknown";
 }
 
@@ -262,6 +272,18 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     memcpy(geom + GEOM_PREFIX, g->vert, g->n_tri * 9 * sizeof(float));
     memcpy(geom + GEOM_PREFIX + g->n_tri * 9 * sizeof(float), g->depth, g->n_tri);
 
+    /* adaptive: PATCHES holds the node depths; its buffer is freed with geom's below */
+    const int adaptive = g->node != NULL;
+    unsigned char *patches = NULL;
+    if (adaptive) {
+        if ((st = lrr__calloc(ctx, &patches, op->k + PATCHES_PREFIX, 1, "PATCHES section"))) {
+            lrr_aligned_free(geom);
+            return st;
+        }
+        memcpy(patches, &op->selection_seconds, 8);
+        memcpy(patches + PATCHES_PREFIX, g->node, op->k);
+    }
+
     unsigned char info[INFO_SIZE] = {0};
     for (int c = 0; c < 3; c++)
         memcpy(info + 8 * c, &op->cond[c], 8);
@@ -276,8 +298,13 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         {SEC_EMISSION, op->emission, rho_size, 0, 0}, {SEC_FBAR, fbar_data, fbar_size, 0, 0},
         {SEC_M, op->m, m_size, 0, 0},           {SEC_INFO, info, INFO_SIZE, 0, 0},
         {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0},
+        {SEC_PATCHES, patches, (uint64_t)op->k + PATCHES_PREFIX, 0, 0},
     };
-    const int count = half ? SEC_KNOWN : SEC_COUNT;
+    int count = SEC_COUNT;
+    if (half)
+        count++;
+    if (adaptive)
+        sec[count++] = sec[SEC_PATCHES - 1];
     unsigned char table[SEC_KNOWN * ENTRY_SIZE + 8] = {0};
     const size_t tsize = (size_t)count * ENTRY_SIZE + 8;
     uint64_t pos = HEADER_SIZE + tsize;
@@ -295,7 +322,7 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
 
     unsigned char header[HEADER_SIZE] = {0};
     memcpy(header, MAGIC, 8);
-    put32(header + 8, FILE_VERSION);
+    put32(header + 8, adaptive ? FILE_VERSION_ADAPTIVE : FILE_VERSION);
     put32(header + 12, ENDIAN_MARK);
     put32(header + 16, HEADER_SIZE);
     put32(header + 20, (uint32_t)count);
@@ -309,6 +336,7 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     char *tmp = lrr__alloc(ctx, plen + sizeof ".tmp.XXXXXX");
     if (!tmp) {
         lrr_aligned_free(geom);
+        lrr_aligned_free(patches);
         return lrr__error(ctx, LRR_ERR_NOMEM, "file %s: no memory for the temporary name", path);
     }
     memcpy(tmp, path, plen);
@@ -360,6 +388,7 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     sync_parent_dir(path);
     free(tmp);
     lrr_aligned_free(geom);
+    lrr_aligned_free(patches);
     return LRR_OK;
 
 fail:
@@ -368,6 +397,7 @@ fail_nofile:
     st = lrr__error(ctx, LRR_ERR_IO, "file %s: %s (%s): %s", path, what, tmp, strerror(err));
     free(tmp);
     lrr_aligned_free(geom);
+    lrr_aligned_free(patches);
     return st;
 }
 
@@ -454,10 +484,11 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
                           "file %s: truncated: the header needs bytes 0..%u, file has %" PRIu64,
                           r->path, HEADER_SIZE, r->file_size);
     uint32_t version = get32(h + 8), mark = get32(h + 12);
-    if (version != FILE_VERSION)
+    if (version != FILE_VERSION && version != FILE_VERSION_ADAPTIVE)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
-                          "file %s: format version %" PRIu32 ", this library reads version %u",
-                          r->path, version, FILE_VERSION);
+                          "file %s: format version %" PRIu32 ", this library reads versions "
+                          "%u and %u",
+                          r->path, version, FILE_VERSION, FILE_VERSION_ADAPTIVE);
     if (mark == 0x04030201u)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
                           "file %s: written with the other byte order (big-endian)", r->path);
@@ -485,17 +516,24 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
                           "1 = binary16, 2 = bfloat16)",
                           r->path, dtype);
     *dtype_out = dtype;
-    const int required = dtype == DTYPE_F32 ? SEC_COUNT : SEC_KNOWN;
+    /* version 2: the adaptive hierarchy, d = 0 and patch sizes from PATCHES */
+    const bool adaptive = version == FILE_VERSION_ADAPTIVE;
+    if (adaptive != (*d == 0))
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: version %" PRIu32 " with d = %" PRIu64 " (version 1 has "
+                          "d > 0, version 2 d = 0)", r->path, version, *d);
     if (count < SEC_COUNT || count > MAX_SECTIONS)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: %" PRIu32 " sections (expected %d..%u)", r->path, count,
                           SEC_COUNT, MAX_SECTIONS);
     uint64_t nk;
-    if (*k == 0 || *d == 0 || __builtin_mul_overflow(*k, *d, &nk) || nk != *n ||
-        *n > SIZE_MAX)
+    if (adaptive ? *k == 0 || *k > *n || *n > SIZE_MAX
+                 : *k == 0 || *d == 0 || __builtin_mul_overflow(*k, *d, &nk) || nk != *n ||
+                       *n > SIZE_MAX)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: implausible sizes n = %" PRIu64 ", k = %" PRIu64
-                          ", d = %" PRIu64 " (need n = k·d > 0)",
+                          ", d = %" PRIu64 " (need n = k·d > 0, or 0 < k <= n with d = 0 in "
+                          "version 2)",
                           r->path, *n, *k, *d);
 
     unsigned char table[MAX_SECTIONS * ENTRY_SIZE + 8];
@@ -515,8 +553,9 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
     for (uint32_t i = 0; i < count; i++) {
         const unsigned char *e = table + i * ENTRY_SIZE;
         struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24)};
-        if (s.id < 1 || s.id > (uint32_t)required)
-            continue; /* a later minor addition (or a ROWSCALE a float32 file ignores) */
+        if (s.id < 1 || s.id > SEC_KNOWN || (s.id == SEC_ROWSCALE && dtype == DTYPE_F32) ||
+            (s.id == SEC_PATCHES && !adaptive))
+            continue; /* a later minor addition, or a section this file's kind ignores */
         if (seen[s.id - 1])
             return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s appears twice",
                               r->path, section_name(s.id));
@@ -535,8 +574,9 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
         seen[s.id - 1] = true;
         sec[s.id - 1] = s;
     }
-    for (int i = 0; i < required; i++)
-        if (!seen[i])
+    for (int i = 0; i < SEC_KNOWN; i++)
+        if (!seen[i] && (i < SEC_COUNT || (i == SEC_ROWSCALE - 1 && dtype != DTYPE_F32) ||
+                         (i == SEC_PATCHES - 1 && adaptive)))
             return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s is missing",
                               r->path, section_name((uint32_t)i + 1));
 
@@ -557,7 +597,9 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
                           dtype == DTYPE_F32 ? "n·k floats" : "n·k 16-bit values")) ||
         (dtype != DTYPE_F32 &&
          (st = expect_size(r, &sec[SEC_ROWSCALE - 1], *n, sizeof(float), "n floats"))) ||
-        (st = expect_size(r, &sec[SEC_M - 1], kk_elems, 3 * sizeof(float), "3·k·k floats")))
+        (st = expect_size(r, &sec[SEC_M - 1], kk_elems, 3 * sizeof(float), "3·k·k floats")) ||
+        (adaptive && (st = expect_size(r, &sec[SEC_PATCHES - 1], *k + PATCHES_PREFIX, 1,
+                                       "8 + k bytes"))))
         return st;
     if (sec[SEC_GEOMETRY - 1].size < GEOM_PREFIX)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
@@ -603,11 +645,44 @@ static lrr_status parse_geometry(struct reader *r, const unsigned char *buf, uin
                               "coordinate",
                               r->path, i / 9);
     /* NULL context: an out-of-range level or depth here is corruption, reported below. */
-    if (lrr__geometry_index(NULL, g) != LRR_OK || g->n != n || g->k != k || g->d != d)
+    if (lrr__geometry_index(NULL, g) != LRR_OK || g->n != n ||
+        (d ? g->k != k || g->d != d : levels != 0))
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: section GEOMETRY (levels %u, %zu triangles) does not give "
                           "the header's n = %" PRIu64 ", k = %" PRIu64 ", d = %" PRIu64,
                           r->path, levels, nt, n, k, d);
+    return LRR_OK;
+}
+
+/* Version 2: replaces the uniform g by the adaptive hierarchy the PATCHES payload gives. */
+static lrr_status parse_patches(struct reader *r, const struct section *ps, uint64_t k,
+                                lrr__geometry *g, double *selection_seconds)
+{
+    unsigned char *buf;
+    lrr_status st = lrr__calloc(r->ctx, &buf, (size_t)ps->size, 1, "PATCHES section");
+    if (st)
+        return st;
+    if ((st = read_section(r, ps, buf))) {
+        lrr_aligned_free(buf);
+        return st;
+    }
+    memcpy(selection_seconds, buf, 8);
+    if (!(*selection_seconds >= 0) || isinf(*selection_seconds)) {
+        lrr_aligned_free(buf);
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section PATCHES: selection time %g s", r->path,
+                          *selection_seconds);
+    }
+    char where[64 + 4096];
+    snprintf(where, sizeof where, "file %s: section PATCHES", r->path);
+    lrr__geometry a;
+    st = lrr__geometry_adaptive(r->ctx, g, buf + PATCHES_PREFIX, (size_t)k, where,
+                                LRR_ERR_CORRUPT, &a);
+    lrr_aligned_free(buf);
+    if (st)
+        return st;
+    lrr__geometry_free(g);
+    *g = a;
     return LRR_OK;
 }
 
@@ -688,6 +763,7 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     lrr_operator *op = NULL;
     unsigned char info[INFO_SIZE];
     int builtin = 0;
+    double selection_seconds = 0;
 
     lrr_status st = read_layout(&r, &n, &k, &d, &dtype, sec);
     if (st)
@@ -696,6 +772,7 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     if ((st = lrr__calloc(ctx, &geom_buf, (size_t)gs->size, 1, "GEOMETRY section")) ||
         (st = read_section(&r, gs, geom_buf)) ||
         (st = parse_geometry(&r, geom_buf, gs->size, n, k, d, &g, &builtin)) ||
+        (d == 0 && (st = parse_patches(&r, &sec[SEC_PATCHES - 1], k, &g, &selection_seconds))) ||
         (st = read_section(&r, &sec[SEC_INFO - 1], info)))
         goto done;
     if ((st = lrr__operator_new(ctx, &g, (lrr_storage)dtype, &op)))
@@ -714,6 +791,7 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     op->no_rotation = (get32(info + 36) & 1u) != 0;
     op->seed = get64(info + 40);
     op->builtin = builtin;
+    op->selection_seconds = selection_seconds;
 
 done:
     close(r.fd);

@@ -12,6 +12,9 @@ void lrr__geometry_free(lrr__geometry *g)
     lrr_aligned_free(g->vert);
     lrr_aligned_free(g->depth);
     lrr_aligned_free(g->patch0);
+    lrr_aligned_free(g->sub0);
+    lrr_aligned_free(g->first);
+    lrr_aligned_free(g->node);
     memset(g, 0, sizeof *g);
 }
 
@@ -29,12 +32,20 @@ lrr_status lrr__geometry_copy(lrr_context *ctx, lrr__geometry *dst, const lrr__g
     dst->n = src->n;
     if (src->depth) {
         if ((st = lrr__calloc(ctx, &dst->depth, src->n_tri, 1, "patch depths")) ||
-            (st = lrr__calloc(ctx, &dst->patch0, src->n_tri + 1, sizeof(size_t), "patch index"))) {
+            (st = lrr__calloc(ctx, &dst->patch0, src->n_tri + 1, sizeof(size_t), "patch index")) ||
+            (st = lrr__calloc(ctx, &dst->sub0, src->n_tri + 1, sizeof(size_t),
+                              "subpatch index")) ||
+            (st = lrr__calloc(ctx, &dst->first, src->k + 1, sizeof(size_t), "patch offsets")) ||
+            (src->node && (st = lrr__calloc(ctx, &dst->node, src->k, 1, "patch node depths")))) {
             lrr__geometry_free(dst);
             return st;
         }
         memcpy(dst->depth, src->depth, src->n_tri);
         memcpy(dst->patch0, src->patch0, (src->n_tri + 1) * sizeof(size_t));
+        memcpy(dst->sub0, src->sub0, (src->n_tri + 1) * sizeof(size_t));
+        memcpy(dst->first, src->first, (src->k + 1) * sizeof(size_t));
+        if (src->node)
+            memcpy(dst->node, src->node, src->k);
     }
     return LRR_OK;
 }
@@ -63,7 +74,108 @@ lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g)
     g->k = k;
     if (!lrr__mul_size(k, g->d, &g->n))
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "n = k·d = %zu·%zu overflows size_t", k, g->d);
+    /* the offsets: freshly allocated (the caller owns any previous arrays) */
+    g->sub0 = g->first = NULL;
+    g->node = NULL;
+    lrr_status st;
+    if ((st = lrr__calloc(ctx, &g->sub0, g->n_tri + 1, sizeof(size_t), "subpatch index")))
+        return st;
+    if ((st = lrr__calloc(ctx, &g->first, k + 1, sizeof(size_t), "patch offsets"))) {
+        lrr_aligned_free(g->sub0);
+        g->sub0 = NULL;
+        return st;
+    }
+    for (size_t t = 0; t <= g->n_tri; t++)
+        g->sub0[t] = g->patch0[t] * g->d;
+    for (size_t p = 0; p <= k; p++)
+        g->first[p] = p * g->d;
     return LRR_OK;
+}
+
+lrr_status lrr__geometry_adaptive(lrr_context *ctx, const lrr__geometry *src,
+                                  const uint8_t *node, size_t k, const char *where,
+                                  lrr_status bad, lrr__geometry *dst)
+{
+    memset(dst, 0, sizeof *dst);
+    if (!src->depth || src->levels != 0)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "%s: an adaptive hierarchy needs the subpatches as a uniform "
+                          "subdivision with levels = 0 (levels = %u)", where, src->levels);
+    if (k < src->n_tri || k > src->n)
+        return lrr__error(ctx, bad,
+                          "%s: %zu patches: an adaptive hierarchy over %zu triangles and %zu "
+                          "subpatches has between %zu and %zu", where, k, src->n_tri, src->n,
+                          src->n_tri, src->n);
+    /* src's patches are the subpatches: copy it, then replace the patch level */
+    lrr__geometry g;
+    lrr_status st = lrr__geometry_copy(ctx, &g, src);
+    if (st)
+        return st;
+    lrr_aligned_free(g.first);
+    g.first = NULL;
+    if ((st = lrr__calloc(ctx, &g.first, k + 1, sizeof(size_t), "patch offsets")) ||
+        (st = lrr__calloc(ctx, &g.node, k, 1, "patch node depths"))) {
+        lrr__geometry_free(&g);
+        return st;
+    }
+    memcpy(g.node, node, k);
+    size_t p = 0, i = 0;
+    for (size_t t = 0; t < g.n_tri; t++) {
+        g.patch0[t] = p;
+        const size_t end = g.sub0[t + 1];
+        while (i < end) {
+            if (p == k || node[p] > g.depth[t]) {
+                st = p == k ? lrr__error(ctx, bad,
+                                         "%s: %zu patches end before triangle %zu is covered",
+                                         where, k, t)
+                            : lrr__error(ctx, bad,
+                                         "%s: patch %zu has depth %u, below triangle %zu's "
+                                         "subpatch depth %u", where, p, node[p], t, g.depth[t]);
+                lrr__geometry_free(&g);
+                return st;
+            }
+            const size_t size = (size_t)1 << (2 * (g.depth[t] - node[p]));
+            if ((i - g.sub0[t]) % size != 0 || size > end - i) {
+                st = lrr__error(ctx, bad,
+                                "%s: patch %zu (depth %u) is not a quadtree node of triangle %zu "
+                                "at subpatch %zu", where, p, node[p], t, i);
+                lrr__geometry_free(&g);
+                return st;
+            }
+            g.first[p++] = i;
+            i += size;
+        }
+    }
+    if (p != k) {
+        st = lrr__error(ctx, bad, "%s: %zu patches cover the scene, %zu given",
+                        where, p, k);
+        lrr__geometry_free(&g);
+        return st;
+    }
+    g.patch0[g.n_tri] = k;
+    g.first[k] = g.n;
+    g.k = k;
+    g.d = 0;
+    *dst = g;
+    return LRR_OK;
+}
+
+/* Index of the last entry of a[lo..hi) that is <= x (a ascending, a[lo] <= x). */
+static size_t bsearch_le(const size_t *a, size_t lo, size_t hi, size_t x)
+{
+    while (hi - lo > 1) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (a[mid] <= x)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
+size_t lrr__patch_of(const lrr__geometry *g, size_t i)
+{
+    return g->d ? i / g->d : bsearch_le(g->first, 0, g->k, i);
 }
 
 /* Descends `depth` levels, returning the base-4 digits as an index. */
@@ -94,6 +206,10 @@ size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2)
 {
     double b0;
     clamp_bary(&b1, &b2, &b0);
+    if (g->node) {
+        size_t i = g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t]);
+        return bsearch_le(g->first, g->patch0[t], g->patch0[t + 1], i);
+    }
     return g->patch0[t] + descend(&b0, &b1, &b2, g->depth[t]);
 }
 
@@ -101,21 +217,12 @@ size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2)
 {
     double b0;
     clamp_bary(&b1, &b2, &b0);
-    size_t p = g->patch0[t] + descend(&b0, &b1, &b2, g->depth[t]);
-    return p * g->d + descend(&b0, &b1, &b2, g->levels);
+    return g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t] + g->levels);
 }
 
-size_t lrr__patch_triangle(const lrr__geometry *g, size_t p)
+size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i)
 {
-    size_t lo = 0, hi = g->n_tri; /* patch0[lo] <= p < patch0[hi] */
-    while (hi - lo > 1) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (g->patch0[mid] <= p)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    return lo;
+    return bsearch_le(g->sub0, 0, g->n_tri, i);
 }
 
 static void child_vertices(const double v[9], unsigned c, double out[9])
@@ -140,19 +247,14 @@ static void child_vertices(const double v[9], unsigned c, double out[9])
 
 void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9])
 {
-    size_t p = i / g->d, s = i % g->d;
-    size_t t = lrr__patch_triangle(g, p);
-    size_t local = p - g->patch0[t];
-    unsigned depth = g->depth[t];
+    size_t t = lrr__subpatch_triangle(g, i);
+    size_t local = i - g->sub0[t];
+    unsigned depth = g->depth[t] + g->levels;
     for (int j = 0; j < 9; j++)
         v[j] = g->vert[9 * t + j];
     double tmp[9];
     for (unsigned l = depth; l-- > 0;) {
         child_vertices(v, (unsigned)((local >> (2 * l)) & 3), tmp);
-        memcpy(v, tmp, sizeof tmp);
-    }
-    for (unsigned l = g->levels; l-- > 0;) {
-        child_vertices(v, (unsigned)((s >> (2 * l)) & 3), tmp);
         memcpy(v, tmp, sizeof tmp);
     }
 }

@@ -423,9 +423,17 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
     memset(sc->row, 0, cols * sizeof(double));
     for (int fi = 0; fi < 5; fi++)
         integrate_face(h, x, &faces[fi], sc->row);
-    double scale = h->by_subpatch ? 1.0 : 1.0 / (double)g->d;
-    for (size_t p = 0; p < cols; p++)
-        out[p] = (float)(sc->row[p] * scale);
+    if (h->by_subpatch) {
+        for (size_t p = 0; p < cols; p++)
+            out[p] = (float)sc->row[p];
+    } else if (g->d) {
+        double scale = 1.0 / (double)g->d;
+        for (size_t p = 0; p < cols; p++)
+            out[p] = (float)(sc->row[p] * scale);
+    } else { /* adaptive: F̄_ip = F_{i→p} / d_p */
+        for (size_t p = 0; p < cols; p++)
+            out[p] = (float)(sc->row[p] / (double)lrr__patch_size(g, p));
+    }
 }
 
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
@@ -454,7 +462,8 @@ static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_bui
     if (batch > g->n)
         batch = g->n ? g->n : 1;
     lrr__cl_hemi *dev;
-    lrr_status st = lrr__cl_hemi_create(ctx, h->mm, g->k, g->d, batch, &dev);
+    /* an adaptive hierarchy's 1/d_p is applied here after the device's sums */
+    lrr_status st = lrr__cl_hemi_create(ctx, h->mm, g->k, g->d ? g->d : 1, batch, &dev);
     if (st)
         return st;
     int32_t *ids;
@@ -488,6 +497,11 @@ static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_bui
         }
         if ((st = lrr__cl_hemi_rows(dev, ids, i1 - i0, out + i0 * g->k)))
             break;
+        if (!g->d)
+            for (size_t i = i0; i < i1; i++)
+                for (size_t p = 0; p < g->k; p++)
+                    out[i * g->k + p] =
+                        (float)((double)out[i * g->k + p] / (double)lrr__patch_size(g, p));
         if (opts->progress && opts->progress(opts->progress_user, i1, g->n))
             st = lrr__error(ctx, LRR_ERR_CANCELLED,
                             "form-factor build cancelled after %zu of %zu receivers", i1, g->n);
@@ -497,8 +511,29 @@ static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_bui
     return st;
 }
 
+static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
+                            const lrr_build_options *opts, int by_subpatch, const size_t *rows,
+                            size_t count, float *out);
+
 lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, int by_subpatch, float *out)
+{
+    return rows_impl(ctx, g, opts, by_subpatch, NULL, g->n, out);
+}
+
+lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
+                                     const lrr_build_options *opts, const size_t *rows,
+                                     size_t count, float *out)
+{
+    lrr_build_options o = *opts;
+    o.backend = LRR_BACKEND_CPU; /* subpatch columns are integrated on the CPU only */
+    o.progress = NULL;
+    return rows_impl(ctx, g, &o, 1, rows, count, out);
+}
+
+static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
+                            const lrr_build_options *opts, int by_subpatch, const size_t *rows,
+                            size_t count, float *out)
 {
     unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
     const int on_device = opts->backend == LRR_BACKEND_OPENCL;
@@ -571,18 +606,19 @@ lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
             failed = 1;
         }
         #pragma omp for schedule(dynamic, 16)
-        for (size_t i = 0; i < g->n; i++) {
+        for (size_t r = 0; r < count; r++) {
             if (cancelled || failed)
                 continue;
-            hemicube_row(&h, i, opts->seed, !opts->no_rotation, &sc, out + i * cols);
+            hemicube_row(&h, rows ? rows[r] : r, opts->seed, !opts->no_rotation, &sc,
+                         out + r * cols);
             size_t now_done;
             #pragma omp atomic capture
             now_done = ++done;
             if (opts->progress && omp_get_thread_num() == 0) {
                 double t = lrr__now();
-                if (t - last_report > 0.05 || now_done == g->n) {
+                if (t - last_report > 0.05 || now_done == count) {
                     last_report = t;
-                    if (opts->progress(opts->progress_user, now_done, g->n)) {
+                    if (opts->progress(opts->progress_user, now_done, count)) {
                         #pragma omp atomic write
                         cancelled = 1;
                     }
@@ -599,8 +635,8 @@ lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
         return LRR_ERR_NOMEM;
     if (cancelled)
         return lrr__error(ctx, LRR_ERR_CANCELLED, "form-factor build cancelled after %zu of %zu "
-                          "receivers", done, g->n);
+                          "receivers", done, count);
     if (opts->progress && !cancelled)
-        opts->progress(opts->progress_user, g->n, g->n);
+        opts->progress(opts->progress_user, count, count);
     return LRR_OK;
 }

@@ -56,21 +56,46 @@ unsigned long lrr__context_alloc_count(lrr_context *ctx);
  * patch into d = 4^levels subpatches. Children of a split (a,b,c) are, in order:
  *   0 (a, ab, ca)   1 (ab, b, bc)   2 (ca, bc, c)   3 (bc, ca, ab)
  * where ab is the midpoint of a and b. A patch/subpatch's local index is its sequence of
- * child digits, most significant first (base 4). */
+ * child digits, most significant first (base 4), so every node of a triangle's quadtree
+ * covers a contiguous, aligned range of its subpatches.
+ *
+ * Adaptive hierarchy (node != NULL): depth[t] is then the subpatch depth of triangle t,
+ * levels = 0 and d = 0, and the patches are quadtree nodes of varying depth node[p] <=
+ * depth[t]: patch p holds the 4^(depth[t] - node[p]) subpatches first[p] .. first[p+1]-1.
+ * first and sub0 exist in both cases (uniform: first[p] = p·d, sub0[t] = patch0[t]·d), so
+ * code that walks patches' subpatches need not know which hierarchy it has. */
 typedef struct lrr__geometry {
     size_t n_tri;
     float *vert;        /* n_tri×9 */
-    uint8_t *depth;     /* n_tri, patch depth per triangle; NULL until subdivided */
-    size_t *patch0;     /* n_tri+1 prefix sums of 4^depth; NULL until subdivided */
+    uint8_t *depth;     /* n_tri, patch depth (adaptive: subpatch depth); NULL until subdivided */
+    size_t *patch0;     /* n_tri+1: first patch of each triangle; NULL until subdivided */
+    size_t *sub0;       /* n_tri+1: first subpatch of each triangle */
+    size_t *first;      /* k+1: first subpatch of each patch */
+    uint8_t *node;      /* k: quadtree depth of each patch (adaptive only, else NULL) */
     unsigned levels;
-    size_t d, k, n;     /* d = 4^levels, k = patch0[n_tri], n = k·d */
+    size_t d, k, n;     /* d = 4^levels (0 if adaptive), k patches, n subpatches */
 } lrr__geometry;
 
 void lrr__geometry_free(lrr__geometry *g);
 /* Deep copy (dst is overwritten). */
 lrr_status lrr__geometry_copy(lrr_context *ctx, lrr__geometry *dst, const lrr__geometry *src);
-/* Computes patch0/k/n/d from depth and levels; checks for overflow. */
+/* Computes patch0/sub0/first/k/n/d from depth and levels (uniform hierarchy); checks for
+ * overflow. */
 lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g);
+/* dst = the adaptive hierarchy over src's subpatches (src uniform with levels = 0) whose
+ * patches are the k quadtree nodes of depth node[0..k-1], in index order. Checks that they
+ * tile every triangle (each node aligned, inside its triangle, no gaps); errors (status
+ * `bad`) name `where` and the patch. */
+lrr_status lrr__geometry_adaptive(lrr_context *ctx, const lrr__geometry *src,
+                                  const uint8_t *node, size_t k, const char *where,
+                                  lrr_status bad, lrr__geometry *dst);
+/* Subpatches in patch p. */
+static inline size_t lrr__patch_size(const lrr__geometry *g, size_t p)
+{
+    return g->first[p + 1] - g->first[p];
+}
+/* Patch holding subpatch i. */
+size_t lrr__patch_of(const lrr__geometry *g, size_t i);
 
 /* Index of the child containing barycentric (b0,b1,b2), rewriting them to the child's. */
 static inline unsigned lrr__child_at(double *b0, double *b1, double *b2)
@@ -85,8 +110,8 @@ static inline unsigned lrr__child_at(double *b0, double *b1, double *b2)
 size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2);
 /* Patch index only (used by the hemicube item buffer). */
 size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2);
-/* Triangle that owns patch p (binary search on patch0). */
-size_t lrr__patch_triangle(const lrr__geometry *g, size_t p);
+/* Triangle that owns subpatch i (binary search on sub0). */
+size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i);
 /* Vertices (9 doubles) of subpatch i, in the triangle's orientation. */
 void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9]);
 /* Per-subpatch centre (n×3), unit normal (n×3) and area (n); any may be NULL. */
@@ -136,6 +161,7 @@ struct lrr_operator {
     float *m;                  /* 3×k×k row-major: M_c = G_c^{-1} */
     double cond[3];            /* dgecon estimates (1-norm) of G_c */
     double build_seconds;
+    double selection_seconds;  /* adaptive selection's part of build_seconds */
     unsigned hemicube_resolution;
     uint64_t seed;
     int no_rotation;           /* built with lrr_build_options.no_rotation */
@@ -177,6 +203,39 @@ lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
  * divided by d) or patch columns otherwise (out n×k: F̄). */
 lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, int by_subpatch, float *out);
+
+/* Rows rows[0..count-1] of the full F (count×n, subpatch columns, not divided by d) from the
+ * same hemicubes (same per-receiver rotation) as lrr__hemicube_rows; on the CPU. */
+lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
+                                     const lrr_build_options *opts, const size_t *rows,
+                                     size_t count, float *out);
+
+/* ------------------------------------------------------------ adaptive hierarchy */
+/* Rows of the full F (subpatch columns) for a uniform sample of receivers (adaptive.c). */
+typedef struct lrr__ffsample {
+    size_t count, n;   /* sampled receivers, columns */
+    size_t *rows;      /* count receiver indices, ascending */
+    double *weight;    /* count: Σ_c rho_ic² of each receiver */
+    double *rho;       /* count×3 */
+    double *b;         /* n×3 radiosity weights, or NULL (unweighted column variance) */
+    float *f;          /* count×n */
+} lrr__ffsample;
+/* Draws count receivers (all n when count is 0 or >= n) from opts->seed and renders their
+ * rows of F with opts' hemicube settings. */
+lrr_status lrr__ffsample_take(lrr_context *ctx, const lrr__geometry *g, const float *rho,
+                              const lrr_build_options *opts, size_t count, lrr__ffsample *out);
+void lrr__ffsample_free(lrr__ffsample *s);
+/* Estimate of V = Σ_i w_i Σ_{j∈[j0,j1)} (F_ij − mean)² over all n receivers, (n/S)·the sum
+ * over the sample; *std_error (may be NULL) gets its standard error (0 when S = n). */
+double lrr__ffsample_variance(const lrr__ffsample *s, size_t j0, size_t j1, double *std_error);
+/* The adaptive hierarchy over g's patches (g uniform, levels 0) with at most
+ * opts->adaptive_patches patches, chosen by opts->adaptive_split. With emission (n×3, may be
+ * NULL) and area (n), the variance is weighted by the scene's one-bounce radiosity. objective (may be NULL;
+ * (K − n_tri)/3 + 1 entries) gets the total score after 0, 1, 2, … splits. */
+lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const float *rho,
+                                const float *emission, const float *area,
+                                const lrr_build_options *opts, lrr__geometry *out,
+                                double *objective);
 
 /* Hemicube integration on an OpenCL device (hemicube_opencl.c): rows of F̄ from a batch of
  * resolved hemicubes (patch ids per pixel in the item-buffer layout, 3R² per hemicube, -1 for

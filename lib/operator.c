@@ -78,7 +78,7 @@ fail:
 
 lrr_status lrr__operator_factor(lrr_operator *op)
 {
-    const size_t k = op->k, d = op->d;
+    const size_t k = op->k, *first = op->geom.first;
     double *G;
     lapack_int *ipiv;
     lrr_status st;
@@ -109,7 +109,7 @@ lrr_status lrr__operator_factor(lrr_operator *op)
             float *scratch = rowbuf ? rowbuf + (size_t)omp_get_thread_num() * k : NULL;
             for (size_t q = 0; q < k; q++)
                 gp[q] = 0;
-            for (size_t i = p * d; i < (p + 1) * d; i++) {
+            for (size_t i = first[p]; i < first[p + 1]; i++) {
                 double r = op->rho[3 * i + c];
                 if (r == 0)
                     continue; /* black subpatches reflect nothing */
@@ -188,11 +188,32 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
     lrr_status st = lrr__build_options_resolve(scene, opts, &o);
     if (st)
         return st;
-    double t0 = lrr__now();
+    double t0 = lrr__now(), selection = 0;
     lrr_operator *op;
-    st = lrr__operator_new(ctx, &scene->geom, LRR_STORAGE_F32, &op);
+    if (o.adaptive_patches) {
+        /* the scene's patches are the subpatches; choose the grouping first */
+        lrr__geometry ag;
+        float *rho = NULL, *emission = NULL, *area = NULL;
+        const size_t n = scene->geom.n;
+        if (!(st = lrr__calloc(ctx, &rho, n, 3 * sizeof(float), "subpatch reflectances")) &&
+            !(st = lrr__calloc(ctx, &emission, n, 3 * sizeof(float), "subpatch emission")) &&
+            !(st = lrr__calloc(ctx, &area, n, sizeof(float), "subpatch areas")) &&
+            !(st = lrr_scene_subpatches(scene, NULL, NULL, area, rho, emission)))
+            st = lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, &o, &ag, NULL);
+        lrr_aligned_free(rho);
+        lrr_aligned_free(emission);
+        lrr_aligned_free(area);
+        if (st)
+            return st;
+        selection = lrr__now() - t0;
+        st = lrr__operator_new(ctx, &ag, LRR_STORAGE_F32, &op);
+        lrr__geometry_free(&ag);
+    } else {
+        st = lrr__operator_new(ctx, &scene->geom, LRR_STORAGE_F32, &op);
+    }
     if (st)
         return st;
+    op->selection_seconds = selection;
     op->builtin = scene->builtin;
     op->hemicube_resolution = o.hemicube_resolution;
     op->seed = o.seed;
@@ -238,6 +259,15 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)
     info->n = op->n;
     info->k = op->k;
     info->d = op->d;
+    info->d_min = SIZE_MAX;
+    for (size_t p = 0; p < op->k; p++) {
+        size_t dp = lrr__patch_size(&op->geom, p);
+        info->d_min = dp < info->d_min ? dp : info->d_min;
+        info->d_max = dp > info->d_max ? dp : info->d_max;
+    }
+    if (op->k == 0)
+        info->d_min = 0;
+    info->selection_seconds = op->selection_seconds;
     info->triangles = op->geom.n_tri;
     memcpy(info->condition, op->cond, sizeof op->cond);
     info->build_seconds = op->build_seconds;
@@ -257,3 +287,4 @@ const float *lrr_operator_emission(const lrr_operator *op) { return op->emission
 const float *lrr_operator_area(const lrr_operator *op) { return op->area; }
 const float *lrr_operator_centre(const lrr_operator *op) { return op->centre; }
 const float *lrr_operator_normal(const lrr_operator *op) { return op->normal; }
+const size_t *lrr_operator_patch_offsets(const lrr_operator *op) { return op->geom.first; }

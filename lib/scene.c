@@ -358,6 +358,8 @@ lrr_status lrr_scene_subdivide(lrr_scene *s, const lrr_subdivision *opts)
     }
     lrr_aligned_free(s->geom.depth);
     lrr_aligned_free(s->geom.patch0);
+    lrr_aligned_free(s->geom.sub0);
+    lrr_aligned_free(s->geom.first);
     s->geom = g;
     s->max_patch_area = max_area;
     return LRR_OK;
@@ -407,7 +409,7 @@ lrr_status lrr_scene_subpatches(const lrr_scene *s, float *centre, float *normal
                           "the scene is not subdivided: call lrr_scene_subdivide first");
     lrr__subpatch_frames(&s->geom, centre, normal, area);
     for (size_t t = 0; t < s->geom.n_tri; t++)
-        for (size_t i = s->geom.patch0[t] * s->geom.d; i < s->geom.patch0[t + 1] * s->geom.d; i++)
+        for (size_t i = s->geom.sub0[t]; i < s->geom.sub0[t + 1]; i++)
             for (int c = 0; c < 3; c++) {
                 if (rho) rho[3 * i + c] = s->rho[3 * t + c];
                 if (emission) emission[3 * i + c] = s->emission[3 * t + c];

@@ -242,14 +242,14 @@ static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
                                size_t *m_emit, size_t *m_changed)
 {
     const lrr_operator *op = s->op;
-    const size_t k = op->k, d = op->d;
+    const size_t k = op->k, *first = op->geom.first;
     size_t bad = SIZE_MAX, me = 0, mc = 0;
     #pragma omp parallel for schedule(static) reduction(min : bad) reduction(+ : me, mc) \
         if (3 * op->n >= LRR__PARALLEL_MIN)
     for (size_t p = 0; p < k; p++) {
         double acc[3] = {0, 0, 0}, dacc[3] = {0, 0, 0};
         int changed = 0;
-        for (size_t i = p * d; i < (p + 1) * d; i++)
+        for (size_t i = first[p]; i < first[p + 1]; i++)
             for (int c = 0; c < 3; c++) {
                 float e = E[3 * i + c];
                 if (!(e >= 0.0f) || !isfinite(e))
@@ -442,7 +442,7 @@ static lrr_status batch_gemm(lrr_solver *s, size_t count, const float *E, float 
 {
     const lrr_operator *op = s->op;
     lrr_context *ctx = op->ctx;
-    const size_t n = op->n, k = op->k, d = op->d, frame = 3 * n;
+    const size_t n = op->n, k = op->k, *first = op->geom.first, frame = 3 * n;
     if (count > s->batch_cap) {
         lrr_aligned_free(s->bw);
         lrr_aligned_free(s->bz);
@@ -462,7 +462,7 @@ static lrr_status batch_gemm(lrr_solver *s, size_t count, const float *E, float 
         for (size_t f = 0; f < count; f++) {
             const float *e = E + f * frame;
             double acc[3] = {0, 0, 0};
-            for (size_t i = p * d; i < (p + 1) * d; i++)
+            for (size_t i = first[p]; i < first[p + 1]; i++)
                 for (int c = 0; c < 3; c++)
                     acc[c] += e[3 * i + c];
             for (int c = 0; c < 3; c++)

@@ -71,7 +71,7 @@ struct lrr__cl_solver {
     cl_command_queue queue;
     cl_program program;
     cl_kernel segsum, smw, rows, groups;
-    cl_mem fbar, scale, m, rho, e, w, z, b;
+    cl_mem fbar, scale, m, rho, e, w, z, b, first;
     size_t group_size;
     int use_groups;      /* fbar_groups (GPUs) rather than fbar_rows (CPU devices) */
     char name[160];      /* "opencl:<device name>" */
@@ -82,7 +82,7 @@ void lrr__cl_destroy(lrr__cl_solver *cl)
 {
     if (!cl)
         return;
-    cl_mem mems[] = {cl->fbar, cl->scale, cl->m, cl->rho, cl->e, cl->w, cl->z, cl->b};
+    cl_mem mems[] = {cl->fbar, cl->scale, cl->m, cl->rho, cl->e, cl->w, cl->z, cl->b, cl->first};
     for (size_t i = 0; i < sizeof mems / sizeof mems[0]; i++)
         if (mems[i])
             clReleaseMemObject(mems[i]);
@@ -169,7 +169,7 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
 static lrr_status set_args(lrr__cl_solver *cl)
 {
     const lrr_operator *op = cl->op;
-    const cl_uint un = (cl_uint)op->n, uk = (cl_uint)op->k, ud = (cl_uint)op->d;
+    const cl_uint un = (cl_uint)op->n, uk = (cl_uint)op->k;
     struct {
         cl_kernel kn;
         cl_uint index;
@@ -179,7 +179,7 @@ static lrr_status set_args(lrr__cl_solver *cl)
     } a[] = {
         {cl->segsum, 0, sizeof(cl_mem), &cl->e, "segsum E"},
         {cl->segsum, 1, sizeof uk, &uk, "segsum k"},
-        {cl->segsum, 2, sizeof ud, &ud, "segsum d"},
+        {cl->segsum, 2, sizeof(cl_mem), &cl->first, "segsum first"},
         {cl->segsum, 3, sizeof(cl_mem), &cl->w, "segsum w"},
         {cl->smw, 0, sizeof(cl_mem), &cl->m, "smw M"},
         {cl->smw, 1, sizeof(cl_mem), &cl->w, "smw w"},
@@ -215,7 +215,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
     lrr_context *ctx = op->ctx;
     *out = NULL;
     const size_t n = op->n, k = op->k;
-    if (n > UINT32_MAX || k > UINT32_MAX || op->d > UINT32_MAX)
+    if (n > UINT32_MAX || k > UINT32_MAX)
         return lrr__error(ctx, LRR_ERR_OVERFLOW,
                           "OpenCL: n = %zu, k = %zu exceed the kernels' 32-bit indices", n, k);
     cl_device_id dev;
@@ -226,7 +226,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
     /* F̄ must fit one buffer and, with everything else, the device's memory */
     const int half = op->storage != LRR_STORAGE_F32;
     const size_t fbar_bytes = n * k * (half ? 2 : 4); /* the operator holds it: no overflow */
-    const size_t other = 4 * (3 * k * k + 4 * 3 * n + n + 6 * k);
+    const size_t other = 4 * (3 * k * k + 4 * 3 * n + n + 7 * k + 1);
     cl_ulong global_mem = 0, max_alloc = 0;
     cl_int err = clGetDeviceInfo(dev, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof global_mem,
                                  &global_mem, NULL);
@@ -261,6 +261,14 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
 
     const cl_mem_flags ro = CL_MEM_READ_ONLY, rw = CL_MEM_READ_WRITE;
     const float one = 1.0f;
+    /* patch offsets as 32-bit (n <= UINT32_MAX): the segmented sum's ranges */
+    cl_uint *first = lrr__alloc(ctx, (k + 1) * sizeof(cl_uint));
+    if (!first) {
+        free(cl);
+        return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate the patch offsets");
+    }
+    for (size_t p = 0; p <= k; p++)
+        first[p] = (cl_uint)op->geom.first[p];
     cl->context = clCreateContext(NULL, 1, &dev, NULL, NULL, &err);
     if (err != CL_SUCCESS)
         st = lrr__cl_fail(ctx, err, "clCreateContext", dn);
@@ -280,10 +288,14 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
         (st = new_buffer(cl, rw, 3 * k * 4, NULL, "w (3×k)", &cl->w)) ||
         (st = new_buffer(cl, rw, 3 * k * 4, NULL, "z (3×k)", &cl->z)) ||
         (st = new_buffer(cl, CL_MEM_WRITE_ONLY, 3 * n * 4, NULL, "B (n×3)", &cl->b)) ||
+        (st = new_buffer(cl, ro, (k + 1) * sizeof(cl_uint), first, "patch offsets (k+1)",
+                         &cl->first)) ||
         (st = set_args(cl))) {
+        free(first);
         lrr__cl_destroy(cl);
         return st;
     }
+    free(first);
     *out = cl;
     return LRR_OK;
 }

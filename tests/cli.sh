@@ -724,6 +724,37 @@ expect_rc 2 "check without a scene"
 run check cornell --max-report x
 expect_rc 2 "check --max-report x"
 
+# ---------------------------------------------------------------- adaptive hierarchy
+ADFILE="$T/adaptive.lrr"
+run preprocess cornell -o "$ADFILE" --patches 200 --adaptive 90 --adaptive-samples 64 \
+    --hemicube 32 --threads 2
+if [ "$rc" -eq 0 ] && [ "$(value d)" = 0 ] && [ "$(value k)" -le 90 ] &&
+    [ "$(value k)" -gt 87 ] && [ "$(value d_min)" -lt "$(value d_max)" ] &&
+    [ -n "$(value selection_seconds)" ]; then
+    pass "preprocess --adaptive 90: k = $(value k), d $(value d_min)..$(value d_max)"
+else
+    fail "preprocess --adaptive (exit $rc)"; show_err; sed 's/^/    out: /' "$T/out" | head -n 8
+fi
+adk=$(value k)
+run solve "$ADFILE" --csv "$T/adaptive.csv" --repeat 1
+# the CSV's patch column must run 0..k-1, non-decreasing, over contiguous subpatches
+if [ "$rc" -eq 0 ] && awk -F, -v k="$adk" 'NR == 1 { next }
+        { if ($2 < last || $2 > last + 1) bad = 1; last = $2 }
+        END { exit !(bad == 0 && last == k - 1) }' "$T/adaptive.csv"; then
+    pass "solve --csv on an adaptive operator: patch column covers 0..$((adk - 1))"
+else
+    fail "solve --csv on an adaptive operator (exit $rc)"; show_err
+fi
+run preprocess cornell -o "$ADFILE" --patches 200 --levels 2 --adaptive 90
+expect_rc 2 "--adaptive with --levels 2 is rejected"
+run preprocess cornell -o "$ADFILE" --adaptive-split area
+expect_rc 2 "--adaptive-split without --adaptive is rejected"
+run preprocess cornell -o "$ADFILE" --patches 200 --adaptive 90 --adaptive-split depth
+expect_rc 2 "--adaptive-split depth is rejected"
+run preprocess cornell -o "$ADFILE" --patches 200 --adaptive 5
+expect_rc 1 "--adaptive below the triangle count is an error"
+if grep -q "between" "$T/err"; then pass "the error names the allowed range"; else fail "no range in: $(cat "$T/err")"; fi
+
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then
     rm -rf "$T"

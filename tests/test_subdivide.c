@@ -120,8 +120,10 @@ static void test_barycentric_round_trip(void **state)
     for (size_t i = 0; i < g->n; i++) {
         double v[9];
         lrr__subpatch_vertices(g, i, v);
-        size_t t = lrr__patch_triangle(g, i / g->d);
+        size_t t = lrr__subpatch_triangle(g, i);
         assert_true(i / g->d >= g->patch0[t] && i / g->d < g->patch0[t + 1]);
+        assert_int_equal(lrr__patch_of(g, i), i / g->d);
+        assert_true(i >= g->first[i / g->d] && i < g->first[i / g->d + 1]);
         const float *T = g->vert + 9 * t;
         for (int trial = 0; trial < 8; trial++) {
             /* random point strictly inside subpatch i (trial 0: its centroid) */

@@ -91,10 +91,12 @@ void cli_outfile_abort(cli_outfile *out);
  * `lrr compare`: this header line, then one row per subpatch, numbers with %.9g. */
 #define CLI_CSV_HEADER "subpatch,patch,area,cx,cy,cz,nx,ny,nz,b_r,b_g,b_b"
 
-/* Writes the CSV atomically for n subpatches, d per patch (patch = subpatch / d): area n,
+/* Writes the CSV atomically for n subpatches, d per patch (patch = subpatch / d), or patches
+ * given by the k+1 offsets `first` when not NULL (adaptive hierarchy): area n,
  * centre, normal and radiosity n×3. Returns CLI_EXIT_OK or CLI_EXIT_FAIL (message printed). */
-int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const float *area,
-                           const float *centre, const float *normal, const float *radiosity);
+int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const size_t *first,
+                           const float *area, const float *centre, const float *normal,
+                           const float *radiosity);
 /* The same for a solved operator, with its stored geometry. */
 int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const float *radiosity);
 

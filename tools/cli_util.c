@@ -288,11 +288,13 @@ void cli_outfile_abort(cli_outfile *out)
     outfile_release(out);
 }
 
-int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const float *area,
-                           const float *centre, const float *normal, const float *radiosity)
+int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const size_t *first,
+                           const float *area, const float *centre, const float *normal,
+                           const float *radiosity)
 {
     if (d == 0)
         d = 1;
+    size_t patch = 0; /* with first (adaptive hierarchy): patch of subpatch i, walked along */
     cli_outfile out;
     if (cli_outfile_open(&out, path) != 0)
         return cli_fail(LRR_ERR_IO, "cannot create a temporary file for '%s': %s", path,
@@ -300,8 +302,11 @@ int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const float *ar
     fputs(CLI_CSV_HEADER "\n", out.f);
     for (size_t i = 0; i < n; i++) {
         const float *c = centre + 3 * i, *nr = normal + 3 * i, *b = radiosity + 3 * i;
+        if (first)
+            while (first[patch + 1] <= i)
+                patch++;
         if (fprintf(out.f, "%zu,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", i,
-                    i / d, (double)area[i], (double)c[0], (double)c[1], (double)c[2],
+                    first ? patch : i / d, (double)area[i], (double)c[0], (double)c[1], (double)c[2],
                     (double)nr[0], (double)nr[1], (double)nr[2], (double)b[0], (double)b[1],
                     (double)b[2]) < 0)
             break; /* the error sticks in ferror(); commit reports it */
@@ -321,7 +326,8 @@ int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const floa
     if (!area || !centre || !normal)
         return cli_fail(LRR_ERR_INVALID_ARG, "%s: the operator has no per-subpatch geometry",
                         path);
-    return cli_write_subpatch_csv(path, info.n, info.d, area, centre, normal, radiosity);
+    return cli_write_subpatch_csv(path, info.n, info.d, lrr_operator_patch_offsets(op), area,
+                                  centre, normal, radiosity);
 }
 
 /* ------------------------------------------------------------------ misc */

@@ -71,7 +71,10 @@ enum {
     OPT_PROBE,
     OPT_PROBE_METHOD,
     OPT_PROBE_SCALE,
-    OPT_NO_SCENE_EMISSION
+    OPT_NO_SCENE_EMISSION,
+    OPT_ADAPTIVE,
+    OPT_ADAPTIVE_SAMPLES,
+    OPT_ADAPTIVE_SPLIT
 };
 
 /* ------------------------------------------------------------------ help texts */
@@ -137,7 +140,18 @@ static const char preprocess_help[] =
     "                       a power-of-two scale, and M is recomputed from the rounded F̄\n"
     "  --backend B          cpu (default) or opencl: where the hemicube pixels are integrated\n"
     "                       into F̄ (rasterisation stays on the CPU; LRR_OPENCL_DEVICE picks\n"
-    "                       the device as for 'lrr solve'; the same F̄ to rounding)\n" BUILD_HELP
+    "                       the device as for 'lrr solve'; the same F̄ to rounding)\n"
+    "  --adaptive K         adaptive hierarchy: the scene's patches (--levels 0, the default\n"
+    "                       with --adaptive) become\n"
+    "                       the subpatches and are regrouped into at most K patches, nodes\n"
+    "                       of each triangle's quadtree, splitting first where the sampled\n"
+    "                       form-factor columns vary most (shadow edges, contacts, corners).\n"
+    "                       K is between the triangle count and the subpatch count; the\n"
+    "                       count reached can be up to 2 less (a split adds 3). Prints\n"
+    "                       d_min, d_max and selection_seconds (part of build_seconds)\n"
+    "  --adaptive-samples S receivers sampled to estimate the variance (default 256)\n"
+    "  --adaptive-split X   variance (default) or area: area splits the largest patch first,\n"
+    "                       i.e. uniform subdivision at the same K (the baseline)\n" BUILD_HELP
     "  -h, --help           show this help\n" SUBDIV_HELP;
 
 static const char solve_help[] =
@@ -315,7 +329,7 @@ static void start_getopt(void)
 
 typedef struct subdiv_args {
     lrr_subdivision sub;
-    int have_area, have_patches;
+    int have_area, have_patches, have_levels;
 } subdiv_args;
 
 static void subdiv_init(subdiv_args *s)
@@ -337,6 +351,7 @@ static int subdiv_option(subdiv_args *s, const char *prog, int c, const char *ar
         return cli_parse_size(prog, "--patches", arg, 1, SIZE_MAX, &s->sub.target_patches) == 0
                    ? 1 : -1;
     case OPT_LEVELS:
+        s->have_levels = 1;
         return cli_parse_unsigned(prog, "--levels", arg, 0, 10, &s->sub.levels) == 0 ? 1 : -1;
     default:
         return 0;
@@ -494,6 +509,11 @@ static void print_operator_info(const lrr_operator *op)
     printf("n: %zu\n", oi.n);
     printf("k: %zu\n", oi.k);
     printf("d: %zu\n", oi.d);
+    if (oi.d == 0) { /* adaptive hierarchy */
+        printf("d_min: %zu\n", oi.d_min);
+        printf("d_max: %zu\n", oi.d_max);
+        printf("selection_seconds: %.3f\n", oi.selection_seconds);
+    }
     printf("hemicube: %u\n", oi.hemicube_resolution);
     printf("seed: %llu\n", (unsigned long long)oi.seed);
     printf("build_seconds: %.3f\n", oi.build_seconds);
@@ -716,11 +736,16 @@ static int cmd_preprocess(int argc, char *argv[])
         {"output", required_argument, NULL, 'o'},
         {"storage", required_argument, NULL, OPT_STORAGE},
         {"backend", required_argument, NULL, OPT_BACKEND},
+        {"adaptive", required_argument, NULL, OPT_ADAPTIVE},
+        {"adaptive-samples", required_argument, NULL, OPT_ADAPTIVE_SAMPLES},
+        {"adaptive-split", required_argument, NULL, OPT_ADAPTIVE_SPLIT},
         SUBDIV_LONGOPTS,
         BUILD_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     int on_device = 0;
+    size_t adaptive = 0, adaptive_samples = 0;
+    int adaptive_split = LRR_SPLIT_VARIANCE, adaptive_only = 0;
     subdiv_args sa;
     subdiv_init(&sa);
     build_args ba;
@@ -742,6 +767,30 @@ static int cmd_preprocess(int argc, char *argv[])
             if (cli_parse_backend(prog, optarg, &b) != 0)
                 return CLI_EXIT_USAGE;
             on_device = b == LRR_BACKEND_OPENCL;
+            continue;
+        }
+        if (c == OPT_ADAPTIVE) {
+            if (cli_parse_size(prog, "--adaptive", optarg, 1, SIZE_MAX, &adaptive) != 0)
+                return CLI_EXIT_USAGE;
+            continue;
+        }
+        if (c == OPT_ADAPTIVE_SAMPLES) {
+            adaptive_only = 1;
+            if (cli_parse_size(prog, "--adaptive-samples", optarg, 1, (size_t)1 << 20,
+                               &adaptive_samples) != 0)
+                return CLI_EXIT_USAGE;
+            continue;
+        }
+        if (c == OPT_ADAPTIVE_SPLIT) {
+            adaptive_only = 1;
+            if (strcmp(optarg, "variance") == 0)
+                adaptive_split = LRR_SPLIT_VARIANCE;
+            else if (strcmp(optarg, "area") == 0)
+                adaptive_split = LRR_SPLIT_AREA;
+            else {
+                cli_usage_error(prog, "--adaptive-split: '%s' is not variance or area", optarg);
+                return CLI_EXIT_USAGE;
+            }
             continue;
         }
         int r = subdiv_option(&sa, prog, c, optarg);
@@ -773,6 +822,17 @@ static int cmd_preprocess(int argc, char *argv[])
     int rc = subdiv_finish(&sa, prog);
     if (rc)
         return rc;
+    if (adaptive_only && !adaptive) {
+        cli_usage_error(prog, "--adaptive-samples and --adaptive-split need --adaptive K");
+        return CLI_EXIT_USAGE;
+    }
+    if (adaptive && !sa.have_levels)
+        sa.sub.levels = 0;
+    if (adaptive && sa.sub.levels != 0) {
+        cli_usage_error(prog, "--adaptive: the patches become the subpatches, so give "
+                              "--levels 0 (not %u)", sa.sub.levels);
+        return CLI_EXIT_USAGE;
+    }
 
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
@@ -794,6 +854,9 @@ static int cmd_preprocess(int argc, char *argv[])
         cli_progress bar;
         lrr_build_options bo = build_start(&ba, &bar);
         bo.backend = on_device ? LRR_BACKEND_OPENCL : LRR_BACKEND_CPU;
+        bo.adaptive_patches = adaptive;
+        bo.adaptive_samples = adaptive_samples;
+        bo.adaptive_split = adaptive_split;
         s = lrr_operator_build(scene, &bo, &op);
         cli_progress_finish(&bar);
         if (s == LRR_OK)
@@ -1336,7 +1399,7 @@ static int cmd_reference(int argc, char *argv[])
     if (rc == CLI_EXIT_OK)
         rc = check_finite(b, n);
     if (rc == CLI_EXIT_OK && csv)
-        rc = cli_write_subpatch_csv(csv, n, d, area, centre, normal, b);
+        rc = cli_write_subpatch_csv(csv, n, d, NULL, area, centre, normal, b);
     if (rc == CLI_EXIT_OK) {
         printf("n: %zu\n", n);
         printf("method: %s\n", lrr_method_name(method));

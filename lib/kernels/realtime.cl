@@ -31,17 +31,17 @@
 #error "STORAGE must be 0 (float), 1 (binary16) or 2 (bfloat16)"
 #endif
 
-/* w[c*k + p] = sum of E over patch p's d subpatches. The host validated E. Compensated
- * (Kahan) float sums stand in for the CPU's double accumulators: doubles are optional in
- * OpenCL 1.2. */
-__kernel void segsum(__global const float *E, uint k, uint d, __global float *w)
+/* w[c*k + p] = sum of E over patch p's subpatches first[p] .. first[p+1]-1 (d of them, or
+ * d_p in an adaptive hierarchy). The host validated E. Compensated (Kahan) float sums stand
+ * in for the CPU's double accumulators: doubles are optional in OpenCL 1.2. */
+__kernel void segsum(__global const float *E, uint k, __global const uint *first,
+                     __global float *w)
 {
     const uint p = get_global_id(0);
     if (p >= k)
         return;
     float s[3] = {0, 0, 0}, comp[3] = {0, 0, 0};
-    const size_t i0 = (size_t)p * d;
-    for (size_t i = i0; i < i0 + d; i++)
+    for (uint i = first[p]; i < first[p + 1]; i++)
         for (int c = 0; c < 3; c++) {
             float y = E[3 * i + c] - comp[c];
             float t = s[c] + y;
