@@ -230,12 +230,13 @@ void lrr__ffsample_free(lrr__ffsample *s);
 double lrr__ffsample_variance(const lrr__ffsample *s, size_t j0, size_t j1, double *std_error);
 /* The adaptive hierarchy over g's patches (g uniform, levels 0) with at most
  * opts->adaptive_patches patches, chosen by opts->adaptive_split. With emission (n×3, may be
- * NULL) and area (n), the variance is weighted by the scene's one-bounce radiosity. objective (may be NULL;
+ * NULL) and area (n), the variance is weighted by an estimate of the scene's radiosity;
+ * weights (n×3, may be NULL; tests) gives that radiosity instead. objective (may be NULL;
  * (K − n_tri)/3 + 1 entries) gets the total score after 0, 1, 2, … splits. */
 lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const float *rho,
                                 const float *emission, const float *area,
-                                const lrr_build_options *opts, lrr__geometry *out,
-                                double *objective);
+                                const double *weights, const lrr_build_options *opts,
+                                lrr__geometry *out, double *objective);
 
 /* Hemicube integration on an OpenCL device (hemicube_opencl.c): rows of F̄ from a batch of
  * resolved hemicubes (patch ids per pixel in the item-buffer layout, 3R² per hemicube, -1 for

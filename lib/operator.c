@@ -199,7 +199,7 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
             !(st = lrr__calloc(ctx, &emission, n, 3 * sizeof(float), "subpatch emission")) &&
             !(st = lrr__calloc(ctx, &area, n, sizeof(float), "subpatch areas")) &&
             !(st = lrr_scene_subpatches(scene, NULL, NULL, area, rho, emission)))
-            st = lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, &o, &ag, NULL);
+            st = lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, NULL, &o, &ag, NULL);
         lrr_aligned_free(rho);
         lrr_aligned_free(emission);
         lrr_aligned_free(area);
