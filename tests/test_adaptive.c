@@ -4,6 +4,8 @@
 
 #include "internal.h"
 
+#include <float.h>
+
 #define HEMI 32 /* small hemicubes: these tests compare like with like */
 
 static lrr_scene *cornell(lrr_context *ctx, size_t patches)
@@ -315,6 +317,19 @@ static void test_opencl_agrees(void **state)
         assert_true(e <= 1e-6);
         free(cpu);
         free(cl);
+        /* the device-side hemicube integration divides by d_p too */
+        lrr_operator *dev;
+        bo.backend = LRR_BACKEND_OPENCL;
+        LRR_CHECK(ctx, lrr_operator_build(s, &bo, &dev));
+        const float *fc = lrr_operator_fbar(op), *fd = lrr_operator_fbar(dev);
+        assert_memory_equal(lrr_operator_patch_offsets(dev), lrr_operator_patch_offsets(op),
+                            (oi.k + 1) * sizeof(size_t));
+        double worst = 0;
+        for (size_t i = 0; i < oi.n * oi.k; i++)
+            worst = fmax(worst, fabs((double)fd[i] - fc[i]) / fmax(fabs((double)fc[i]), 1e-30));
+        printf("device-integrated F̄ vs CPU, worst relative difference %.3g\n", worst);
+        assert_true(worst <= 2 * FLT_EPSILON);
+        lrr_operator_destroy(dev);
     }
     lrr_operator_destroy(op);
     lrr_scene_destroy(s);
