@@ -3,7 +3,7 @@
  * scenes, timing, cache size and read bandwidth, the real-time steps that the benchmarks
  * compare (lrr_solve, the paper's method, plain sgemv), comparison of radiosities and
  * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c,
- * probes.c.
+ * probes.c, adaptive.c.
  */
 #ifndef LRR_BENCH_H
 #define LRR_BENCH_H
@@ -45,7 +45,10 @@ enum {
     OPT_BACKEND,
     OPT_SOURCES,
     OPT_NORMALS,
-    OPT_MAX_ITERATIONS
+    OPT_MAX_ITERATIONS,
+    OPT_SUBPATCHES,
+    OPT_BUDGETS,
+    OPT_SAMPLES
 };
 
 /* ------------------------------------------------------------------ commands */
@@ -54,6 +57,7 @@ int cmd_stress(int argc, char *argv[]);
 int cmd_hemicube(int argc, char *argv[]);
 int cmd_realtime(int argc, char *argv[]);
 int cmd_probes(int argc, char *argv[]);
+int cmd_adaptive(int argc, char *argv[]);
 
 /* ------------------------------------------------------------------ messages */
 /* "lrr-bench: <message>" on stderr; returns CLI_EXIT_FAIL. */

@@ -15,6 +15,9 @@
  *                       the same matrix against a bandwidth floor (realtime.c)
  *   lrr-bench probes    light probes: error of median cut, irradiance optimisation and SH9
  *                       against the number of sources, with the time per method (probes.c)
+ *   lrr-bench adaptive  the adaptive patch hierarchy against uniform subdivision at the same
+ *                       patch budget and subpatches: error against the n×n solution,
+ *                       preprocessing, selection and real-time step (adaptive.c)
  * What they share (messages, options, timing, bandwidth, the baselines) is in common.c.
  *
  * Results go to stdout ('key: value' lines and aligned tables), progress to stderr. Exit
@@ -42,6 +45,8 @@ static const char main_help[] =
     "             and incremental paths, against a bandwidth floor\n"
     "  probes     light probes: error of median cut, irradiance optimisation and SH9\n"
     "             against the number of sources (2..256), time per method\n"
+    "  adaptive   adaptive patch hierarchy against uniform subdivision at the same patch\n"
+    "             budget: error against the n×n solution, selection and build time\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help (COMMAND --help: help on a command)\n"
@@ -60,7 +65,8 @@ int main(int argc, char *argv[])
                     {"stress", cmd_stress},
                     {"hemicube", cmd_hemicube},
                     {"realtime", cmd_realtime},
-                    {"probes", cmd_probes}};
+                    {"probes", cmd_probes},
+                    {"adaptive", cmd_adaptive}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;

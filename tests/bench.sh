@@ -340,6 +340,95 @@ else
     fi
 fi
 
+# ---------------------------------------------------------------- adaptive
+# The adaptive patch hierarchy (issue 7) against uniform subdivision at the same budget.
+help_mentions adaptive --scene --subpatches --budgets --samples --hemicube --csv --plot \
+    LRR_SPLIT_AREA LRR_SPLIT_VARIANCE selection_share 'adaptive rel_l2 / uniform'
+run adaptive --budgets 0
+if [ "$rc" -eq 2 ] && grep -q -- '--budgets' "$T/err"; then pass "adaptive --budgets 0: exit 2"; else fail "adaptive --budgets 0: exit $rc"; fi
+run adaptive --budgets 12,x
+if [ "$rc" -eq 2 ]; then pass "adaptive --budgets 12,x: exit 2"; else fail "adaptive --budgets 12,x: exit $rc"; fi
+run adaptive --scene no-such-scene.obj
+if [ "$rc" -eq 1 ] && grep -q 'no-such-scene' "$T/err"; then pass "adaptive: a missing scene fails at once"; else fail "adaptive --scene no-such-scene.obj: exit $rc"; fi
+
+# The default scenes (cornell and DATA/office.obj), n about 300, three budgets per scene:
+# 130 and 200 (above both scenes' triangle counts, 36 and 122) and 100000, taken as n (one
+# patch per subpatch: the low-rank model is exact, so B matches the n×n reference).
+ACSV="$T/adaptive.csv"
+APNG="$T/adaptive.png"
+start=$(date +%s)
+run adaptive --subpatches 300 --budgets 130,200,100000 --hemicube 16 --repeat 3 --csv "$ACSV" \
+    --plot "$APNG"
+secs=$(($(date +%s) - start))
+if [ "$rc" -eq 0 ] && [ -f "$ACSV" ] && grep -q '^scenes: cornell .*office\.obj$' "$T/out"; then
+    pass "adaptive on cornell and office.obj (${secs} s)"
+else
+    fail "adaptive --subpatches 300: exit $rc"
+    show_err
+fi
+[ -f "$ACSV" ] || : >"$ACSV"
+aheader='scene,triangles,n,budget,split,k,d_min,d_max,rel_l2,max_rel,rel_l2_reflected,ratio,preprocess_s,build_s,selection_s,selection_share,rt_ms'
+if head -n 1 "$ACSV" | grep -q "^$aheader\(,\|\$\)"; then
+    pass "adaptive CSV header starts with the required columns"
+else
+    fail "adaptive CSV header: '$(head -n 1 "$ACSV")'"
+fi
+# per uniform/adaptive row: 0 <= rel_l2 < 1 (finite), k <= K and k >= K - 2 (a split adds 3
+# patches), 1 <= d_min <= d_max, selection share in [0, 1], a positive frame time; at K = n:
+# k = n, d_max = 1 and rel_l2 < 1e-4 (exact); the ratio column is adaptive / uniform.
+bad=$(awk -F, '
+    function num(v) { return v ~ /^[0-9.eE+-]+$/ }
+    NR == 1 { next }
+    $5 != "uniform" && $5 != "adaptive" {
+        if ($5 !~ /^levels-[123]$/) print "line " NR ": split " $5
+        else if (!(num($9) && $9 + 0 < 1)) print "line " NR ": " $5 " rel_l2 " $9
+        next
+    }
+    {
+        rows[$1 " " $5]++
+        n = $3 + 0; K = $4 + 0; k = $6 + 0
+        if (!(num($9) && $9 + 0 >= 0 && $9 + 0 < 1)) print $1 " K " $4 " " $5 ": rel_l2 " $9
+        if (!num($10)) print $1 " K " $4 " " $5 ": max_rel " $10
+        if (k > K || k + 2 < K) print $1 " K " $4 " " $5 ": k " k
+        if (!($7 + 0 >= 1 && $7 + 0 <= $8 + 0 && $8 + 0 <= n)) print $1 " K " $4 " " $5 ": d " $7 ".." $8
+        if (!(num($16) && $16 + 0 >= 0 && $16 + 0 <= 1)) print $1 " K " $4 " " $5 ": selection_share " $16
+        if (!(num($17) && $17 + 0 > 0)) print $1 " K " $4 " " $5 ": rt_ms " $17
+        if (K == n) {
+            exact[$1]++
+            if (k != n || $8 + 0 != 1 || !($9 + 0 < 1e-4)) print $1 " K = n " $5 ": k " k ", d_max " $8 ", rel_l2 " $9
+        }
+        if ($5 == "uniform") u[$1 " " K] = $9
+        else if ((($1 " " K) in u) && u[$1 " " K] + 0 > 0) {
+            want = ($9 + 0) / (u[$1 " " K] + 0)
+            if ($12 + 0 < want * 0.999 || $12 + 0 > want * 1.001) print $1 " K " K ": ratio " $12 " != " want
+        }
+    }
+    END {
+        if (rows["cornell uniform"] != 3 || rows["cornell adaptive"] != 3 ||
+            rows["office uniform"] != 3 || rows["office adaptive"] != 3)
+            print "rows: cornell " rows["cornell uniform"] "+" rows["cornell adaptive"] ", office " rows["office uniform"] "+" rows["office adaptive"] " (want 3+3 each)"
+        if (exact["cornell"] != 2 || exact["office"] != 2) print "K = n rows: " exact["cornell"] ", " exact["office"]
+    }' "$ACSV")
+if [ "$rc" -eq 0 ] && [ -z "$bad" ]; then
+    pass "adaptive CSV: 3 budgets x 2 splits x 2 scenes, errors in [0,1), k within K-2..K, K = n exact"
+else
+    fail "adaptive CSV values:"
+    echo "$bad" | sed 's/^/    /'
+fi
+if grep -q '^target: adaptive rel_l2 <= 0.5 x uniform' "$T/out" &&
+    grep -q '^target: selection <= 20%' "$T/out" && grep -q '^target_ratio: [0-9]* of 4 cells' "$T/out" &&
+    grep -q '^target_selection: [0-9]* of 6 builds' "$T/out"; then
+    pass "adaptive prints both targets"
+else
+    fail "adaptive: target lines missing"
+fi
+sig=$(od -An -tx1 -N8 "$APNG" 2>/dev/null | tr -d ' \n')
+if [ "$sig" = 89504e470d0a1a0a ]; then
+    pass "adaptive plot is a PNG ($(wc -c <"$APNG" | tr -d ' ') bytes)"
+else
+    fail "adaptive --plot: signature '$sig'"
+fi
+
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then
     rm -rf "$T"

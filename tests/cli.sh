@@ -658,6 +658,18 @@ if [ "$rc" -eq 0 ] && [ "$(value intersecting_pairs)" = 0 ] && [ "$(value degene
 else
     fail "check cornell (exit $rc)"; show_err
 fi
+# the shipped office: furniture standing on the floor, a wall and the table (contacts only)
+OFFICE=${LRR_DATA_DIR:-data}/office.obj
+run check "$OFFICE"
+if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 122 ] && [ "$(value degenerate)" = 0 ] &&
+    [ "$(value intersecting_pairs)" = 0 ] && [ "$(value coplanar_overlaps)" = 0 ] &&
+    [ "$(value inconsistent_components)" = 0 ] && [ "$(value contacts)" = 32 ] &&
+    [ "$(value open_edges)" = 4 ]; then
+    pass "check office.obj: no errors (32 contacts, 4 open edges: the light quad)"
+else
+    fail "check $OFFICE (exit $rc): $(grep -E '^(triangles|degenerate|intersecting_pairs|coplanar_overlaps|contacts|open_edges|inconsistent_components):' "$T/out" | tr '\n' ' ')"
+    show_err
+fi
 cat > "$T/broken.obj" <<'EOF'
 v 0 0 0
 v 2 0 0
