@@ -81,12 +81,12 @@ static const char adaptive_help[] =
     "                       being $LRR_DATA_DIR, else the installed data directory, else\n"
     "                       ./data)\n"
     "  --subpatches N       target subpatch count n (default 4000)\n"
-    "  --budgets K1,K2,...  patch budgets (default per scene: the three smallest of n/32,\n"
-    "                       n/16, n/8, n/4 that are at least twice the triangle count);\n"
+    "  --budgets K1,K2,...  patch budgets (default per scene: those of n/32, n/16,\n"
+    "                       n/8, n/4 that are at least twice the triangle count);\n"
     "                       budgets below the triangle count are skipped, those above n\n"
     "                       taken as n (one patch per subpatch: the exact model)\n"
     "  --samples S          adaptive_samples: receivers sampled for the variance\n"
-    "                       (default 0 = the library's, 1024)\n"
+    "                       (default 0 = the library's, 2048)\n"
     "  --hemicube R         hemicube resolution: even, 8..4096 (default 128)\n"
     "  --seed S             seed of the hemicube rotations (default 1)\n"
     "  --repeat N           timed runs per frame measurement (default: adaptive, at least\n"
@@ -663,7 +663,7 @@ static size_t scene_budgets(const adaptive_args *a, const scene_ref *s, const ch
         return m;
     }
     static const unsigned div[] = {32, 16, 8, 4};
-    for (size_t i = 0; i < sizeof div / sizeof div[0] && m < 3; i++) {
+    for (size_t i = 0; i < sizeof div / sizeof div[0]; i++) {
         size_t k = (s->n + div[i] / 2) / div[i];
         if (k >= 2 * s->triangles && k <= s->n && (m == 0 || out[m - 1] != k))
             out[m++] = k;
@@ -801,7 +801,7 @@ int cmd_adaptive(int argc, char *argv[])
             printf("%s%zu", i ? "," : " ", a.budgets[i]);
         printf("\n");
     } else
-        printf("budgets: default (per scene: the three smallest of n/32, n/16, n/8, n/4 that "
+        printf("budgets: default (per scene: those of n/32, n/16, n/8, n/4 that "
                "are >= 2 x triangles)\n");
     printf("adaptive_samples: %zu%s\n", a.samples, a.samples ? "" : " (the library's default)");
     printf("hemicube: %u\n", a.hemicube);

@@ -227,7 +227,7 @@ typedef struct lrr_build_options {
                                      where the sampled form-factor columns vary most (see
                                      lrr_operator_build). 0 = uniform (each patch d subpatches) */
     size_t adaptive_samples;      /* receivers sampled to estimate the within-patch variance;
-                                     0 = 1024; their hemicubes are rendered at a
+                                     0 = 2048; their hemicubes are rendered at a
                                      quarter of the resolution (at least 16) */
     int adaptive_split;           /* which patch the adaptive selection splits next:
                                      LRR_SPLIT_VARIANCE (0) or LRR_SPLIT_AREA */

@@ -29,7 +29,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define DEFAULT_SAMPLES 1024
+#define DEFAULT_SAMPLES 2048
 
 void lrr__ffsample_free(lrr__ffsample *s)
 {
@@ -391,7 +391,11 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
      * splits needs many rows more than exact ones. Measured on the Cornell box, n = 3456,
      * K = 864 (error of B against the n×n direct solve; uniform 7.6e-4): 256 rows at R =
      * 128 gave 7.3e-4, 512 rows 6.8e-4, 1024 rows at R = 64 3.4e-4, 1024 at R = 32 3.5e-4,
-     * 2048 at R = 32 3.0e-4, for the cost of 64 to 128 full-resolution hemicubes. */
+     * 2048 at R = 32 3.0e-4, for the cost of 64 to 128 full-resolution hemicubes. On the
+     * office scene (n = 3908, K = 489 / 977) 1024 rows gave 0.57 / 0.48 of the uniform error,
+     * 2048 rows 0.53 / 0.41 and all rows 0.54 / 0.40: 2048 is about as good as every row,
+     * for about 9% of the build. Weighting the rows by area made it worse (0.66), a second
+     * Monte Carlo bounce in the radiosity estimate changed nothing (0.524). */
     lrr_build_options so = *opts;
     unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
     so.hemicube_resolution = R / 4 < 16 ? (R < 16 ? R : 16) : (R / 4) & ~1u;

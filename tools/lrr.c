@@ -149,7 +149,7 @@ static const char preprocess_help[] =
     "                       K is between the triangle count and the subpatch count; the\n"
     "                       count reached can be up to 2 less (a split adds 3). Prints\n"
     "                       d_min, d_max and selection_seconds (part of build_seconds)\n"
-    "  --adaptive-samples S receivers sampled to estimate the variance (default 1024,\n"
+    "  --adaptive-samples S receivers sampled to estimate the variance (default 2048,\n"
     "                       rendered at a quarter of the hemicube resolution)\n"
     "  --adaptive-split X   variance (default) or area: area splits the largest patch first,\n"
     "                       i.e. uniform subdivision at the same K (the baseline)\n" BUILD_HELP
