@@ -220,7 +220,10 @@ typedef struct lrr_build_options {
     size_t memory_budget;         /* bytes the operator may take (F̄, M, per-subpatch arrays
                                      and the build's working buffers); 0 = no limit. Beyond
                                      it the build returns LRR_ERR_BUDGET naming the amount
-                                     needed, before allocating anything large. */
+                                     needed, before allocating anything large (and with
+                                     any budget, LRR_ERR_OVERFLOW when those byte counts
+                                     overflow size_t). Not counted: allocator overhead and
+                                     third-party memory (OpenMP, LAPACK, OpenCL). */
     size_t adaptive_patches;      /* K > 0: adaptive hierarchy. The scene's patches become the
                                      subpatches (levels must be 0) and are regrouped into at
                                      most K patches, nodes of each triangle's quadtree, split
@@ -247,8 +250,14 @@ LRR_API LRR_NODISCARD lrr_status lrr_operator_build(const lrr_scene *scene,
                                                     lrr_operator **out) LRR_NONNULL(1, 3);
 LRR_API void lrr_operator_destroy(lrr_operator *op);
 
-/* Writes the operator, its scene emission and the geometry needed to draw it, atomically
- * (temporary file, fsync, rename). Thread safety: any thread. */
+/* Writes the operator, its scene emission and the geometry needed to draw it, atomically:
+ * to a temporary file "path.tmp.XXXXXX" in the same directory, flushed and fsynced, then
+ * renamed onto path. Whatever fails (a full disk, a file-size limit, a read-only directory)
+ * or wherever the process dies, path is either untouched (absent, or the previous file byte
+ * for byte) or the complete new file. A failure gives LRR_ERR_IO with a message naming path,
+ * the step and the system's error, and removes the temporary file; a process killed during
+ * the save cannot remove it, so a "path.tmp.XXXXXX" may then remain (never read by
+ * lrr_operator_load; delete it once no save is running). Thread safety: any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     LRR_NONNULL(1, 2);
 /* Truncated, corrupted or foreign files give LRR_ERR_CORRUPT / LRR_ERR_VERSION. */

@@ -29,7 +29,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define DEFAULT_SAMPLES 2048
+#define DEFAULT_SAMPLES LRR__ADAPTIVE_DEFAULT_SAMPLES
 
 void lrr__ffsample_free(lrr__ffsample *s)
 {
@@ -258,7 +258,7 @@ static int by_first(const void *a, const void *b)
 }
 
 /* Most emitting subpatches rendered for the radiosity weights; beyond it a sample. */
-#define MAX_EMITTER_ROWS 256
+#define MAX_EMITTER_ROWS LRR__ADAPTIVE_MAX_EMITTER_ROWS
 
 /* b (n×3) ≈ the scene's radiosity B, the weights of the selection. First
  * b1 = E + rho ∘ (direct irradiance from the emitters), with the hemicubes' visibility: the

@@ -145,6 +145,27 @@ unsigned long lrr__context_alloc_count(lrr_context *ctx)
     return n;
 }
 
+void lrr__context_set_io_hook(lrr_context *ctx, lrr__io_hook_fn hook, void *user)
+{
+    pthread_mutex_lock(&ctx->lock);
+    ctx->io_hook = hook;
+    ctx->io_user = user;
+    ctx->io_steps = 0;
+    pthread_mutex_unlock(&ctx->lock);
+}
+
+int lrr__io_step(lrr_context *ctx, const char *what)
+{
+    if (!ctx)
+        return 0;
+    pthread_mutex_lock(&ctx->lock);
+    lrr__io_hook_fn hook = ctx->io_hook;
+    void *user = ctx->io_user;
+    unsigned long step = hook ? ++ctx->io_steps : 0;
+    pthread_mutex_unlock(&ctx->lock);
+    return hook ? hook(user, step, what) : 0; /* outside the lock: it may not return */
+}
+
 /* Counts one allocation on ctx; false when it is the one to fail. */
 static bool count_alloc(lrr_context *ctx)
 {

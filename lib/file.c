@@ -63,6 +63,8 @@
  *
  * Writing goes to "path.tmp.XXXXXX" in the same directory, is flushed and fsynced, then
  * renamed onto path, so a crash or an error never leaves a half file under the final name.
+ * An error removes the temporary file; a process killed while saving cannot, and leaves it
+ * (tests/test_save_faults.c kills saves at every step).
  * Loading checks every size against the real file size before allocating anything, so a
  * corrupted header cannot make it allocate (or read) more than the file holds.
  */
@@ -163,11 +165,12 @@ struct writer {
     FILE *f;
     uint64_t pos;
     int err; /* errno of the first failure, 0 if none */
+    lrr_context *ctx; /* for the tests' fault injection (lrr__io_step) */
 };
 
 static void w_bytes(struct writer *w, const void *p, size_t len)
 {
-    if (w->err || len == 0)
+    if (w->err || len == 0 || (w->err = lrr__io_step(w->ctx, "write")))
         return;
     errno = 0;
     if (fwrite(p, 1, len, w->f) != len)
@@ -344,13 +347,13 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
 
     const char *what = "cannot create temporary file";
     int err = 0;
-    int fd = mkstemp(tmp);
+    int fd = (err = lrr__io_step(ctx, "create")) ? -1 : mkstemp(tmp);
     if (fd < 0) {
-        err = errno;
+        err = err ? err : errno;
         goto fail_nofile;
     }
     (void)fcntl(fd, F_SETFD, FD_CLOEXEC); /* mkostemp would need _GNU_SOURCE */
-    struct writer w = {fdopen(fd, "wb"), 0, 0};
+    struct writer w = {fdopen(fd, "wb"), 0, 0, ctx};
     if (!w.f) {
         err = errno;
         close(fd);
@@ -370,21 +373,25 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         w_bytes(&w, sec[s].data, (size_t)sec[s].size);
     }
     what = "cannot write temporary file";
-    if (!w.err && fflush(w.f) != 0)
+    if (!w.err && !(w.err = lrr__io_step(ctx, "flush")) && fflush(w.f) != 0)
         w.err = errno;
-    if (!w.err && fsync(fd) != 0)
+    if (!w.err && !(w.err = lrr__io_step(ctx, "fsync")) && fsync(fd) != 0)
         w.err = errno;
+    int close_err = w.err ? 0 : lrr__io_step(ctx, "close");
     if (fclose(w.f) != 0 && !w.err)
         w.err = errno;
+    if (!w.err)
+        w.err = close_err;
     if (w.err) {
         err = w.err;
         goto fail;
     }
-    if (rename(tmp, path) != 0) {
-        err = errno;
+    if ((err = lrr__io_step(ctx, "rename")) || rename(tmp, path) != 0) {
+        err = err ? err : errno;
         what = "cannot rename the temporary file onto it";
         goto fail;
     }
+    (void)lrr__io_step(ctx, "sync directory"); /* best effort: an injected error changes nothing */
     sync_parent_dir(path);
     free(tmp);
     lrr_aligned_free(geom);

@@ -113,6 +113,7 @@ typedef struct {
     double n[3];                 /* unnormalised geometric normal (v1-v0)×(v2-v0) */
     double g11, g12, g22, inv;   /* Gram matrix of e1, e2 and 1/det for barycentrics */
 } tri_info;
+_Static_assert(sizeof(tri_info) == LRR__HEMICUBE_TRI_BYTES, "budget.c counts tri_info's size");
 
 /* ------------------------------------------------------------------ rasteriser */
 typedef struct {

@@ -20,6 +20,10 @@ struct lrr_context {
      * non-zero the fail_at-th one returns NULL. */
     unsigned long alloc_count;
     unsigned long fail_at;
+    /* Tests only (I/O fault injection, see lrr__context_set_io_hook), guarded by lock. */
+    int (*io_hook)(void *user, unsigned long step, const char *what);
+    void *io_user;
+    unsigned long io_steps;
 };
 
 lrr_context *lrr__context_retain(lrr_context *ctx);
@@ -49,6 +53,18 @@ void *lrr__realloc(lrr_context *ctx, void *p, size_t bytes);
  * count; lrr__context_alloc_count gives the number of allocations counted since. */
 void lrr__context_fail_after(lrr_context *ctx, unsigned long n);
 unsigned long lrr__context_alloc_count(lrr_context *ctx);
+
+/* Tests only: I/O fault injection. lrr_operator_save calls lrr__io_step before each of its
+ * I/O steps (creating the temporary file, every block it writes, the flush, the fsync, the
+ * close, the rename and the directory sync), which calls hook(user, step, what) with the
+ * steps counted from 1 since the hook was set. A non-zero return is the errno that step fails
+ * with (the step is not attempted; the close still releases the file; the directory sync is
+ * best effort, so its failure is ignored). The hook may also not return (a test raises
+ * SIGKILL there). hook = NULL turns it off. */
+typedef int (*lrr__io_hook_fn)(void *user, unsigned long step, const char *what);
+void lrr__context_set_io_hook(lrr_context *ctx, lrr__io_hook_fn hook, void *user);
+/* The injected errno for the next step (0: go ahead); 0 without a hook or a context. */
+int lrr__io_step(lrr_context *ctx, const char *what);
 
 /* ------------------------------------------------------------ geometry and hierarchy */
 /* Input triangles and their subdivision; shared by scenes and operators.
@@ -182,6 +198,28 @@ float lrr__bf16_to_f32(uint16_t b);
  * (opts may be NULL); checks that the scene is subdivided and the thread count. */
 lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_options *opts,
                                       lrr_build_options *o);
+/* budget.c: the bytes an operator build holds at its peak (the layout is described there),
+ * for n_tri input triangles, n subpatches, k patches, F̄ in `storage` and the resolved build
+ * options o (hemicube resolution, threads, backend). Overflow-checked: LRR_ERR_OVERFLOW,
+ * naming n and k, when a byte count does not fit in size_t; LRR_ERR_INVALID_ARG for a bad
+ * hemicube resolution. Allocates nothing. */
+typedef struct lrr__operator_bytes_t {
+    size_t fbar;          /* F̄ (and its row scales) */
+    size_t m;             /* M_c, 3×k×k floats */
+    size_t per_subpatch;  /* 13 floats per subpatch and the geometry */
+    size_t working;       /* the build's largest working set (hemicubes or factorisation) */
+    size_t total;
+    int threads;          /* the thread count the working set was computed for */
+} lrr__operator_bytes_t;
+lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t k,
+                               lrr_storage storage, const lrr_build_options *o,
+                               lrr__operator_bytes_t *out);
+/* lrr__operator_bytes, then LRR_ERR_BUDGET naming the need (in MiB, with its parts) when it
+ * exceeds o->memory_budget (0: no limit). */
+lrr_status lrr__operator_budget_check(lrr_context *ctx, size_t n_tri, size_t n, size_t k,
+                                      lrr_storage storage, const lrr_build_options *o);
+/* Bytes of hemicube.c's per-triangle table entry (16 doubles; checked there). */
+#define LRR__HEMICUBE_TRI_BYTES ((size_t)16 * sizeof(double))
 /* Recomputes m and cond from fbar and rho (double precision LAPACKE). */
 lrr_status lrr__operator_factor(lrr_operator *op);
 
@@ -211,6 +249,8 @@ lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
                                      size_t count, float *out);
 
 /* ------------------------------------------------------------ adaptive hierarchy */
+#define LRR__ADAPTIVE_DEFAULT_SAMPLES 2048 /* lrr_build_options.adaptive_samples = 0 */
+#define LRR__ADAPTIVE_MAX_EMITTER_ROWS 256 /* emitters rendered for the radiosity weights */
 /* Rows of the full F (subpatch columns) for a uniform sample of receivers (adaptive.c). */
 typedef struct lrr__ffsample {
     size_t count, n;   /* sampled receivers, columns */

@@ -188,6 +188,13 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
     lrr_status st = lrr__build_options_resolve(scene, opts, &o);
     if (st)
         return st;
+    /* memory budget and size overflow, before anything large is allocated (budget.c); an
+     * adaptive build has at most adaptive_patches patches over the scene's n */
+    const lrr__geometry *sg = &scene->geom;
+    size_t k_max = o.adaptive_patches ? (o.adaptive_patches < sg->n ? o.adaptive_patches : sg->n)
+                                      : sg->k;
+    if ((st = lrr__operator_budget_check(ctx, sg->n_tri, sg->n, k_max, LRR_STORAGE_F32, &o)))
+        return st;
     double t0 = lrr__now(), selection = 0;
     lrr_operator *op;
     if (o.adaptive_patches) {

@@ -26,6 +26,13 @@
 
 #include <sys/stat.h>
 
+/* CGAL's interval filters need directed rounding, and CGAL tests for it in a static
+ * initialiser that throws (so terminates the process) when it fails: loading liblrr would
+ * then abort every program that links it, whether it checks scenes or not (it does under
+ * valgrind, which computes every SSE operation rounded to nearest). A library must not
+ * abort: the same test runs in lrr_scene_check instead (rounding_works below), which then
+ * returns LRR_ERR_UNSUPPORTED. */
+#define CGAL_DISABLE_ROUNDING_MATH_CHECK 1
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/box_intersection_d.h>
 #include <CGAL/intersections.h>
@@ -306,9 +313,24 @@ extern "C" void lrr_check_report_destroy(lrr_check_report *r)
     std::free(r);
 }
 
+/* CGAL's own test (Interval_nt's Test_runtime_rounding_modes): with the rounding mode set
+ * upwards, -(-a·b) and a·b differ unless rounding modes are ignored. */
+static bool rounding_works()
+{
+    using CGAL::IA_up; // CGAL_IA_MUL and CGAL_IA_DIV name it unqualified
+    CGAL::Interval_nt<>::Internal_protector protect;
+    return -CGAL_IA_MUL(-1.1, 10.1) != CGAL_IA_MUL(1.1, 10.1) &&
+           -CGAL_IA_DIV(-1., 10) != CGAL_IA_DIV(1., 10);
+}
+
 extern "C" lrr_status lrr_scene_check(lrr_context *ctx, const char *name, lrr_check_report **out)
 {
     *out = nullptr;
+    if (!rounding_works())
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "%s: scene check: floating-point rounding modes have no effect here "
+                          "(under valgrind?), and CGAL's exact predicates need them",
+                          name);
     lrr_check_report *r = static_cast<lrr_check_report *>(std::calloc(1, sizeof *r));
     if (!r)
         return lrr__error(ctx, LRR_ERR_NOMEM, "scene check: out of memory");

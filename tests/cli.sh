@@ -17,9 +17,52 @@ checks=0
 pass() { checks=$((checks + 1)); echo "PASS: $1"; }
 fail() { checks=$((checks + 1)); failures=$((failures + 1)); echo "FAIL: $1"; }
 
+# LRR_VALGRIND=1 (make check-valgrind, .ci/run): every lrr invocation runs under valgrind
+# memcheck. A memory error or a definite or indirect leak makes that invocation exit 99,
+# which fails its check, and the last check lists every invocation whose valgrind log is not
+# empty. tests/valgrind.supp suppresses third-party noise only. OpenCL is off under valgrind
+# (OCL_ICD_VENDORS names an empty directory, so the OpenCL checks take their documented
+# "no OpenCL platform" branch): PoCL compiles its kernels with LLVM at run time, which
+# valgrind runs for minutes and reports JIT noise in; the OpenCL backend is checked by the
+# unit tests, in both ordinary and sanitizer builds, instead.
+VG_LOGS=""
+if [ "${LRR_VALGRIND:-0}" != 0 ]; then
+    if ! command -v valgrind >/dev/null 2>&1; then
+        echo "FAIL: LRR_VALGRIND is set but valgrind is not installed"
+        exit 1
+    fi
+    VG_SUPP=${LRR_VALGRIND_SUPP:-$(dirname "$0")/valgrind.supp}
+    # an uninstalled lrr is a libtool wrapper script: libtool --mode=execute hands valgrind
+    # the real binary with the library path set
+    VG_LIBTOOL=${LRR_LIBTOOL:-$(dirname "$LRR")/libtool}
+    VG_EXEC=""
+    [ -x "$VG_LIBTOOL" ] && VG_EXEC="$VG_LIBTOOL"
+    VG_LOGS="$T/valgrind"
+    mkdir "$VG_LOGS" "$T/no-icd-valgrind"
+    OCL_ICD_VENDORS="$T/no-icd-valgrind"
+    export OCL_ICD_VENDORS
+    echo "valgrind: $(valgrind --version), suppressions $VG_SUPP, OpenCL off"
+fi
+
+# lrr_exec ARGS...: runs lrr (under valgrind with LRR_VALGRIND).
+lrr_exec() {
+    if [ -z "$VG_LOGS" ]; then
+        "$LRR" "$@"
+        return
+    fi
+    set -- valgrind --quiet --error-exitcode=99 --leak-check=full \
+        --errors-for-leak-kinds=definite,indirect --show-leak-kinds=definite,indirect \
+        --suppressions="$VG_SUPP" --log-file="$VG_LOGS/%p.log" "$LRR" "$@"
+    if [ -n "$VG_EXEC" ]; then
+        "$VG_EXEC" --mode=execute "$@"
+    else
+        "$@"
+    fi
+}
+
 # run ARGS...: runs lrr, stdout in $T/out, stderr in $T/err, exit status in $rc.
 run() {
-    "$LRR" "$@" >"$T/out" 2>"$T/err"
+    lrr_exec "$@" >"$T/out" 2>"$T/err"
     rc=$?
 }
 
@@ -64,11 +107,12 @@ help_mentions() {
     fi
 }
 help_mentions info --max-patch-area --patches --levels cornell
-help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage --no-rotation
+help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage --no-rotation \
+    --memory-budget "physical memory"
 help_mentions solve --csv --emission-scale --repeat --path --backend LRR_OPENCL_DEVICE --probe --sources \
     --probe-method --probe-scale --no-scene-emission direct_light_seconds
 help_mentions render -o --width --height --exposure --emission-scale --probe --sources --probe-method
-help_mentions demo --out
+help_mentions demo --out --memory-budget
 help_mentions reference --method jacobi gauss-seidel southwell direct --tol --max-iterations \
     --memory-budget --csv --hemicube --seed --threads --progress --patches --levels
 help_mentions compare rel_l2 max_rel mean_abs
@@ -170,6 +214,37 @@ leftover=""
 for f in "$T"/*tmp*; do [ -e "$f" ] && leftover="$leftover $f"; done
 if [ -n "$leftover" ]; then fail "preprocess left temporary files:$leftover"; else pass "preprocess left no temporary file"; fi
 
+# --memory-budget: a build that does not fit is refused before it starts, naming the MiB it
+# needs (n = 7968, k = 498: F̄ alone is 15 MiB); the small build above fits in 1 MiB.
+BIGSCENE="cornell --patches 500 --levels 2 --hemicube 32"
+# shellcheck disable=SC2086 # BIGSCENE is a list of arguments
+run preprocess $BIGSCENE --memory-budget 1 -o "$T/budget.lrr"
+need=$(sed -n 's/.* needs \([0-9.]*\) MiB.*/\1/p' "$T/err" | head -n 1)
+if [ "$rc" -eq 1 ] && grep -q 'memory budget exceeded' "$T/err" && grep -q 'n = 7968' "$T/err" &&
+    grep -q 'more than the memory budget of 1.0 MiB' "$T/err" &&
+    awk -v x="$need" 'BEGIN { exit !(x + 0 > 15 && x + 0 < 64) }' && [ ! -e "$T/budget.lrr" ]; then
+    pass "preprocess --memory-budget 1: exit 1 before the build, needs $need MiB"
+else
+    fail "preprocess --memory-budget 1: exit $rc, need '$need', stderr: $(cat "$T/err")"
+fi
+run preprocess cornell -o "$T/budget.lrr" --patches 30 --levels 1 --hemicube 32 --memory-budget 1
+if [ "$rc" -eq 0 ] && [ -s "$T/budget.lrr" ]; then
+    pass "preprocess --memory-budget 1 of a small scene: builds"
+else
+    fail "preprocess --memory-budget 1, small scene: exit $rc"; show_err
+fi
+run preprocess cornell -o "$T/budget0.lrr" --patches 30 --levels 1 --hemicube 32 --memory-budget 0
+expect_rc 0 "preprocess --memory-budget 0 (no limit)"
+run preprocess cornell -o "$T/budget.lrr" --memory-budget lots
+expect_rc 2 "preprocess --memory-budget lots is a usage error"
+run demo --out "$T/demo" --memory-budget 1
+if [ "$rc" -eq 1 ] && grep -q 'memory budget exceeded' "$T/err" && grep -q 'needs [0-9.]* MiB' "$T/err" &&
+    [ ! -e "$T/demo/cornell.lrr" ]; then
+    pass "demo --memory-budget 1: exit 1, $(grep -o 'needs [0-9.]* MiB' "$T/err" | head -n 1)"
+else
+    fail "demo --memory-budget 1: exit $rc, stderr: $(cat "$T/err")"
+fi
+
 # ---------------------------------------------------------------- solve
 CSV="$T/b.csv"
 run solve "$LRRFILE" --csv "$CSV" --repeat 3
@@ -253,8 +328,8 @@ else
     fail "solve --backend opencl: mean_b_r '$m' vs '$mean1' (exit $rc)"
     show_err
 fi
-LRR_OPENCL_DEVICE=no-such-device "$LRR" solve "$LRRFILE" --backend opencl --repeat 1 \
-    >"$T/out" 2>"$T/err"
+(LRR_OPENCL_DEVICE=no-such-device; export LRR_OPENCL_DEVICE
+    lrr_exec solve "$LRRFILE" --backend opencl --repeat 1 >"$T/out" 2>"$T/err")
 rc=$?
 if [ "$rc" -eq 1 ] && grep -Eq 'not built into|no OpenCL platform' "$T/err"; then
     pass "LRR_OPENCL_DEVICE=no-such-device: skipped, no OpenCL here"
@@ -266,8 +341,8 @@ fi
 # No OpenCL platform at all (the ICD loader pointed at an empty vendor directory): the
 # documented error, exit 1, never a crash.
 mkdir -p "$T/no-icd"
-OCL_ICD_VENDORS="$T/no-icd" "$LRR" solve "$LRRFILE" --backend opencl --repeat 1 \
-    >"$T/out" 2>"$T/err"
+(OCL_ICD_VENDORS="$T/no-icd"; export OCL_ICD_VENDORS
+    lrr_exec solve "$LRRFILE" --backend opencl --repeat 1 >"$T/out" 2>"$T/err")
 rc=$?
 if [ "$rc" -eq 1 ] && grep -q 'not built into' "$T/err"; then
     pass "no OpenCL platform: skipped, OpenCL not built in"
@@ -300,7 +375,7 @@ else
 fi
 run preprocess cornell -o "$CLFILE" --backend gpu
 expect_rc 2 "preprocess --backend gpu is a usage error"
-LRR_SIMD=c "$LRR" solve "$LRRFILE" --repeat 1 >"$T/out" 2>"$T/err"
+(LRR_SIMD=c; export LRR_SIMD; lrr_exec solve "$LRRFILE" --repeat 1 >"$T/out" 2>"$T/err")
 rc=$?
 if [ "$rc" -eq 0 ] && [ "$(value kernel)" = c ]; then pass "LRR_SIMD=c forces the portable kernel"; else fail "LRR_SIMD=c: exit $rc, kernel '$(value kernel)'"; fi
 
@@ -651,26 +726,38 @@ if [ -f "$PROBE" ]; then
 fi
 
 # ---------------------------------------------------------------- lrr check
-run check cornell
-if [ "$rc" -eq 0 ] && [ "$(value intersecting_pairs)" = 0 ] && [ "$(value degenerate)" = 0 ] &&
-    [ "$(value contacts)" = 4 ]; then
-    pass "check cornell: no errors (contacts $(value contacts), open edges $(value open_edges))"
-else
-    fail "check cornell (exit $rc)"; show_err
+# Under valgrind the scene check refuses to run: valgrind computes every floating-point
+# operation rounded to nearest, and CGAL's exact predicates need directed rounding
+# (lib/scene_check.cpp). The CGAL checks below run in the ordinary and sanitizer passes.
+check_skip=""
+if [ -n "$VG_LOGS" ]; then
+    run check cornell
+    if [ "$rc" -eq 1 ] && grep -q 'rounding modes have no effect' "$T/err"; then
+        pass "check under valgrind: refused, exit 1, $(head -n 1 "$T/err")"
+        check_skip=1
+    fi
 fi
-# the shipped office: furniture standing on the floor, a wall and the table (contacts only)
-OFFICE=${LRR_DATA_DIR:-data}/office.obj
-run check "$OFFICE"
-if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 122 ] && [ "$(value degenerate)" = 0 ] &&
-    [ "$(value intersecting_pairs)" = 0 ] && [ "$(value coplanar_overlaps)" = 0 ] &&
-    [ "$(value inconsistent_components)" = 0 ] && [ "$(value contacts)" = 32 ] &&
-    [ "$(value open_edges)" = 4 ]; then
-    pass "check office.obj: no errors (32 contacts, 4 open edges: the light quad)"
-else
-    fail "check $OFFICE (exit $rc): $(grep -E '^(triangles|degenerate|intersecting_pairs|coplanar_overlaps|contacts|open_edges|inconsistent_components):' "$T/out" | tr '\n' ' ')"
-    show_err
-fi
-cat > "$T/broken.obj" <<'EOF'
+if [ -z "$check_skip" ]; then
+    run check cornell
+    if [ "$rc" -eq 0 ] && [ "$(value intersecting_pairs)" = 0 ] && [ "$(value degenerate)" = 0 ] &&
+        [ "$(value contacts)" = 4 ]; then
+        pass "check cornell: no errors (contacts $(value contacts), open edges $(value open_edges))"
+    else
+        fail "check cornell (exit $rc)"; show_err
+    fi
+    # the shipped office: furniture standing on the floor, a wall and the table (contacts only)
+    OFFICE=${LRR_DATA_DIR:-data}/office.obj
+    run check "$OFFICE"
+    if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 122 ] && [ "$(value degenerate)" = 0 ] &&
+        [ "$(value intersecting_pairs)" = 0 ] && [ "$(value coplanar_overlaps)" = 0 ] &&
+        [ "$(value inconsistent_components)" = 0 ] && [ "$(value contacts)" = 32 ] &&
+        [ "$(value open_edges)" = 4 ]; then
+        pass "check office.obj: no errors (32 contacts, 4 open edges: the light quad)"
+    else
+        fail "check $OFFICE (exit $rc): $(grep -E '^(triangles|degenerate|intersecting_pairs|coplanar_overlaps|contacts|open_edges|inconsistent_components):' "$T/out" | tr '\n' ' ')"
+        show_err
+    fi
+    cat > "$T/broken.obj" <<'EOF'
 v 0 0 0
 v 2 0 0
 v 0 2 0
@@ -682,14 +769,14 @@ f 1 2 3
 f 4 5 6
 f 1 2 7
 EOF
-run check "$T/broken.obj"
-if [ "$rc" -eq 1 ] && grep -q 'face 0 and face 1 intersect' "$T/out" &&
-    grep -q 'face 2 is degenerate' "$T/out"; then
-    pass "check on a broken OBJ exits 1 naming the faces"
-else
-    fail "check broken.obj (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12
-fi
-cat > "$T/flipped.obj" <<'EOF'
+    run check "$T/broken.obj"
+    if [ "$rc" -eq 1 ] && grep -q 'face 0 and face 1 intersect' "$T/out" &&
+        grep -q 'face 2 is degenerate' "$T/out"; then
+        pass "check on a broken OBJ exits 1 naming the faces"
+    else
+        fail "check broken.obj (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12
+    fi
+    cat > "$T/flipped.obj" <<'EOF'
 v 0 0 0
 v 1 0 0
 v 1 1 0
@@ -714,23 +801,24 @@ f 2 3 7
 f 2 7 6
 f 9 10 9
 EOF
-run check "$T/flipped.obj" --fix "$T/fixed.obj"
-if [ "$rc" -eq 1 ] && [ "$(value inconsistent_components)" = 1 ] &&
-    grep -q 'face 5 is oriented against' "$T/out" && [ -s "$T/fixed.obj" ] &&
-    [ -s "$T/fixed.mtl" ]; then
-    pass "check --fix on a flipped face and a degenerate writes OBJ+MTL"
-else
-    fail "check --fix (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12; show_err
+    run check "$T/flipped.obj" --fix "$T/fixed.obj"
+    if [ "$rc" -eq 1 ] && [ "$(value inconsistent_components)" = 1 ] &&
+        grep -q 'face 5 is oriented against' "$T/out" && [ -s "$T/fixed.obj" ] &&
+        [ -s "$T/fixed.mtl" ]; then
+        pass "check --fix on a flipped face and a degenerate writes OBJ+MTL"
+    else
+        fail "check --fix (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12; show_err
+    fi
+    run check "$T/fixed.obj"
+    if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 12 ] && [ "$(value open_edges)" = 0 ] &&
+        grep -qx 'result: clean' "$T/out"; then
+        pass "check --fix output re-checks clean"
+    else
+        fail "re-check of the --fix output (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12
+    fi
+    run check cornell --strict
+    expect_rc 1 "check cornell --strict (warnings count)"
 fi
-run check "$T/fixed.obj"
-if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 12 ] && [ "$(value open_edges)" = 0 ] &&
-    grep -qx 'result: clean' "$T/out"; then
-    pass "check --fix output re-checks clean"
-else
-    fail "re-check of the --fix output (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 12
-fi
-run check cornell --strict
-expect_rc 1 "check cornell --strict (warnings count)"
 run check
 expect_rc 2 "check without a scene"
 run check cornell --max-report x
@@ -766,6 +854,28 @@ expect_rc 2 "--adaptive-split depth is rejected"
 run preprocess cornell -o "$ADFILE" --patches 200 --adaptive 5
 expect_rc 1 "--adaptive below the triangle count is an error"
 if grep -q "between" "$T/err"; then pass "the error names the allowed range"; else fail "no range in: $(cat "$T/err")"; fi
+# ---------------------------------------------------------------- valgrind
+if [ -n "$VG_LOGS" ]; then
+    dirty=""
+    logs=0
+    for f in "$VG_LOGS"/*.log; do
+        [ -e "$f" ] || continue
+        logs=$((logs + 1))
+        [ -s "$f" ] && dirty="$dirty $f"
+    done
+    if [ "$logs" -eq 0 ]; then
+        fail "valgrind: no logs in $VG_LOGS"
+    elif [ -z "$dirty" ]; then
+        pass "valgrind: $logs lrr invocations, no memory errors, no definite or indirect leaks"
+    else
+        fail "valgrind: reports in$dirty"
+        shown=0
+        for f in $dirty; do
+            shown=$((shown + 1))
+            [ "$shown" -le 5 ] && sed 's/^/    /' "$f" | head -n 60
+        done
+    fi
+fi
 
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then

@@ -359,6 +359,24 @@ static void test_errors(void **state)
     assert_int_equal(lrr_operator_build(s, &bo, &op), LRR_ERR_INVALID_ARG);
     lrr_context_last_error(ctx, msg, sizeof msg);
     assert_non_null(strstr(msg, "adaptive_split = 7"));
+    /* the budget counts the selection's sampled rows (every row here: n² floats, far more
+     * than F̄, M and the hemicube buffers of this small build) */
+    {
+        lrr_scene *big = cornell(ctx, 600);
+        lrr_scene_info bi;
+        lrr_scene_get_info(big, &bi);
+        lrr_build_options b2 = {.hemicube_resolution = HEMI, .adaptive_patches = bi.triangles,
+                                .adaptive_samples = bi.subpatches,
+                                .memory_budget = bi.subpatches * bi.subpatches * sizeof(float)};
+        assert_int_equal(lrr_operator_build(big, &b2, &op), LRR_ERR_BUDGET);
+        lrr_context_last_error(ctx, msg, sizeof msg);
+        assert_non_null(strstr(msg, "memory budget"));
+        b2.memory_budget *= 3;
+        LRR_CHECK(ctx, lrr_operator_build(big, &b2, &op));
+        lrr_operator_destroy(op);
+        op = NULL;
+        lrr_scene_destroy(big);
+    }
     lrr_subdivision sd = {0, 40, 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     bo.adaptive_split = LRR_SPLIT_VARIANCE;

@@ -125,6 +125,12 @@ static const char info_help[] =
     "  --threads T          OpenMP threads, 0 = OpenMP's default (default 0)\n"                \
     "  --progress           draw a progress bar on stderr even when it is not a terminal\n"
 
+#define OPERATOR_BUDGET_HELP                                                                  \
+    "  --memory-budget MB   the most memory the build may hold, in MiB: F̄, M, the\n"          \
+    "                       per-subpatch data and the hemicube buffers of every thread\n"     \
+    "                       (default: the machine's physical memory; 0 = no limit). A larger\n" \
+    "                       build is refused before it starts, naming the MiB it needs\n"
+
 static const char preprocess_help[] =
     "Usage: lrr preprocess SCENE -o FILE.lrr [OPTIONS]\n"
     "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
@@ -153,6 +159,7 @@ static const char preprocess_help[] =
     "                       rendered at a quarter of the hemicube resolution)\n"
     "  --adaptive-split X   variance (default) or area: area splits the largest patch first,\n"
     "                       i.e. uniform subdivision at the same K (the baseline)\n" BUILD_HELP
+    OPERATOR_BUDGET_HELP
     "  -h, --help           show this help\n" SUBDIV_HELP;
 
 static const char solve_help[] =
@@ -267,6 +274,7 @@ static const char demo_help[] =
     "\n"
     "Options:\n"
     "  --out DIR            where to write cornell.lrr and cornell.png (default ./out)\n"
+    OPERATOR_BUDGET_HELP
     "  -h, --help           show this help\n";
 
 static const char probe_help[] =
@@ -501,6 +509,35 @@ static void print_scene_info(const char *name, const lrr_scene *scene)
            si.bounds_min[2]);
     printf("bounds_max: %.9g %.9g %.9g\n", si.bounds_max[0], si.bounds_max[1],
            si.bounds_max[2]);
+}
+
+/* The default of --memory-budget for operator builds: the machine's physical memory (a build
+ * beyond it would only swap or be killed), 0 (no limit) where sysconf cannot tell. */
+static size_t physical_memory_bytes(void)
+{
+    long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    size_t bytes;
+    if (pages <= 0 || page <= 0 ||
+        __builtin_mul_overflow((size_t)pages, (size_t)page, &bytes))
+        return 0;
+    return bytes;
+}
+
+/* --memory-budget MB of preprocess and demo: 0 = no limit. */
+static int parse_operator_budget(const char *prog, const char *arg, size_t *bytes)
+{
+    size_t mb;
+    if (cli_parse_size(prog, "--memory-budget", arg, 0, SIZE_MAX >> 20, &mb) != 0)
+        return -1;
+    *bytes = mb << 20;
+    return 0;
+}
+
+/* After lrr_operator_build refused with LRR_ERR_BUDGET: how to get past it. */
+static void budget_hint(const char *prog, size_t budget)
+{
+    fprintf(stderr, "%s: --memory-budget is %zu MiB (default: physical memory): raise it, "
+                    "or use fewer patches, levels or threads\n", prog, budget >> 20);
 }
 
 static void print_operator_info(const lrr_operator *op)
@@ -740,6 +777,7 @@ static int cmd_preprocess(int argc, char *argv[])
         {"adaptive", required_argument, NULL, OPT_ADAPTIVE},
         {"adaptive-samples", required_argument, NULL, OPT_ADAPTIVE_SAMPLES},
         {"adaptive-split", required_argument, NULL, OPT_ADAPTIVE_SPLIT},
+        {"memory-budget", required_argument, NULL, OPT_MEMORY_BUDGET},
         SUBDIV_LONGOPTS,
         BUILD_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
@@ -747,6 +785,7 @@ static int cmd_preprocess(int argc, char *argv[])
     int on_device = 0;
     size_t adaptive = 0, adaptive_samples = 0;
     int adaptive_split = LRR_SPLIT_VARIANCE, adaptive_only = 0;
+    size_t budget = physical_memory_bytes();
     subdiv_args sa;
     subdiv_init(&sa);
     build_args ba;
@@ -792,6 +831,11 @@ static int cmd_preprocess(int argc, char *argv[])
                 cli_usage_error(prog, "--adaptive-split: '%s' is not variance or area", optarg);
                 return CLI_EXIT_USAGE;
             }
+            continue;
+        }
+        if (c == OPT_MEMORY_BUDGET) {
+            if (parse_operator_budget(prog, optarg, &budget) != 0)
+                return CLI_EXIT_USAGE;
             continue;
         }
         int r = subdiv_option(&sa, prog, c, optarg);
@@ -858,11 +902,17 @@ static int cmd_preprocess(int argc, char *argv[])
         bo.adaptive_patches = adaptive;
         bo.adaptive_samples = adaptive_samples;
         bo.adaptive_split = adaptive_split;
+        bo.memory_budget = budget;
         s = lrr_operator_build(scene, &bo, &op);
         cli_progress_finish(&bar);
-        if (s == LRR_OK)
+        if (s == LRR_ERR_BUDGET) {
+            rc = cli_lib_error(ctx, s);
+            budget_hint(prog, budget);
+            s = LRR_OK;
+        }
+        if (s == LRR_OK && op)
             s = lrr_operator_set_storage(op, storage);
-        if (s == LRR_OK) {
+        if (s == LRR_OK && op) {
             warn_condition(op);
             s = lrr_operator_save(op, output);
         }
@@ -1587,9 +1637,12 @@ static int cmd_demo(int argc, char *argv[])
 {
     static const char prog[] = "lrr demo";
     static const struct option longopts[] = {{"out", required_argument, NULL, OPT_OUT},
+                                             {"memory-budget", required_argument, NULL,
+                                              OPT_MEMORY_BUDGET},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
     const char *dir = "./out";
+    size_t budget = physical_memory_bytes();
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
@@ -1599,6 +1652,10 @@ static int cmd_demo(int argc, char *argv[])
             return CLI_EXIT_OK;
         case OPT_OUT:
             dir = optarg;
+            break;
+        case OPT_MEMORY_BUDGET:
+            if (parse_operator_budget(prog, optarg, &budget) != 0)
+                return CLI_EXIT_USAGE;
             break;
         default:
             return bad_option(prog, c, argv);
@@ -1627,7 +1684,8 @@ static int cmd_demo(int argc, char *argv[])
     lrr_build_options bo = {.hemicube_resolution = DEFAULT_HEMICUBE,
                             .seed = DEFAULT_SEED,
                             .progress = cli_progress_cb,
-                            .progress_user = &bar};
+                            .progress_user = &bar,
+                            .memory_budget = budget};
     lrr_operator_info built;
     double ms = 0.0;
     lrr_render_options ro = {.width = 512, .height = 512, .exposure = 0.0,
@@ -1660,6 +1718,8 @@ static int cmd_demo(int argc, char *argv[])
         s = lrr_operator_save(op, op_path);
     if (s != LRR_OK) {
         rc = cli_lib_error(ctx, s);
+        if (s == LRR_ERR_BUDGET)
+            budget_hint(prog, budget);
         goto done;
     }
     print_operator_info(op);
