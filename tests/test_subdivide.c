@@ -103,6 +103,9 @@ static void test_children_tile_parent(void **state)
     for (int j = 0; j < 3; j++)
         ASSERT_NEAR(centroid[j], (parent[j] + parent[3 + j] + parent[6 + j]) / 3, 1e-12,
                     "axis %d\n", j);
+    /* the offsets lrr__geometry_index allocated (the rest lives on the stack) */
+    lrr_aligned_free(g.sub0);
+    lrr_aligned_free(g.first);
 }
 
 /* Barycentric → index round trip: every subpatch's centroid and random interior points map
