@@ -484,7 +484,9 @@ typedef struct lrr_probe lrr_probe;
  * through stb_image. Unreadable, truncated or channel-less files and other formats give
  * LRR_ERR_FORMAT naming the file; W != 2H gives LRR_ERR_DIM naming the size and the expected
  * layout; a non-finite pixel (or a negative one in a .hdr) gives LRR_ERR_FORMAT naming its
- * column x, row y and channel.
+ * column x, row y and channel. Sizes a header claims are checked against the file before
+ * anything is allocated for them: a truncated .hdr is an error (not black rows), and an
+ * OpenEXR file whose chunk would unpack to more than 256 MiB is refused (LRR_ERR_FORMAT).
  * Thread safety: any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_probe_load(lrr_context *ctx, const char *path,
                                                 lrr_probe **out) LRR_NONNULL(1, 2, 3);
@@ -557,7 +559,9 @@ LRR_API LRR_NODISCARD lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe
 
 /* The projection of the probe onto the real spherical harmonics of order 2 (9 basis
  * functions): coeffs is 9×3 (coefficient i of channel c at 3i + c), basis order
- * Y00, Y1-1(y), Y10(z), Y11(x), Y2-2(xy), Y2-1(yz), Y20(3z²-1), Y21(xz), Y22(x²-y²). */
+ * Y00, Y1-1(y), Y10(z), Y11(x), Y2-2(xy), Y2-1(yz), Y20(3z²-1), Y21(xz), Y22(x²-y²).
+ * LRR_ERR_INVALID_ARG (coeffs untouched) when a coefficient exceeds float's range (finite
+ * radiances near FLT_MAX). */
 LRR_API LRR_NODISCARD lrr_status lrr_probe_sh9(const lrr_probe *probe, float coeffs[27])
     LRR_NONNULL(1, 2);
 /* Irradiance of SH9 radiance coefficients (Ramamoorthi–Hanrahan: the bands scaled by π,

@@ -98,6 +98,8 @@
 #define DTYPE_F32 0u /* equal to LRR_STORAGE_F32; 1 and 2 are LRR_STORAGE_F16 / _BF16 */
 #define INFO_SIZE 48u
 #define GEOM_PREFIX 16u
+/* Largest F̄ entry a reader accepts: 1 plus the rounding of bfloat16 (8 significant bits). */
+#define FBAR_MAX (1.0f + 1.0f / 128)
 
 static const char MAGIC[8] = {'L', 'R', 'R', 'O', 'P', 'E', 'R', '\0'};
 
@@ -727,7 +729,35 @@ static lrr_status check_values(struct reader *r, const lrr_operator *op)
                               "file %s: section ROWSCALE: row %zu has scale %g (must be a "
                               "positive power of two)",
                               r->path, i, (double)op->row_scale[i]);
+        /* bfloat16 has float's range and is stored unscaled (storage.c). The kernels fold
+         * the scale in after the dot product, so huge stored values under a tiny scale
+         * would overflow there although the decoded F̄ is small. */
+        if (op->storage == LRR_STORAGE_BF16 && op->row_scale[i] != 1.0f)
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section ROWSCALE: row %zu has scale %g (bfloat16 rows "
+                              "are stored unscaled: 1)",
+                              r->path, i, (double)op->row_scale[i]);
     }
+    /* F̄ holds form factors divided by d: each in [0, 1] (FBAR_MAX allows for the rounding
+     * of 16-bit storage). Anything else is corruption, and could make a solve overflow. */
+    float *row = NULL;
+    lrr_status st = lrr__calloc(r->ctx, &row, op->k, sizeof(float), "F̄ row");
+    if (st)
+        return st;
+    for (size_t i = 0; i < op->n && st == LRR_OK; i++) {
+        lrr_operator_fbar_row(op, i, row);
+        for (size_t j = 0; j < op->k; j++)
+            if (!(row[j] >= 0.0f && row[j] <= FBAR_MAX)) {
+                st = lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                                "file %s: section FBAR: entry (%zu, %zu) is %g (form factors "
+                                "divided by d lie in [0, 1])",
+                                r->path, i, j, (double)row[j]);
+                break;
+            }
+    }
+    lrr_aligned_free(row);
+    if (st)
+        return st;
     size_t kk = op->k * op->k;
     for (size_t i = 0; i < 3 * kk; i++)
         if (!isfinite(op->m[i]))

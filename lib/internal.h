@@ -357,9 +357,15 @@ struct lrr_probe {
 
 /* Reads the R, G, B channels (half or float) of a scanline or tiled OpenEXR file
  * (lib/probe_exr.cpp, C++: DWA compression included) into a malloc'd w×h×3 float buffer,
- * unvalidated. Errors (unreadable, truncated, no R/G/B channel) are recorded naming the
- * file; no exception escapes. */
+ * pixels unvalidated; a layout other than w = 2h is refused (LRR_ERR_DIM) before decoding.
+ * Errors (unreadable, truncated, no R/G/B channel) are recorded naming the file; no
+ * exception escapes. */
 lrr_status lrr__exr_read_rgb(lrr_context *ctx, const char *path, float **rgb, size_t *width,
+                             size_t *height);
+/* Reads a Radiance RGBE file (lib/probe_hdr.c) into a w×h×3 float buffer from stb_image
+ * (free with stbi_image_free), after checking that the pixel data is all there; a layout
+ * other than w = 2h is refused (LRR_ERR_DIM) before decoding. Errors name the file. */
+lrr_status lrr__hdr_read_rgb(lrr_context *ctx, const char *path, float **rgb, size_t *width,
                              size_t *height);
 
 /* ------------------------------------------------------------ misc */

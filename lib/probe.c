@@ -157,26 +157,16 @@ lrr_status lrr_probe_load(lrr_context *ctx, const char *path, lrr_probe **out)
     *out = NULL;
     if (is_exr_path(path))
         return load_exr(ctx, path, out);
-    if (!stbi_is_hdr(path)) {
-        FILE *f = fopen(path, "rb");
-        if (!f)
-            return lrr__error(ctx, LRR_ERR_IO, "'%s': cannot open", path);
-        fclose(f);
-        return lrr__error(ctx, LRR_ERR_FORMAT,
-                          "'%s': not a Radiance RGBE (.hdr) file (probes are read from .hdr "
-                          "and, by the .exr extension, OpenEXR files)",
-                          path);
-    }
-    int w = 0, h = 0, comp = 0;
-    float *pix = stbi_loadf(path, &w, &h, &comp, 3);
-    if (!pix)
-        return lrr__error(ctx, LRR_ERR_FORMAT, "'%s': cannot decode the .hdr file: %s", path,
-                          stbi_failure_reason());
+    float *pix;
+    size_t w, h;
+    lrr_status st = lrr__hdr_read_rgb(ctx, path, &pix, &w, &h);
+    if (st != LRR_OK)
+        return st;
     char source[512];
     snprintf(source, sizeof source, "'%s'", path);
-    lrr_status st = check_probe(ctx, (size_t)w, (size_t)h, pix, source, LRR_ERR_FORMAT);
+    st = check_probe(ctx, w, h, pix, source, LRR_ERR_FORMAT);
     if (st == LRR_OK)
-        st = probe_new(ctx, (size_t)w, (size_t)h, pix, out);
+        st = probe_new(ctx, w, h, pix, out);
     stbi_image_free(pix);
     return st;
 }

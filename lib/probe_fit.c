@@ -3,6 +3,7 @@
 #include "config.h"
 #include "internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -176,6 +177,14 @@ lrr_status lrr_probe_sh9(const lrr_probe *probe, float coeffs[27])
             for (int c = 0; c < 3; c++)
                 acc[3 * k + c] += Y[k] * q[c];
     }
+    /* Finite radiances near FLT_MAX can sum beyond float's range: report it rather than
+     * return infinite coefficients (which lrr_sh9_irradiance would then refuse). */
+    for (int k = 0; k < 27; k++)
+        if (!(fabs(acc[k]) <= FLT_MAX))
+            return lrr__error(probe->ctx, LRR_ERR_INVALID_ARG,
+                              "probe SH9: coefficient %d of channel %d is %g, beyond float's "
+                              "range (radiances too large)",
+                              k / 3, k % 3, acc[k]);
     for (int k = 0; k < 27; k++)
         coeffs[k] = (float)acc[k];
     return LRR_OK;

@@ -28,6 +28,7 @@
 #if defined(__x86_64__) || defined(__i386__)
 #define LRR_X86 1
 #include <immintrin.h>
+#include <cpuid.h>
 #endif
 
 #define LANES 8
@@ -477,12 +478,21 @@ static const lrr__kernel kernels[] = {
 #endif
 };
 
+#ifdef LRR_X86
+/* F16C is CPUID leaf 1, ECX bit 29, read directly: clang before 16 rejects "f16c" in
+ * __builtin_cpu_supports (the --enable-fuzzing build uses clang). */
+static int has_f16c(void)
+{
+    unsigned a, b, c, d;
+    return __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) != 0;
+}
+#endif
+
 static int supported(const char *name)
 {
 #ifdef LRR_X86
     if (strcmp(name, "avx2") == 0)
-        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") &&
-               __builtin_cpu_supports("f16c");
+        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && has_f16c();
     if (strcmp(name, "avx512") == 0)
         return __builtin_cpu_supports("avx512f");
 #endif

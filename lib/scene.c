@@ -3,6 +3,7 @@
 #include "config.h"
 #include "internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -64,6 +65,14 @@ lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *v
                                   "%s: face %zu: emission[%d] = %g (must be finite and >= 0)", src,
                                   face, c, (double)e);
         }
+        /* Finite coordinates near FLT_MAX can still span more area than a float holds:
+         * subpatch areas (float) would become infinite, and every form factor with them. */
+        double area = tri_area(vert + 9 * t);
+        if (!(area <= FLT_MAX))
+            return lrr__error(ctx, LRR_ERR_GEOMETRY,
+                              "%s: face %zu: area %g is beyond float's range (rescale the "
+                              "scene)",
+                              src, face, area);
         if (!degenerate(vert + 9 * t))
             kept++;
     }

@@ -138,6 +138,14 @@ typedef struct cli_comparison {
 int cli_compare_radiosity(const cli_csv_table *a, const char *a_path, const cli_csv_table *b,
                           const char *b_path, cli_comparison *out);
 
+/* ------------------------------------------------------------------ the lrr tool */
+/* The whole `lrr` command line (tools/lrr.c; its main is this with parse_only = 0). With
+ * parse_only != 0 every command stops right after parsing and checking its options and
+ * returns CLI_EXIT_OK (or the usual CLI_EXIT_USAGE), before it opens a file, creates a
+ * directory or does any work: the fuzz target of the option parsers (tests/fuzz/fuzz_cli.c)
+ * builds tools/lrr.c with -DLRR_CLI_NO_MAIN and calls this. Not reentrant (getopt). */
+int lrr_cli_main(int argc, char *argv[], int parse_only);
+
 /* ------------------------------------------------------------------ misc */
 /* n×3 float array with an overflow-checked size; NULL on failure (message printed). */
 float *cli_alloc_rgb(size_t n);

@@ -39,6 +39,10 @@
  * larger condition number leaves less than ~0.1% of accuracy in the solution. */
 #define COND_WARN_ERROR 1e-3
 
+/* Set by lrr_cli_main: each command returns CLI_EXIT_OK right after its command line has
+ * been parsed and checked, before it touches a file or does any work (see cli.h). */
+static int parse_only;
+
 /* Long-only options get codes above the char range. */
 enum {
     OPT_MAX_PATCH_AREA = 256,
@@ -753,6 +757,8 @@ static int cmd_info(int argc, char *argv[])
     if (rc)
         return rc;
 
+    if (parse_only)
+        return CLI_EXIT_OK;
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
@@ -879,6 +885,8 @@ static int cmd_preprocess(int argc, char *argv[])
         return CLI_EXIT_USAGE;
     }
 
+    if (parse_only)
+        return CLI_EXIT_OK;
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
@@ -1118,6 +1126,8 @@ static int cmd_solve(int argc, char *argv[])
     if (probe_finish(&pa, prog) != 0)
         return CLI_EXIT_USAGE;
 
+    if (parse_only)
+        return CLI_EXIT_OK;
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
@@ -1246,6 +1256,8 @@ static int cmd_render(int argc, char *argv[])
     if (probe_finish(&pa, prog) != 0)
         return CLI_EXIT_USAGE;
 
+    if (parse_only)
+        return CLI_EXIT_OK;
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
@@ -1369,6 +1381,8 @@ static int cmd_reference(int argc, char *argv[])
     if (rc)
         return rc;
 
+    if (parse_only)
+        return CLI_EXIT_OK;
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
@@ -1500,6 +1514,8 @@ static int cmd_compare(int argc, char *argv[])
     const char *path_a = argv[optind], *path_b = argv[optind + 1];
     cli_csv_table a = {0, NULL}, b = {0, NULL};
     cli_comparison cmp;
+    if (parse_only)
+        return CLI_EXIT_OK;
     int rc = cli_read_radiosity_csv(path_a, &a);
     if (rc == CLI_EXIT_OK)
         rc = cli_read_radiosity_csv(path_b, &b);
@@ -1669,6 +1685,8 @@ static int cmd_demo(int argc, char *argv[])
         cli_usage_error(prog, "--out: the directory name is empty");
         return CLI_EXIT_USAGE;
     }
+    if (parse_only)
+        return CLI_EXIT_OK;
     int rc = make_dirs(dir);
     if (rc)
         return rc;
@@ -1890,6 +1908,8 @@ static int cmd_probe(int argc, char *argv[])
         cli_usage_error(prog, "--lights: the file name is empty");
         return CLI_EXIT_USAGE;
     }
+    if (parse_only)
+        return CLI_EXIT_OK;
 
     lrr_context *ctx = NULL;
     lrr_probe *probe = NULL;
@@ -2177,6 +2197,8 @@ static int cmd_check(int argc, char *argv[])
     const char *name = one_positional(prog, "SCENE", argc, argv);
     if (!name)
         return CLI_EXIT_USAGE;
+    if (parse_only)
+        return CLI_EXIT_OK;
     struct stat st;
     if (stat(name, &st) != 0 && !is_builtin(name))
         return cli_fail(LRR_ERR_IO, "scene '%s': %s (built-in scenes: cornell, cornell-closed)",
@@ -2216,8 +2238,9 @@ static int cmd_check(int argc, char *argv[])
     return rc;
 }
 
-int main(int argc, char *argv[])
+int lrr_cli_main(int argc, char *argv[], int parse_only_)
 {
+    parse_only = parse_only_;
     static const struct {
         const char *name;
         int (*run)(int, char *[]);
@@ -2251,3 +2274,10 @@ int main(int argc, char *argv[])
     fprintf(stderr, "Try 'lrr --help'.\n");
     return CLI_EXIT_USAGE;
 }
+
+#ifndef LRR_CLI_NO_MAIN
+int main(int argc, char *argv[])
+{
+    return lrr_cli_main(argc, argv, 0);
+}
+#endif
