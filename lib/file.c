@@ -654,7 +654,7 @@ static lrr_status parse_geometry(struct reader *r, const unsigned char *buf, uin
                               "coordinate",
                               r->path, i / 9);
     /* NULL context: an out-of-range level or depth here is corruption, reported below. */
-    if (lrr__geometry_index(NULL, g) != LRR_OK || g->n != n ||
+    if (lrr__geometry_index(NULL, g, (size_t)n) != LRR_OK || g->n != n ||
         (d ? g->k != k || g->d != d : levels != 0))
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: section GEOMETRY (levels %u, %zu triangles) does not give "

@@ -53,7 +53,7 @@ lrr_status lrr__geometry_copy(lrr_context *ctx, lrr__geometry *dst, const lrr__g
 /* Largest depth: 4^31 patches of one triangle would overflow 64-bit indices long before. */
 #define LRR__MAX_DEPTH 24
 
-lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g)
+lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g, size_t max_subpatches)
 {
     if (g->levels > 10)
         return lrr__error(ctx, LRR_ERR_INVALID_ARG, "levels = %u: at most 10 (d = 4^10)",
@@ -74,6 +74,9 @@ lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g)
     g->k = k;
     if (!lrr__mul_size(k, g->d, &g->n))
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "n = k·d = %zu·%zu overflows size_t", k, g->d);
+    if (g->n > max_subpatches)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "%zu subpatches: more than the %zu expected",
+                          g->n, max_subpatches);
     /* the offsets: freshly allocated (the caller owns any previous arrays) */
     g->sub0 = g->first = NULL;
     g->node = NULL;

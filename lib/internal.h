@@ -96,8 +96,10 @@ void lrr__geometry_free(lrr__geometry *g);
 /* Deep copy (dst is overwritten). */
 lrr_status lrr__geometry_copy(lrr_context *ctx, lrr__geometry *dst, const lrr__geometry *src);
 /* Computes patch0/sub0/first/k/n/d from depth and levels (uniform hierarchy); checks for
- * overflow. */
-lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g);
+ * overflow, and refuses (before allocating the offsets) more than max_subpatches
+ * subpatches: a file's depths must not make the loader allocate beyond what its header
+ * and size allow. */
+lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g, size_t max_subpatches);
 /* dst = the adaptive hierarchy over src's subpatches (src uniform with levels = 0) whose
  * patches are the k quadtree nodes of depth node[0..k-1], in index order. Checks that they
  * tile every triangle (each node aligned, inside its triangle, no gaps); errors (status

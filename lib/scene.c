@@ -360,7 +360,7 @@ lrr_status lrr_scene_subdivide(lrr_scene *s, const lrr_subdivision *opts)
     g.depth = depth;
     g.patch0 = patch0;
     g.levels = opts->levels;
-    if ((st = lrr__geometry_index(s->ctx, &g))) {
+    if ((st = lrr__geometry_index(s->ctx, &g, SIZE_MAX))) {
         lrr_aligned_free(depth);
         lrr_aligned_free(patch0);
         return st;

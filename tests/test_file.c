@@ -171,7 +171,7 @@ static lrr_operator *handmade_operator(lrr_context *ctx)
     tu_box_inward(g.vert, 1.0, 2.0, 0.7);
     for (int t = 0; t < 12; t++)
         g.depth[t] = (uint8_t)(t % 3);
-    LRR_CHECK(ctx, lrr__geometry_index(ctx, &g));
+    LRR_CHECK(ctx, lrr__geometry_index(ctx, &g, SIZE_MAX));
     assert_int_equal(g.k, 84);
     assert_int_equal(g.n, 336);
     lrr_operator *op;

@@ -24,7 +24,7 @@ static lrr_operator *make_op(lrr_context *ctx, size_t n_tri, const float *vert, 
     LRR_CHECK(ctx, lrr__calloc(ctx, &g.depth, n_tri, 1, "test depths"));
     LRR_CHECK(ctx, lrr__calloc(ctx, &g.patch0, n_tri + 1, sizeof(size_t), "test index"));
     memcpy(g.vert, vert, n_tri * 9 * sizeof(float));
-    LRR_CHECK(ctx, lrr__geometry_index(ctx, &g));
+    LRR_CHECK(ctx, lrr__geometry_index(ctx, &g, SIZE_MAX));
     lrr_operator *op = NULL;
     LRR_CHECK(ctx, lrr__operator_new(ctx, &g, LRR_STORAGE_F32, &op));
     op->builtin = builtin;

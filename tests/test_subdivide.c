@@ -82,7 +82,7 @@ static void test_children_tile_parent(void **state)
     g.depth = &depth;
     g.patch0 = patch0;
     g.levels = 2;
-    assert_int_equal(lrr__geometry_index(NULL, &g), LRR_OK);
+    assert_int_equal(lrr__geometry_index(NULL, &g, SIZE_MAX), LRR_OK);
     assert_int_equal(g.k, 16);
     assert_int_equal(g.n, 256);
     double parent[9];
