@@ -202,6 +202,18 @@ static void write_hdr(const char *path, int w, int h, const unsigned char rgbe[4
     fclose(f);
 }
 
+/* Writes a Radiance header for w×h pixels followed by the given pixel bytes. */
+static void write_raw_hdr(char *path, size_t path_size, const char *name, int w, int h,
+                          const unsigned char *data, size_t size)
+{
+    tu_tmp_path(path, path_size, name);
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fprintf(f, "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y %d +X %d\n", h, w);
+    fwrite(data, 1, size, f);
+    fclose(f);
+}
+
 static void test_errors(void **state)
 {
     (void)state;
@@ -246,6 +258,17 @@ static void test_errors(void **state)
     tu_tmp_path(path, sizeof path, "probe-square.hdr");
     write_hdr(path, 4, 4, one);
     expect_error(ctx, lrr_probe_load(ctx, path, &p), LRR_ERR_DIM, "4×4");
+    unlink(path);
+    /* run-length encoded scanlines stb_image would refuse only after allocating the whole
+     * image (1.5 GB for the first): refused before decoding, by our own reading */
+    static const unsigned char wrong_length[] = {2, 2, 0x40, 0x46, 0x80 + 3, 1, 2, 3};
+    write_raw_hdr(path, sizeof path, "probe-rle-length.hdr", 16384, 8192, wrong_length,
+                  sizeof wrong_length);
+    expect_error(ctx, lrr_probe_load(ctx, path, &p), LRR_ERR_FORMAT, "not the image width");
+    unlink(path);
+    static const unsigned char long_run[] = {2, 2, 0, 16, 0x80 + 17, 7};
+    write_raw_hdr(path, sizeof path, "probe-rle-run.hdr", 16, 8, long_run, sizeof long_run);
+    expect_error(ctx, lrr_probe_load(ctx, path, &p), LRR_ERR_FORMAT, "longer than the rest");
     unlink(path);
     tu_tmp_path(path, sizeof path, "probe-ok.hdr");
     write_hdr(path, 8, 4, one);
