@@ -781,8 +781,10 @@ int cmd_adaptive(int argc, char *argv[])
             return rc;
         }
     }
-    /* rows: per scene, 2 per budget plus up to MAX_LEVELS */
-    size_t cap = a.n_scenes * (2 * (a.n_budgets ? a.n_budgets : 3) + MAX_LEVELS);
+    /* rows: per scene, 2 per budget (scene_budgets gives at most MAX_BUDGETS) plus up to
+     * MAX_LEVELS; sized for the most, since a count of 3 default budgets once overflowed
+     * when a scene had 4 (AddressSanitizer, lrr-bench adaptive --scene cornell) */
+    size_t cap = a.n_scenes * (2 * MAX_BUDGETS + MAX_LEVELS);
     adaptive_row *rows = calloc(cap, sizeof *rows);
     if (!rows) {
         lrr_context_destroy(ctx);
