@@ -81,7 +81,8 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
          (!half || add3(&factor, T, k, sizeof(float)));
     /* adaptive selection phase (adaptive.c), before the hemicubes: the sampled rows of F
      * (S×n floats) and the emitters' rows, the radiosity weights and the scene's
-     * per-subpatch copies, and per sampled row 3 doubles for every node in the heap */
+     * per-subpatch copies, and per sampled row 3 doubles for every node in the heap and
+     * every merge candidate of the exchanges (and 3 more per node), 3 more such rows */
     size_t select = 0;
     if (ok && o->adaptive_patches) {
         size_t S = o->adaptive_samples ? o->adaptive_samples : LRR__ADAPTIVE_DEFAULT_SAMPLES;
@@ -89,7 +90,8 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
         size_t em = n < LRR__ADAPTIVE_MAX_EMITTER_ROWS ? n : LRR__ADAPTIVE_MAX_EMITTER_ROWS;
         ok = add3(&select, S, n, sizeof(float)) && add3(&select, em, n, sizeof(float)) &&
              add3(&select, n, 3, 2 * sizeof(double)) && add3(&select, n, 7, sizeof(float)) &&
-             add3(&select, k + 4, 3 * S, sizeof(double)) && add3(&select, 2 * k, 1, 96) &&
+             add3(&select, k + k / 4 + 8, 3 * S + 3, sizeof(double)) &&
+             add3(&select, 3, 3 * S, sizeof(double)) && add3(&select, 2 * k + k / 4 + 2, 1, 96) &&
              add3(&select, T, 3 * rr / 16, sizeof(float) + sizeof(int32_t));
     }
     out->working = hemi > factor ? hemi : factor;

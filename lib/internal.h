@@ -270,15 +270,23 @@ void lrr__ffsample_free(lrr__ffsample *s);
 /* Estimate of V = Σ_i w_i Σ_{j∈[j0,j1)} (F_ij − mean)² over all n receivers, (n/S)·the sum
  * over the sample; *std_error (may be NULL) gets its standard error (0 when S = n). */
 double lrr__ffsample_variance(const lrr__ffsample *s, size_t j0, size_t j1, double *std_error);
+/* What lrr__adaptive_select did (tests). */
+typedef struct lrr__adaptive_trace {
+    double *objective; /* (K − n_tri)/3 + 1 entries, or NULL: the total score after 0, 1,
+                          2, … greedy splits (the caller's array) */
+    double greedy;     /* the objective when the greedy split stopped */
+    double exchanged;  /* after the exchanges (with radiosity weights; else = greedy) */
+    double recomputed; /* the final objective summed anew over the final patches */
+    size_t exchanges;
+} lrr__adaptive_trace;
 /* The adaptive hierarchy over g's patches (g uniform, levels 0) with at most
  * opts->adaptive_patches patches, chosen by opts->adaptive_split. With emission (n×3, may be
  * NULL) and area (n), the variance is weighted by an estimate of the scene's radiosity;
- * weights (n×3, may be NULL; tests) gives that radiosity instead. objective (may be NULL;
- * (K − n_tri)/3 + 1 entries) gets the total score after 0, 1, 2, … splits. */
+ * weights (n×3, may be NULL; tests) gives that radiosity instead. trace may be NULL. */
 lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const float *rho,
                                 const float *emission, const float *area,
                                 const double *weights, const lrr_build_options *opts,
-                                lrr__geometry *out, double *objective);
+                                lrr__geometry *out, lrr__adaptive_trace *trace);
 
 /* Hemicube integration on an OpenCL device (hemicube_opencl.c): rows of F̄ from a batch of
  * resolved hemicubes (patch ids per pixel in the item-buffer layout, 3R² per hemicube, -1 for

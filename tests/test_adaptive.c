@@ -135,7 +135,8 @@ static void test_objective_monotone(void **state)
     lrr_build_options bo = {.hemicube_resolution = HEMI, .seed = 9, .adaptive_patches = K,
                             .adaptive_samples = 64};
     lrr__geometry ag;
-    LRR_CHECK(ctx, lrr__adaptive_select(ctx, g, rho, NULL, NULL, NULL, &bo, &ag, obj));
+    lrr__adaptive_trace trace = {.objective = obj};
+    LRR_CHECK(ctx, lrr__adaptive_select(ctx, g, rho, NULL, NULL, NULL, &bo, &ag, &trace));
     assert_true(ag.k <= K && ag.k + 3 > K);
     assert_true(obj[0] > 0);
     for (size_t q = 1; q < steps; q++)
@@ -144,6 +145,11 @@ static void test_objective_monotone(void **state)
                      obj[q]);
     printf("objective %.4g -> %.4g over %zu splits\n", obj[0], obj[steps - 1], steps - 1);
     assert_true(obj[steps - 1] < obj[0]);
+    /* no exchanges without radiosity weights; the running total is the sum of the final
+     * patches' variances */
+    assert_int_equal(trace.exchanges, 0);
+    assert_true(trace.greedy == obj[steps - 1] && trace.exchanged == trace.greedy);
+    ASSERT_NEAR(trace.recomputed, trace.exchanged, 1e-9 * obj[0], "recomputed objective");
     /* patches tile the subpatches in order */
     assert_int_equal(ag.first[0], 0);
     assert_int_equal(ag.first[ag.k], g->n);
@@ -152,6 +158,46 @@ static void test_objective_monotone(void **state)
     lrr__geometry_free(&ag);
     free(obj);
     free(rho);
+    lrr_scene_destroy(s);
+    lrr_context_destroy(ctx);
+}
+
+/* With radiosity weights the greedy result is refined by exchanges (merge four sibling
+ * patches, split another): each lowers the objective, so the final one is below the
+ * greedy's, the incremental total equals the objective summed anew over the final patches,
+ * the budget is kept and the patches tile the subpatches. */
+static void test_exchange(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_scene *s = cornell(ctx, 2000);
+    const lrr__geometry *g = &s->geom;
+    float *rho = malloc(g->n * 3 * sizeof(float)), *em = malloc(g->n * 3 * sizeof(float)),
+          *area = malloc(g->n * sizeof(float));
+    LRR_CHECK(ctx, lrr_scene_subpatches(s, NULL, NULL, area, rho, em));
+    const size_t K = 600;
+    lrr_build_options bo = {.hemicube_resolution = HEMI, .seed = 5, .adaptive_patches = K,
+                            .adaptive_samples = 256};
+    lrr__geometry ag;
+    lrr__adaptive_trace trace = {0};
+    LRR_CHECK(ctx, lrr__adaptive_select(ctx, g, rho, em, area, NULL, &bo, &ag, &trace));
+    printf("n = %zu, K = %zu: %zu exchanges, objective %.6g -> %.6g (summed anew %.6g)\n",
+           g->n, K, trace.exchanges, trace.greedy, trace.exchanged, trace.recomputed);
+    assert_true(trace.greedy > 0);
+    assert_true(trace.exchanged <= trace.greedy);
+    if (trace.exchanges > 0)
+        assert_true(trace.exchanged < trace.greedy);
+    ASSERT_NEAR(trace.recomputed, trace.exchanged, 1e-9 * trace.greedy, "recomputed objective");
+    assert_true(ag.k <= K && ag.k + 3 > K);
+    assert_int_equal(ag.first[0], 0);
+    assert_int_equal(ag.first[ag.k], g->n);
+    for (size_t p = 0; p < ag.k; p++)
+        assert_true(ag.first[p + 1] > ag.first[p]);
+    lrr__geometry_free(&ag);
+    free(rho);
+    free(em);
+    free(area);
     lrr_scene_destroy(s);
     lrr_context_destroy(ctx);
 }
@@ -396,6 +442,7 @@ int main(void)
         cmocka_unit_test(test_k_equals_n_is_exact),
         cmocka_unit_test(test_area_split_is_uniform),
         cmocka_unit_test(test_objective_monotone),
+        cmocka_unit_test(test_exchange),
         cmocka_unit_test(test_sampled_variance),
         cmocka_unit_test(test_file_round_trip),
         cmocka_unit_test(test_opencl_agrees),
