@@ -824,7 +824,7 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
             if (trace)
                 trace->greedy = total;
             /* each exchange lowers the objective; measured on the Cornell box (n = 16000,
-             * K = 4000): 459 exchanges in 37 rounds, the objective 3.2× lower, 1.1 s of a
+             * K = 4000): 459 exchanges, the objective 3.2× lower, 1.1 s of a
              * 35 s build */
             size_t made = exchange(&X, &total, K);
             if (trace)
