@@ -90,7 +90,7 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
         size_t em = n < LRR__ADAPTIVE_MAX_EMITTER_ROWS ? n : LRR__ADAPTIVE_MAX_EMITTER_ROWS;
         ok = add3(&select, S, n, sizeof(float)) && add3(&select, em, n, sizeof(float)) &&
              add3(&select, n, 3, 2 * sizeof(double)) && add3(&select, n, 7, sizeof(float)) &&
-             add3(&select, k + k / 4 + 8, 3 * S + 3, sizeof(double)) &&
+             add3(&select, k + k / 4 + 8, 3 * S + 6, sizeof(double)) &&
              add3(&select, 3, 3 * S, sizeof(double)) && add3(&select, 2 * k + k / 4 + 2, 1, 96) &&
              add3(&select, T, 3 * rr / 16, sizeof(float) + sizeof(int32_t));
     }
