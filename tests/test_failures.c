@@ -51,8 +51,10 @@ static double sum(const float *x, size_t len)
     return s;
 }
 
-/* The whole sequence on a fresh context with the N-th allocation failing (0: none). */
-static run_result run_sequence(unsigned long fail_at)
+/* The whole sequence on a fresh context with the N-th allocation failing (0: none); with
+ * adaptive, the operator is an adaptive hierarchy (the selection's sampled rows, radiosity
+ * weights, greedy heap and exchanges, and a version-2 file). */
+static run_result run_sequence(unsigned long fail_at, int adaptive)
 {
     run_result res = {0, LRR_OK, NULL, 0, 0, 0};
     lrr_context *ctx;
@@ -66,6 +68,11 @@ static run_result run_sequence(unsigned long fail_at)
     float *E = NULL, *B = NULL;
     lrr_subdivision sub = {.target_patches = 24, .levels = 1};
     lrr_build_options bo = {.hemicube_resolution = 16, .seed = 7, .threads = 1};
+    if (adaptive) {
+        sub = (lrr_subdivision){.target_patches = 200, .levels = 0};
+        bo.adaptive_patches = 90;
+        bo.adaptive_samples = 48;
+    }
     lrr_status st;
 
 #define STEP(name, call)                                                                      \
@@ -86,6 +93,8 @@ static run_result run_sequence(unsigned long fail_at)
     STEP("lrr_operator_load", lrr_operator_load(ctx, path, &loaded));
     lrr_operator_info info;
     lrr_operator_get_info(loaded, &info);
+    if (adaptive) /* variable patch sizes: d = 0, d_min < d_max */
+        assert_true(info.d == 0 && info.d_min < info.d_max && info.k <= 90 && info.k > 87);
     B = malloc(info.n * 3 * sizeof *B);
     assert_non_null(B);
     STEP("lrr_solver_create", lrr_solver_create(loaded, LRR_BACKEND_CPU, &solver));
@@ -149,10 +158,9 @@ done:
     return res;
 }
 
-static void test_sweep(void **state)
+static void sweep(int adaptive)
 {
-    (void)state;
-    run_result full = run_sequence(0);
+    run_result full = run_sequence(0, adaptive);
     if (full.failed != LRR_OK)
         fail_msg("the sequence fails without injection: %s -> %s", full.step,
                  lrr_strerror(full.failed));
@@ -161,7 +169,7 @@ static void test_sweep(void **state)
     print_message("allocation-failure sweep over A = %lu allocations\n", A);
     unsigned long by_step[16] = {0}, absorbed = 0;
     for (unsigned long N = 1; N <= A; N++) {
-        run_result r = run_sequence(N);
+        run_result r = run_sequence(N, adaptive);
         /* the sequence is deterministic (one thread): the N-th allocation happens and fails.
          * A failure may be absorbed where the allocation is an optional cache (lrr_solve's
          * cached columns of F̄ M: it falls back to the full pass); then the whole sequence
@@ -186,9 +194,21 @@ static void test_sweep(void **state)
         if (by_step[i])
             print_message("  failures in step %d: %lu\n", i + 1, by_step[i]);
     /* one past the end: nothing fails */
-    run_result past = run_sequence(A + 1);
+    run_result past = run_sequence(A + 1, adaptive);
     assert_int_equal(past.failed, LRR_OK);
     assert_int_equal(past.allocs, A);
+}
+
+static void test_sweep(void **state)
+{
+    (void)state;
+    sweep(0);
+}
+
+static void test_sweep_adaptive(void **state)
+{
+    (void)state;
+    sweep(1);
 }
 
 static int setup(void **state)
@@ -212,6 +232,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sweep),
+        cmocka_unit_test(test_sweep_adaptive),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }
