@@ -135,70 +135,8 @@ static uint64_t gltf_json_extent(const char *path)
     return 20 + chunk;
 }
 
-/* ------------------------------------------------------------------ PLY header */
-/* assimp 5.2's PLY reader reads past its buffer (a crash, not an error) on a file whose
- * header never reaches "end_header", or whose binary body is shorter than the elements
- * the header declares. A well-formed PLY file passes this check unchanged. */
-
-static uint64_t ply_type_size(const char *t)
-{
-    static const struct {
-        const char *name;
-        unsigned size;
-    } types[] = {{"char", 1},   {"uchar", 1},  {"int8", 1},    {"uint8", 1},   {"short", 2},
-                 {"ushort", 2}, {"int16", 2},  {"uint16", 2},  {"int", 4},     {"uint", 4},
-                 {"int32", 4},  {"uint32", 4}, {"float", 4},   {"float32", 4}, {"double", 8},
-                 {"float64", 8}};
-    for (size_t i = 0; i < sizeof types / sizeof types[0]; i++)
-        if (strcmp(t, types[i].name) == 0)
-            return types[i].size;
-    return 0; /* unknown: assimp decides */
-}
-
-/* f: the file, at its start. */
-static lrr_status check_ply(lrr_context *ctx, const char *path, FILE *f, uint64_t file_size)
-{
-    char line[512];
-    bool binary = false, ended = false;
-    uint64_t need = 0, count = 0, row = 0; /* row: bytes of one element */
-    bool overflow = false;
-    while (!ended && fgets(line, sizeof line, f)) {
-        char word[64] = "", a[64] = "", b[64] = "";
-        unsigned long long n = 0;
-        if (sscanf(line, "%63s", word) != 1)
-            continue;
-        if (strcmp(word, "format") == 0 && sscanf(line, "%*s %63s", a) == 1) {
-            binary = strncmp(a, "binary", 6) == 0;
-        } else if (strcmp(word, "element") == 0) {
-            overflow |= __builtin_mul_overflow(count, row, &row) ||
-                        __builtin_add_overflow(need, row, &need);
-            count = sscanf(line, "%*s %*s %llu", &n) == 1 ? (uint64_t)n : 0;
-            row = 0;
-        } else if (strcmp(word, "property") == 0) {
-            /* a list costs at least its count; a scalar its size */
-            if (sscanf(line, "%*s %63s %63s", a, b) == 2)
-                overflow |= __builtin_add_overflow(
-                    row, ply_type_size(strcmp(a, "list") == 0 ? b : a), &row);
-        } else if (strcmp(word, "end_header") == 0) {
-            ended = true;
-        }
-    }
-    long pos = ftell(f);
-    overflow |= __builtin_mul_overflow(count, row, &row) ||
-                __builtin_add_overflow(need, row, &need);
-    if (!ended)
-        return lrr__error(ctx, LRR_ERR_FORMAT, "file %s: PLY header without an end_header line",
-                          path);
-    uint64_t body = pos >= 0 && (uint64_t)pos <= file_size ? file_size - (uint64_t)pos : 0;
-    if (binary && (overflow || need > body))
-        return lrr__error(ctx, LRR_ERR_FORMAT,
-                          "file %s: truncated: the PLY header declares elements of at least "
-                          "%" PRIu64 " bytes, the binary body has %" PRIu64,
-                          path, overflow ? UINT64_MAX : need, body);
-    return LRR_OK;
-}
-
-/* check_ply, when assimp will read path as PLY: by the extension, or by the "ply" signature
+/* ------------------------------------------------------------------ PLY check */
+/* lrr__ply_check (scene_ply.c), when assimp will read path as PLY: by the extension, or by the "ply" signature
  * when the extension is not one of the other formats. */
 static lrr_status check_if_ply(lrr_context *ctx, const char *path)
 {
@@ -217,7 +155,7 @@ static lrr_status check_if_ply(lrr_context *ctx, const char *path)
          (got == 4 && memcmp(magic, "ply", 3) == 0 && (magic[3] == '\n' || magic[3] == '\r'))) &&
         fstat(fileno(f), &st) == 0 && st.st_size >= 0) {
         rewind(f);
-        status = check_ply(ctx, path, f, (uint64_t)st.st_size);
+        status = lrr__ply_check(ctx, path, f, (uint64_t)st.st_size);
     }
     fclose(f);
     return status;

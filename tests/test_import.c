@@ -426,6 +426,88 @@ static void test_empty_and_garbage(void **state)
     expect_data_error(ctx, "missing_bin.gltf", LRR_ERR_FORMAT, LRR_OK, "no_such_buffer.bin");
 }
 
+/* Writes a PLY file: header text, then size bytes of body. */
+static void write_ply(const char *path, const char *header, const void *body, size_t size)
+{
+    FILE *f = fopen(path, "wb");
+    assert_non_null(f);
+    fputs(header, f);
+    fwrite(body, 1, size, f);
+    fclose(f);
+}
+
+#define PLY_TRIANGLE_HEADER(format, count_type)                                              \
+    "ply\nformat " format " 1.0\ncomment one triangle\nelement vertex 3\n"                    \
+    "property float x\nproperty float y\nproperty float z\nelement face 1\n"                  \
+    "property list " count_type " int vertex_indices\nend_header\n"
+
+/* PLY files are checked before assimp reads them (lib/scene_ply.c): a standard header, and
+ * a body holding what it declares. A list count larger than the file made assimp 5.2
+ * allocate that many items first (14.6 GB for an 830-byte file found by the fuzzer). */
+static void test_ply_checked(void **state)
+{
+    lrr_context *ctx = *state;
+    char path[1024];
+    tmp_path(path, sizeof path, "ply_check", "ply");
+    /* binary, both byte orders: one triangle */
+    const float v_le[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    unsigned char body[64];
+    memcpy(body, v_le, sizeof v_le);
+    const uint32_t n3 = 3, idx[3] = {0, 1, 2};
+    memcpy(body + 36, &n3, 4);
+    memcpy(body + 40, idx, 12);
+    write_ply(path, PLY_TRIANGLE_HEADER("binary_little_endian", "uint"), body, 52);
+    loaded l;
+    load_path(ctx, path, &l);
+    assert_int_equal(l.n, 1);
+    ASSERT_NEAR(l.area[0], 0.5, 1e-6, "little-endian triangle area");
+    lrr_scene_destroy(l.scene);
+    unsigned char be[52];
+    for (size_t i = 0; i < 52; i += 4)
+        for (int b = 0; b < 4; b++)
+            be[i + b] = body[i + 3 - b];
+    write_ply(path, PLY_TRIANGLE_HEADER("binary_big_endian", "uint"), be, 52);
+    load_path(ctx, path, &l);
+    assert_int_equal(l.n, 1);
+    ASSERT_NEAR(l.area[0], 0.5, 1e-6, "big-endian triangle area");
+    lrr_scene_destroy(l.scene);
+    /* a list count of 4 billion in a 52-byte body; and one item short */
+    const uint32_t huge = 0xfffffff0u;
+    memcpy(body + 36, &huge, 4);
+    write_ply(path, PLY_TRIANGLE_HEADER("binary_little_endian", "uint"), body, 52);
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "face 0 of 1: a list longer than the rest");
+    memcpy(body + 36, &n3, 4);
+    write_ply(path, PLY_TRIANGLE_HEADER("binary_little_endian", "uint"), body, 48);
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "a list longer than the rest");
+    write_ply(path, PLY_TRIANGLE_HEADER("binary_little_endian", "uint"), body, 30);
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "vertex 0 of 3: the elements need more");
+    /* ASCII: the same triangle, then a huge list count and a huge element count */
+    const char *tri = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    write_ply(path, PLY_TRIANGLE_HEADER("ascii", "uchar"), tri, strlen(tri));
+    load_path(ctx, path, &l);
+    assert_int_equal(l.n, 1);
+    lrr_scene_destroy(l.scene);
+    const char *huge_list = "0 0 0\n1 0 0\n0 1 0\n4000000000 0 1 2\n";
+    write_ply(path, PLY_TRIANGLE_HEADER("ascii", "uint"), huge_list, strlen(huge_list));
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "face 0 of 1: a list count");
+    write_ply(path,
+              "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\n"
+              "property float y\nproperty float z\nend_header\n",
+              tri, strlen(tri));
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "vertex 4 of 4000000000: the file ends");
+    /* header lines outside the specification, named by number */
+    write_ply(path, "ply\nformat binary_little_endianx 1.0\nend_header\n", "", 0);
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "line 2");
+    write_ply(path, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float\nend_header\n",
+              "0\n", 2);
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "line 4: expected 'property TYPE NAME'");
+    write_ply(path, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "", 0);
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "without an end_header");
+    write_ply(path, "ply\nformat ascii 1.0\nelement vertex 5\nend_header\n", "", 0);
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "no properties");
+    unlink(path);
+}
+
 static void test_missing_file(void **state)
 {
     lrr_context *ctx = *state;
@@ -529,6 +611,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_obj_mtl, setup, teardown),
         cmocka_unit_test_setup_teardown(test_ply_default_material, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_ply_checked, setup, teardown),
         cmocka_unit_test_setup_teardown(test_gltf_embedded, setup, teardown),
         cmocka_unit_test_setup_teardown(test_gltf_without_material, setup, teardown),
         cmocka_unit_test_setup_teardown(test_gltf_emissive_strength, setup, teardown),
