@@ -5,13 +5,21 @@
 # leak, timeout or out-of-memory (the input is saved as OUT/TARGET/crash-* etc.; reproduce it
 # with tests/fuzz/replay_TARGET FILE, then add it to tests/fuzz/TARGET/regressions).
 #
+# FUZZ_SEED (default 1) fixes libFuzzer's seed, so a CI run mostly repeats the mutations a
+# longer `make fuzz-smoke FUZZ_SECONDS=N` made here (not exactly: libFuzzer orders the seed
+# files by size only, and equal sizes come in the file system's order): the smoke is a
+# regression gate, not the place where new bugs are expected. FUZZ_SEED=0 draws a new seed
+# each run (exploration, long runs).
+#
 #   smoke.sh SRC_FUZZ_DIR BIN_DIR OUT_DIR TARGET...
 set -u
 src=$1 bin=$2 out=$3
 shift 3
 seconds=${FUZZ_SECONDS:-60}
 jobs=${FUZZ_JOBS:-2}
+seed=${FUZZ_SEED:-1}
 case $seconds in '' | *[!0-9]*) echo "fuzz-smoke: FUZZ_SECONDS='$seconds' is not a number" >&2; exit 2 ;; esac
+case $seed in '' | *[!0-9]*) echo "fuzz-smoke: FUZZ_SEED='$seed' is not a number" >&2; exit 2 ;; esac
 case $jobs in '' | *[!0-9]* | 0) echo "fuzz-smoke: FUZZ_JOBS='$jobs' is not a positive number" >&2; exit 2 ;; esac
 
 # ASan: report leaks (but those of third-party libraries in tests/lsan.supp); libFuzzer: -timeout per input, -rss_limit_mb for the process,
@@ -38,7 +46,7 @@ run_one() {
             [ -f "$f" ] && cp "$f" "$dir/corpus/"
         done
     fi
-    "$bin/fuzz_$t" -max_total_time="$seconds" -print_final_stats=1 -timeout=25 \
+    "$bin/fuzz_$t" -max_total_time="$seconds" -seed="$seed" -print_final_stats=1 -timeout=25 \
         -rss_limit_mb=2048 -malloc_limit_mb=1024 -close_fd_mask=1 \
         -dict="$src/$t/$t.dict" -artifact_prefix="$dir/" "$dir/corpus" > "$dir/log" 2>&1
     echo $? > "$dir/rc"
@@ -72,8 +80,9 @@ for t in $targets; do
         status=FAILED
         failed=$((failed + 1))
     fi
-    printf 'fuzz %-9s %s: %s executions, %s exec/s, cov %s, ft %s, corpus %s (%ss)\n' \
-        "$t" "$status" "${execs:-?}" "${speed:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" "$seconds"
+    printf 'fuzz %-9s %s: %s executions, %s exec/s, cov %s, ft %s, corpus %s (%ss, seed %s)\n' \
+        "$t" "$status" "${execs:-?}" "${speed:-?}" "${cov:-?}" "${ft:-?}" "${corp:-?}" "$seconds" \
+        "$seed"
     if [ "$status" = FAILED ]; then
         [ -n "$found" ] && echo "  found: $found(in $dir)"
         grep -E 'ERROR|SUMMARY|fuzz target:|runtime error|==[0-9]+==' "$dir/log" | head -n 20 | sed 's/^/  /'
