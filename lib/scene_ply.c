@@ -68,7 +68,8 @@ static unsigned type_size(const char *t, int *integer)
 static int split(char *line, char **w, int max)
 {
     int n = 0;
-    for (char *p = strtok(line, " \t\r\n"); p; p = strtok(NULL, " \t\r\n")) {
+    char *save = NULL; /* strtok_r: imports may run in several threads at once */
+    for (char *p = strtok_r(line, " \t\r\n", &save); p; p = strtok_r(NULL, " \t\r\n", &save)) {
         if (n == max)
             return max + 1;
         w[n++] = p;
