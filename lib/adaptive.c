@@ -288,6 +288,17 @@ static double mean_change(double bS, const double M[3], const double D[3])
     return ch;
 }
 
+/* How much adding the delta d (sums D) to the row errors T lowers the objective
+ * Σ rho² T² + bS Σ_c M_c²: the gain of a split. */
+static double split_gain(const lrr__ffsample *s, const double *T, const double *d, double bS,
+                         const double M[3], const double D[3])
+{
+    double gain = -mean_change(bS, M, D);
+    for (size_t r = 0; r < 3 * s->count; r++)
+        gain -= s->rho[r] * s->rho[r] * (2 * T[r] * d[r] + d[r] * d[r]);
+    return gain;
+}
+
 static int by_first(const void *a, const void *b)
 {
     const node *x = a, *y = b;
@@ -401,7 +412,8 @@ out:
 /* The greedy split cannot undo a split that later splits made less useful. Once it has
  * spent the budget, exchange() trades patches: merge the four leaf children of a node x
  * back into x and split a leaf y elsewhere, whenever the pair lowers the objective
- * Σ_r Σ_c rho_rc² T_rc² (+ the mean term), so k stays the same and the objective strictly falls (no cycles).
+ * Σ_r Σ_c rho_rc² T_rc² (+ the mean term), so k stays the same and the objective strictly
+ * falls (no cycles).
  * Merging x subtracts exactly the delta its split added, so one pool slot per node serves
  * both. Each round ranks every candidate by its own first-order change, with one matrix-
  * vector product over the pool (lin = pool · (rho² ∘ T)), and evaluates the few best pairs
@@ -516,7 +528,6 @@ static void apply_exchange(xchg *X, const node *x, const node *y)
     const size_t quarter = node_size(g, y) / 4;
     for (size_t c = 0; c < 4; c++) {
         node ch = {.j0 = y->j0 + c * quarter, .t = y->t, .depth = (uint8_t)(y->depth + 1)};
-        ch.area = ldexp(tri_area(g->vert + 9 * (size_t)ch.t), -2 * (int)ch.depth);
         if (splittable(g, &ch))
             slot_fill(X, &ch);
         X->leaf[X->nleaf++] = ch;
@@ -731,8 +742,8 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
      * bS Σ_c M_c², M_c = Σ_r rho_rc T_rc (below). Each node keeps delta = Σ_children e −
      * e_node per sampled row in a pool slot, and Dsum_c = Σ_r rho_rc delta_rc. */
     const int err_mode = s.b != NULL;
-    const size_t S3 = 3 * s.count, slots = K + K / 4 + 8; /* nodes in the heap, then the
-                                                               exchange's leaves and parents */
+    /* slots: the nodes in the heap, then the exchange's leaves and merge candidates */
+    const size_t S3 = 3 * s.count, slots = K + K / 4 + 8;
     double *pool = NULL, *T = NULL, *Dsum = NULL, M[3] = {0, 0, 0}, bS = 0;
     size_t *free_slots = NULL, nfree = 0;
     if ((st = lrr__calloc(ctx, &heap, K, sizeof(node), "adaptive selection heap")) ||
@@ -753,9 +764,9 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
          * sampled ρ T a² times: Σ ρ² T² + (a² − 1)/S Σ_c (Σ_r ρ_rc T_rc)². Measured with
          * `lrr-bench adaptive` (n ≈ 4000; error / uniform error at K = 126, 252, 504, 1008
          * on cornell and 244, 489, 977 on the office): without it 0.689 0.676 0.449 0.340
-         * and 0.785 0.516 0.353; with it (a² − 1 = 2.09 on cornell, 3.54 on the office) 0.697 0.641 0.445 0.328 and
-         * 0.750 0.481 0.344; a fixed a² − 1 = 6 gave 0.693 0.622 0.430 0.330 and 0.750
-         * 0.476 0.345. */
+         * and 0.785 0.516 0.353; with it (a² − 1 = 2.09 on cornell, 3.54 on the office)
+         * 0.697 0.641 0.445 0.328 and 0.750 0.481 0.344; a fixed a² − 1 = 6 gave 0.693
+         * 0.622 0.430 0.330 and 0.750 0.476 0.345. */
         double q = 0;
         for (size_t r = 0; r < s.count; r++) {
             double rowsum = 0;
@@ -804,9 +815,7 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
             double *dx = pool + x->slot * S3;
             node_delta(g, &s, x, dx);
             delta_sum(&s, dx, Dsum + 3 * x->slot);
-            x->score = -mean_change(bS, M, Dsum + 3 * x->slot);
-            for (size_t r = 0; r < S3; r++)
-                x->score -= s.rho[r] * s.rho[r] * (2 * T[r] * dx[r] + dx[r] * dx[r]);
+            x->score = split_gain(&s, T, dx, bS, M, Dsum + 3 * x->slot);
         }
         /* re-heapify after the in-place score changes */
         size_t n0 = hl;
@@ -826,9 +835,7 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
         if (err_mode) {
             /* lazy re-evaluation: T changed since x's gain was computed */
             const double *dx = pool + x.slot * S3;
-            double gain = -mean_change(bS, M, Dsum + 3 * x.slot);
-            for (size_t r = 0; r < S3; r++)
-                gain -= s.rho[r] * s.rho[r] * (2 * T[r] * dx[r] + dx[r] * dx[r]);
+            double gain = split_gain(&s, T, dx, bS, M, Dsum + 3 * x.slot);
             if (hl > 0 && gain < heap[0].score && gain != x.score && reevaluations < 64 * K) {
                 x.score = gain;
                 heap_push(heap, &hl, x);
@@ -858,9 +865,7 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
                     double *dy = pool + y.slot * S3;
                     node_delta(g, &s, &y, dy);
                     delta_sum(&s, dy, Dsum + 3 * y.slot);
-                    y.score = -mean_change(bS, M, Dsum + 3 * y.slot);
-                    for (size_t r = 0; r < S3; r++)
-                        y.score -= s.rho[r] * s.rho[r] * (2 * T[r] * dy[r] + dy[r] * dy[r]);
+                    y.score = split_gain(&s, T, dy, bS, M, Dsum + 3 * y.slot);
                 }
             }
             if (y.depth < g->depth[y.t])
@@ -874,6 +879,8 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
     }
     while (hl > 0)
         done[dl++] = heap_pop(heap, &hl);
+    if (trace)
+        trace->greedy = total;
     if (err_mode) {
         xchg X = {.g = g, .s = &s, .S3 = S3, .nslots = slots, .pool = pool, .T = T,
                   .free_slots = free_slots, .nfree = nfree, .leaf = done, .nleaf = dl,
@@ -887,8 +894,6 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
             X.quad = X.rho2 + S3;
             for (size_t r = 0; r < S3; r++)
                 X.rho2[r] = s.rho[r] * s.rho[r];
-            if (trace)
-                trace->greedy = total;
             /* each exchange lowers the objective; measured on the Cornell box (n = 16000,
              * K = 4000): 459 exchanges, the objective 3.2× lower, 1.1 s of a
              * 35 s build */
@@ -906,8 +911,6 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
     for (size_t p = 0; p < dl; p++)
         depths[p] = done[p].depth;
     if (trace) {
-        if (!err_mode)
-            trace->greedy = total;
         trace->exchanged = total;
         trace->recomputed = recompute(g, &s, split, done, dl, T, bS);
     }

@@ -149,12 +149,12 @@ struct lrr_scene {
     double max_patch_area;
 };
 
-/* Validates and takes a copy of the arrays: NaN/Inf coordinates and bad materials are errors
- * naming `source` and the face index face_ids[t] (or t when face_ids is NULL); zero-area
- * triangles are skipped and counted. */
 /* Checks a PLY file (f at its start, file_size bytes) before assimp reads it: a strict
  * header, and a body that holds what the header declares (scene_ply.c). */
 lrr_status lrr__ply_check(lrr_context *ctx, const char *path, FILE *f, uint64_t file_size);
+/* Validates and takes a copy of the arrays: NaN/Inf coordinates and bad materials are errors
+ * naming `source` and the face index face_ids[t] (or t when face_ids is NULL); zero-area
+ * triangles are skipped and counted. */
 lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *vert,
                                   const float *rho, const float *emission,
                                   const size_t *face_ids, const char *source, int builtin,

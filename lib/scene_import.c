@@ -33,7 +33,6 @@
 #include <assimp/version.h>
 
 #include <errno.h>
-#include <inttypes.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -136,8 +135,8 @@ static uint64_t gltf_json_extent(const char *path)
 }
 
 /* ------------------------------------------------------------------ PLY check */
-/* lrr__ply_check (scene_ply.c), when assimp will read path as PLY: by the extension, or by the "ply" signature
- * when the extension is not one of the other formats. */
+/* lrr__ply_check (scene_ply.c), when assimp will read path as PLY: by the extension, or by
+ * the "ply" signature when the extension is not one of the other formats. */
 static lrr_status check_if_ply(lrr_context *ctx, const char *path)
 {
     bool other = has_extension(path, "obj") || has_extension(path, "gltf") ||

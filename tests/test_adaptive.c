@@ -119,6 +119,15 @@ static void test_area_split_is_uniform(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* The patches of ag tile the n subpatches in order, none empty. */
+static void assert_tiling(const lrr__geometry *ag, size_t n)
+{
+    assert_int_equal(ag->first[0], 0);
+    assert_int_equal(ag->first[ag->k], n);
+    for (size_t p = 0; p < ag->k; p++)
+        assert_true(ag->first[p + 1] > ag->first[p]);
+}
+
 /* The unweighted objective Σ_p V_p never grows with a split (a finer grouping's
  * within-group sum of squares is never larger), and the hierarchy reaches the budget. */
 static void test_objective_monotone(void **state)
@@ -150,11 +159,7 @@ static void test_objective_monotone(void **state)
     assert_int_equal(trace.exchanges, 0);
     assert_true(trace.greedy == obj[steps - 1] && trace.exchanged == trace.greedy);
     ASSERT_NEAR(trace.recomputed, trace.exchanged, 1e-9 * obj[0], "recomputed objective");
-    /* patches tile the subpatches in order */
-    assert_int_equal(ag.first[0], 0);
-    assert_int_equal(ag.first[ag.k], g->n);
-    for (size_t p = 0; p < ag.k; p++)
-        assert_true(ag.first[p + 1] > ag.first[p]);
+    assert_tiling(&ag, g->n);
     lrr__geometry_free(&ag);
     free(obj);
     free(rho);
@@ -190,10 +195,7 @@ static void test_exchange(void **state)
         assert_true(trace.exchanged < trace.greedy);
     ASSERT_NEAR(trace.recomputed, trace.exchanged, 1e-9 * trace.greedy, "recomputed objective");
     assert_true(ag.k <= K && ag.k + 3 > K);
-    assert_int_equal(ag.first[0], 0);
-    assert_int_equal(ag.first[ag.k], g->n);
-    for (size_t p = 0; p < ag.k; p++)
-        assert_true(ag.first[p + 1] > ag.first[p]);
+    assert_tiling(&ag, g->n);
     lrr__geometry_free(&ag);
     free(rho);
     free(em);
