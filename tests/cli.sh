@@ -728,7 +728,7 @@ fi
 # ---------------------------------------------------------------- lrr check
 # Under valgrind the scene check refuses to run: valgrind computes every floating-point
 # operation rounded to nearest, and CGAL's exact predicates need directed rounding
-# (lib/scene_check.cpp). The CGAL checks below run in the ordinary and sanitizer passes.
+# (lib/scene/check.cpp). The CGAL checks below run in the ordinary and sanitizer passes.
 check_skip=""
 if [ -n "$VG_LOGS" ]; then
     run check cornell

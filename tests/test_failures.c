@@ -1,5 +1,5 @@
 /* Allocation-failure injection: every library allocation made with a context goes through
- * one counted function (lib/error.c); lrr__context_fail_after(ctx, N) makes the N-th fail.
+ * one counted function (lib/core/error.c); lrr__context_fail_after(ctx, N) makes the N-th fail.
  * A full preprocess + save + load + solve sequence is first run with counting only, to learn
  * the number A of allocations, then once for every N in 1..A: each public call must return
  * LRR_OK or LRR_ERR_NOMEM, the sequence stops at the first failure, everything created is

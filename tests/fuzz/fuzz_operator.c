@@ -7,7 +7,7 @@
  * non-zero, the target therefore recomputes the checksums of the header, of the section
  * table and of every section whose range lies inside the input before writing the file:
  * mutations reach the size, layout and value checks behind them, while inputs with byte 52
- * set still exercise the checksum tests themselves. The checksum is the one lib/file.c
+ * set still exercise the checksum tests themselves. The checksum is the one lib/file/lrr_file.c
  * documents (FNV-style word loop, MurmurHash3 fmix64).
  */
 #include <math.h>

@@ -1,6 +1,6 @@
 /*
  * Fuzz target: the light-probe loaders (lrr_probe_load): Radiance RGBE through stb_image and
- * OpenEXR through lib/probe_exr.cpp, then the cheap whole-probe reductions on what loaded.
+ * OpenEXR through lib/probe/exr.cpp, then the cheap whole-probe reductions on what loaded.
  * An input starting with OpenEXR's magic number (76 2f 31 01) is written as probe.exr (the
  * loader picks OpenEXR by the extension), anything else as probe.hdr.
  */

@@ -1,4 +1,4 @@
-/* The real-time step on an OpenCL device (lib/solve_opencl.c), per frame and channel c:
+/* The real-time step on an OpenCL device (lib/solve/opencl.c), per frame and channel c:
  *     w_c = V^T E_c                     segsum: one work-item per patch
  *     z_c = M_c w_c                     smw: one work-item per row of M_c and channel
  *     B_c = E_c + rho_c * (Fbar z_c)    fbar_rows / fbar_groups: Fbar read once for all

@@ -301,7 +301,7 @@ lrr_status lrr__cl_hemi_create(lrr_context *ctx, const lrr__multiplier_map *mm, 
 /* out (count×k) = rows of F̄ of `count` <= batch hemicubes. */
 lrr_status lrr__cl_hemi_rows(lrr__cl_hemi *h, const int32_t *ids, size_t count, float *out);
 void lrr__cl_hemi_destroy(lrr__cl_hemi *h);
-/* lib/kernels/hemicube.cl as a string (generated at build time). */
+/* lib/formfactor/hemicube.cl as a string (generated at build time). */
 extern const char lrr__kernel_hemicube_cl[];
 
 /* ------------------------------------------------------------ real-time kernels */
@@ -355,7 +355,7 @@ void lrr__cl_timings(const lrr__cl_solver *cl, double *kernel_ms, double *transf
 /* Tests only: the work-group-per-row kernel (GPUs) instead of item-per-row (CPU devices). */
 void lrr__cl_use_groups(lrr__cl_solver *cl, int groups);
 void lrr__solver_opencl_groups(lrr_solver *s, int groups);
-/* lib/kernels/realtime.cl as a string (generated at build time). */
+/* lib/solve/realtime.cl as a string (generated at build time). */
 extern const char lrr__kernel_realtime_cl[];
 
 /* ------------------------------------------------------------ light probes */
@@ -370,13 +370,13 @@ struct lrr_probe {
 };
 
 /* Reads the R, G, B channels (half or float) of a scanline or tiled OpenEXR file
- * (lib/probe_exr.cpp, C++: DWA compression included) into a malloc'd w×h×3 float buffer,
+ * (lib/probe/exr.cpp, C++: DWA compression included) into a malloc'd w×h×3 float buffer,
  * pixels unvalidated; a layout other than w = 2h is refused (LRR_ERR_DIM) before decoding.
  * Errors (unreadable, truncated, no R/G/B channel) are recorded naming the file; no
  * exception escapes. */
 lrr_status lrr__exr_read_rgb(lrr_context *ctx, const char *path, float **rgb, size_t *width,
                              size_t *height);
-/* Reads a Radiance RGBE file (lib/probe_hdr.c) into a w×h×3 float buffer from stb_image
+/* Reads a Radiance RGBE file (lib/probe/hdr.c) into a w×h×3 float buffer from stb_image
  * (free with stbi_image_free), after checking that the pixel data is all there; a layout
  * other than w = 2h is refused (LRR_ERR_DIM) before decoding. Errors name the file. */
 lrr_status lrr__hdr_read_rgb(lrr_context *ctx, const char *path, float **rgb, size_t *width,

@@ -1,4 +1,4 @@
-/* The scene doctor (lib/scene_check.cpp, lrr_scene_check): degenerates, intersections,
+/* The scene doctor (lib/scene/check.cpp, lrr_scene_check): degenerates, intersections,
  * coplanar overlaps (z-fighting vs contact), open edges and inconsistent orientation. */
 #include <unistd.h> /* getpid, used by testutil.h */
 

@@ -1,4 +1,4 @@
-/* Scene import (lib/scene_import.c): OBJ+MTL, PLY, glTF (embedded, external .bin, .glb),
+/* Scene import (lib/scene/import.c): OBJ+MTL, PLY, glTF (embedded, external .bin, .glb),
  * materials, winding and node transforms, and the errors for bad files. */
 #include <unistd.h> /* getpid, used by testutil.h */
 
@@ -441,7 +441,7 @@ static void write_ply(const char *path, const char *header, const void *body, si
     "property float x\nproperty float y\nproperty float z\nelement face 1\n"                  \
     "property list " count_type " int vertex_indices\nend_header\n"
 
-/* PLY files are checked before assimp reads them (lib/scene_ply.c): a standard header, and
+/* PLY files are checked before assimp reads them (lib/scene/ply.c): a standard header, and
  * a body holding what it declares. A list count larger than the file made assimp 5.2
  * allocate that many items first (14.6 GB for an 830-byte file found by the fuzzer). */
 static void test_ply_checked(void **state)

@@ -1,4 +1,4 @@
-/* The full form-factor matrix and the reference solvers (lib/reference.c). */
+/* The full form-factor matrix and the reference solvers (lib/reference/reference.c). */
 #include "testutil.h"
 #include "internal.h"
 

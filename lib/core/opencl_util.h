@@ -1,4 +1,4 @@
-/* Shared by the OpenCL parts of lrr (solve_opencl.c, hemicube_opencl.c): the OpenCL
+/* Shared by the OpenCL parts of lrr (solve/opencl.c, formfactor/hemicube_opencl.c): the OpenCL
  * headers at the version lrr uses, error reporting and device selection. Only included
  * when the library is built with OpenCL. */
 #ifndef LRR_OPENCL_UTIL_H

@@ -1,4 +1,4 @@
-/* The OpenCL solver (lib/solve_opencl.c) against the CPU solver on the same operator.
+/* The OpenCL solver (lib/solve/opencl.c) against the CPU solver on the same operator.
  * Skips (exit 77) when the library has no OpenCL or the machine no OpenCL platform. */
 #include "testutil.h"
 #include "internal.h"

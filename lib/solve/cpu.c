@@ -42,7 +42,7 @@ struct lrr_solver {
     const lrr_operator *op;
     lrr_backend backend;
     const lrr__kernel *kernel; /* SIMD variant, chosen once (environment LRR_SIMD forces one) */
-    lrr__cl_solver *cl;        /* LRR_BACKEND_OPENCL: every frame goes there (solve_opencl.c) */
+    lrr__cl_solver *cl;        /* LRR_BACKEND_OPENCL: every frame goes there (solve/opencl.c) */
     float *w;      /* 3×k, channel-major */
     float *z;      /* 3×k, channel-major: the right-hand sides of the n×k product */
     lrr_path path; /* requested path (LRR_PATH_AUTO chooses per frame) */

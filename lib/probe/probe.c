@@ -1,4 +1,4 @@
-/* Light probes: loading (Radiance .hdr through stb_image, OpenEXR through probe_exr.cpp),
+/* Light probes: loading (Radiance .hdr through stb_image, OpenEXR through exr.cpp),
  * validation, the ground-truth
  * irradiance sum and the irradiance of a set of directional lights. */
 #include "config.h"

@@ -1,4 +1,4 @@
-/* The adaptive patch hierarchy (lib/adaptive.c, variable d_p through geometry, operator,
+/* The adaptive patch hierarchy (lib/hierarchy/adaptive.c, variable d_p through geometry, operator,
  * files and solvers). */
 #include "testutil.h"
 

@@ -135,7 +135,7 @@ static uint64_t gltf_json_extent(const char *path)
 }
 
 /* ------------------------------------------------------------------ PLY check */
-/* lrr__ply_check (scene_ply.c), when assimp will read path as PLY: by the extension, or by
+/* lrr__ply_check (scene/ply.c), when assimp will read path as PLY: by the extension, or by
  * the "ply" signature when the extension is not one of the other formats. */
 static lrr_status check_if_ply(lrr_context *ctx, const char *path)
 {

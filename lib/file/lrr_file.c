@@ -64,7 +64,7 @@
  * Writing goes to "path.tmp.XXXXXX" in the same directory, is flushed and fsynced, then
  * renamed onto path, so a crash or an error never leaves a half file under the final name.
  * An error removes the temporary file; a process killed while saving cannot, and leaves it
- * (tests/test_save_faults.c kills saves at every step).
+ * (tests/file/test_save_faults.c kills saves at every step).
  * Loading checks every size against the real file size before allocating anything, so a
  * corrupted header cannot make it allocate (or read) more than the file holds.
  */

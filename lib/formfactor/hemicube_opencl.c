@@ -1,8 +1,8 @@
 /* Hemicube integration on an OpenCL device (lrr_build_options.backend = LRR_BACKEND_OPENCL),
  * as in GPU texture-space radiosity: the CPU rasterises a batch of hemicubes and resolves each
- * pixel to a patch id (that needs the hierarchy, lib/hemicube.c); the ids go to the device,
+ * pixel to a patch id (that needs the hierarchy, lib/formfactor/hemicube.c); the ids go to the device,
  * where `multiply` applies the multiplier map (uploaded once) and `reduce` sums per patch into
- * the batch's rows of F̄ (lib/kernels/hemicube.cl, embedded as lrr__kernel_hemicube_cl).
+ * the batch's rows of F̄ (lib/formfactor/hemicube.cl, embedded as lrr__kernel_hemicube_cl).
  *
  * Accumulation is in double where the device has cl_khr_fp64, in the CPU's pixel order, so
  * the rows equal the CPU integration bit for bit; float otherwise (equal to rounding).
@@ -15,7 +15,7 @@
  * CPU integration, whose pixel loop costs less than shipping 3R² ids and weights per
  * hemicube. Rasterisation and id resolution stay the dominant cost either way.
  *
- * Device choice as in lib/solve_opencl.c: the first GPU, else the first CPU device;
+ * Device choice as in lib/solve/opencl.c: the first GPU, else the first CPU device;
  * LRR_OPENCL_DEVICE="P:D" or a substring of "platform name / device name" overrides it.
  */
 #include "config.h"
@@ -91,7 +91,7 @@ static lrr_status build(lrr__cl_hemi *h, cl_device_id dev, int fp64)
     cl_int err;
     h->program = clCreateProgramWithSource(h->context, 1, &src, NULL, &err);
     if (err != CL_SUCCESS)
-        return lrr__cl_fail(h->ctx, err, "clCreateProgramWithSource", "lib/kernels/hemicube.cl");
+        return lrr__cl_fail(h->ctx, err, "clCreateProgramWithSource", "lib/formfactor/hemicube.cl");
     const char *opts = fp64 ? "-DUSE_FP64=1" : "-DUSE_FP64=0";
     err = clBuildProgram(h->program, 1, &dev, opts, NULL, NULL);
     if (err != CL_SUCCESS) {
@@ -99,7 +99,7 @@ static lrr_status build(lrr__cl_hemi *h, cl_device_id dev, int fp64)
         clGetProgramBuildInfo(h->program, dev, CL_PROGRAM_BUILD_LOG, LOG_MAX, log, NULL);
         log[LOG_MAX] = '\0';
         return lrr__error(h->ctx, LRR_ERR_UNSUPPORTED,
-                          "OpenCL: clBuildProgram (lib/kernels/hemicube.cl, %s) failed (%d); "
+                          "OpenCL: clBuildProgram (lib/formfactor/hemicube.cl, %s) failed (%d); "
                           "build log: %s",
                           opts, (int)err, log[0] ? log : "(empty)");
     }

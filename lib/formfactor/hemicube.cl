@@ -1,4 +1,4 @@
-/* Hemicube integration on an OpenCL device (lib/hemicube_opencl.c).
+/* Hemicube integration on an OpenCL device (lib/formfactor/hemicube_opencl.c).
  *
  * A batch of `count` hemicubes arrives as patch ids, P = 3R² per hemicube (top face R×R,
  * then the four (R/2)×R side faces, exactly the CPU's item-buffer layout), -1 where nothing

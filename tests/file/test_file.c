@@ -1,6 +1,6 @@
-/* The .lrr operator file (lib/file.c): bit-exact round trips, the documented layout, and
+/* The .lrr operator file (lib/file/lrr_file.c): bit-exact round trips, the documented layout, and
  * clear errors (never a crash or a huge allocation) for corrupted, truncated and foreign
- * files. The checksum and layout are re-implemented here from the format comment in file.c,
+ * files. The checksum and layout are re-implemented here from the format comment in lib/file/lrr_file.c,
  * so the test also pins the documented format. */
 #include <dirent.h>
 #include <errno.h>
@@ -311,7 +311,7 @@ static void test_roundtrip_cornell(void **state)
     remove(p);
 }
 
-/* The bytes follow the layout documented in file.c. */
+/* The bytes follow the layout documented in lib/file/lrr_file.c. */
 static void test_layout(void **state)
 {
     fixture *fx = *state;

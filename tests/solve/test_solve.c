@@ -1,4 +1,4 @@
-/* The CPU solver's paths (lib/solve_cpu.c): full, sparse emitters, incremental, batches. */
+/* The CPU solver's paths (lib/solve/cpu.c): full, sparse emitters, incremental, batches. */
 #include "testutil.h"
 #include "internal.h"
 

@@ -1,5 +1,5 @@
 /* Hemicube integration on an OpenCL device (lrr_build_options.backend = LRR_BACKEND_OPENCL,
- * lib/hemicube_opencl.c) against the CPU integration of the same hemicubes.
+ * lib/formfactor/hemicube_opencl.c) against the CPU integration of the same hemicubes.
  * Skips (exit 77) when the library has no OpenCL or the machine no OpenCL platform, after
  * checking that the option then fails with LRR_ERR_UNSUPPORTED. */
 #include "testutil.h"

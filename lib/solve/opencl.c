@@ -1,6 +1,6 @@
 /* The real-time step on an OpenCL device (lrr_solver_create with LRR_BACKEND_OPENCL).
  *
- * Our own kernels (lib/kernels/realtime.cl, embedded at build time as lrr__kernel_realtime_cl)
+ * Our own kernels (lib/solve/realtime.cl, embedded at build time as lrr__kernel_realtime_cl)
  * rather than clBLAS: the three steps are a segmented sum, three k×k products and one n×k
  * product whose epilogue E + rho ∘ (…) is fused, with F̄ decoded from 16 bits in the loads.
  * F̄ (in its storage), its row scales, M and rho go to the device once, at create; per frame
@@ -129,7 +129,7 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
     cl_int err;
     cl->program = clCreateProgramWithSource(cl->context, 1, &src, NULL, &err);
     if (err != CL_SUCCESS)
-        return lrr__cl_fail(ctx, err, "clCreateProgramWithSource", "lib/kernels/realtime.cl");
+        return lrr__cl_fail(ctx, err, "clCreateProgramWithSource", "lib/solve/realtime.cl");
     char opts[64];
     const int storage = cl->op->storage == LRR_STORAGE_F16    ? 1
                         : cl->op->storage == LRR_STORAGE_BF16 ? 2
@@ -150,7 +150,7 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
             free(full);
         }
         return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
-                          "OpenCL: clBuildProgram (lib/kernels/realtime.cl, %s) failed: %s "
+                          "OpenCL: clBuildProgram (lib/solve/realtime.cl, %s) failed: %s "
                           "(%d); build log: %s%s",
                           opts, lrr__cl_code_name(err), (int)err, log[0] ? log : "(empty)",
                           len > LOG_MAX + 1 ? " [...]" : "");

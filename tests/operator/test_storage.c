@@ -1,4 +1,4 @@
-/* Reduced-precision storage of F̄ (lib/storage.c and the 16-bit kernels). */
+/* Reduced-precision storage of F̄ (lib/operator/storage.c and the 16-bit kernels). */
 #include "testutil.h"
 #include "internal.h"
 
