@@ -18,7 +18,7 @@
  * a race (false positives); with one OpenMP thread the lrr code under test is the same and
  * all the concurrency comes from the pthreads here, which TSan sees whole. */
 #include "testutil.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 #include <pthread.h>
 

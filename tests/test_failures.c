@@ -7,7 +7,7 @@
  * neither the file nor a temporary behind. Allocations inside third-party libraries
  * (OpenBLAS, OpenMP, stb, OpenEXR, assimp, Embree, OpenCL) are not counted. */
 #include "testutil.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 #include <dirent.h>
 #include <sys/stat.h>

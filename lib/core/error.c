@@ -1,6 +1,6 @@
 /* Contexts, status codes, error records, versions and checked allocation. */
 #include "config.h"
-#include "internal.h"
+#include "core/internal.h"
 
 #include <errno.h>
 #include <stdio.h>

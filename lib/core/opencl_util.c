@@ -3,7 +3,7 @@
 #include "config.h"
 
 #ifdef LRR_HAVE_OPENCL
-#include "opencl_util.h"
+#include "core/opencl_util.h"
 
 #include <ctype.h>
 #include <stdio.h>

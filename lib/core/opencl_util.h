@@ -7,7 +7,7 @@
 #define CL_TARGET_OPENCL_VERSION 120
 #include <CL/cl.h>
 
-#include "internal.h"
+#include "core/internal.h"
 
 /* The name of a CL error code ("CL_OUT_OF_RESOURCES"). */
 const char *lrr__cl_code_name(cl_int err);

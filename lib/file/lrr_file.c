@@ -69,7 +69,7 @@
  * corrupted header cannot make it allocate (or read) more than the file holds.
  */
 #include "config.h"
-#include "internal.h"
+#include "operator/operator.h"
 
 #include <errno.h>
 #include <fcntl.h>

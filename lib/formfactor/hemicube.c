@@ -20,7 +20,7 @@
  * edge belongs to exactly one of them). A closed room's rows then sum to 1 to rounding.
  */
 #include "config.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
 
 #include <math.h>
 #include <omp.h>
@@ -435,6 +435,23 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         for (size_t p = 0; p < cols; p++)
             out[p] = (float)(sc->row[p] / (double)lrr__patch_size(g, p));
     }
+}
+
+lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_options *opts,
+                                      lrr_build_options *o)
+{
+    if (!scene->geom.depth)
+        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG,
+                          "the scene is not subdivided: call lrr_scene_subdivide first");
+    memset(o, 0, sizeof *o);
+    if (opts)
+        *o = *opts;
+    if (o->hemicube_resolution == 0)
+        o->hemicube_resolution = 128;
+    if (o->threads < 0)
+        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0",
+                          o->threads);
+    return LRR_OK;
 }
 
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,

@@ -19,7 +19,7 @@
  * LRR_OPENCL_DEVICE="P:D" or a substring of "platform name / device name" overrides it.
  */
 #include "config.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -47,7 +47,7 @@ void lrr__cl_hemi_destroy(lrr__cl_hemi *h)
 
 #else
 
-#include "opencl_util.h"
+#include "core/opencl_util.h"
 
 #include <stdio.h>
 

@@ -25,7 +25,7 @@
  * of the S hemicubes.
  */
 #include "config.h"
-#include "internal.h"
+#include "hierarchy/hierarchy.h"
 
 #include <cblas.h>
 #include <math.h>
@@ -53,7 +53,8 @@ static uint64_t splitmix64(uint64_t *state)
 }
 
 lrr_status lrr__ffsample_take(lrr_context *ctx, const lrr__geometry *g, const float *rho,
-                              const lrr_build_options *opts, size_t count, lrr__ffsample *out)
+                              const lrr_build_options *opts, lrr__rows_fn render, size_t count,
+                              lrr__ffsample *out)
 {
     memset(out, 0, sizeof *out);
     if (count == 0 || count > g->n)
@@ -90,7 +91,7 @@ lrr_status lrr__ffsample_take(lrr_context *ctx, const lrr__geometry *g, const fl
         for (int c = 0; c < 3; c++)
             out->rho[3 * r + c] = p[c];
     }
-    if ((st = lrr__hemicube_sample_rows(ctx, g, opts, out->rows, count, out->f)))
+    if ((st = render(ctx, g, opts, out->rows, count, out->f)))
         lrr__ffsample_free(out);
     return st;
 }
@@ -321,8 +322,8 @@ static int by_first(const void *a, const void *b)
 #define BOUNCES 1
 static lrr_status radiosity_weights(lrr_context *ctx, const lrr__geometry *g, const float *rho,
                                     const float *emission, const float *area,
-                                    const lrr_build_options *opts, const lrr__ffsample *smp,
-                                    double **b)
+                                    const lrr_build_options *opts, lrr__rows_fn render,
+                                    const lrr__ffsample *smp, double **b)
 {
     *b = NULL;
     size_t m = 0;
@@ -346,7 +347,7 @@ static lrr_status radiosity_weights(lrr_context *ctx, const lrr__geometry *g, co
         if (seen++ * take / m == q) /* the q-th of take evenly spaced picks */
             rows[q++] = j;
     }
-    if ((st = lrr__hemicube_sample_rows(ctx, g, opts, rows, q, f)))
+    if ((st = render(ctx, g, opts, rows, q, f)))
         goto out;
     const double scale = (double)m / (double)q;
     for (size_t j = 0; j < g->n; j++) {
@@ -680,7 +681,8 @@ static double recompute(const lrr__geometry *g, const lrr__ffsample *s, int spli
 lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const float *rho,
                                 const float *emission, const float *area,
                                 const double *weights, const lrr_build_options *opts,
-                                lrr__geometry *out, lrr__adaptive_trace *trace)
+                                lrr__rows_fn render, lrr__geometry *out,
+                                lrr__adaptive_trace *trace)
 {
     double *objective = trace ? trace->objective : NULL;
     memset(out, 0, sizeof *out);
@@ -718,7 +720,7 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
     unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
     so.hemicube_resolution = R / 4 < 16 ? (R < 16 ? R : 16) : (R / 4) & ~1u;
     if (split == LRR_SPLIT_VARIANCE &&
-        (st = lrr__ffsample_take(ctx, g, rho, &so,
+        (st = lrr__ffsample_take(ctx, g, rho, &so, render,
                                  opts->adaptive_samples ? opts->adaptive_samples
                                                         : DEFAULT_SAMPLES, &s)))
         return st;
@@ -729,7 +731,7 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
         }
         memcpy(s.b, weights, g->n * 3 * sizeof(double));
     } else if (split == LRR_SPLIT_VARIANCE && emission &&
-               (st = radiosity_weights(ctx, g, rho, emission, area, opts, &s, &s.b))) {
+               (st = radiosity_weights(ctx, g, rho, emission, area, opts, render, &s, &s.b))) {
         lrr__ffsample_free(&s);
         return st;
     }

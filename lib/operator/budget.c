@@ -19,7 +19,9 @@
  * Allocator overhead (64-byte alignment, headers) and third-party memory (OpenMP stacks,
  * LAPACK workspace, the OpenCL runtime) are not counted. */
 #include "config.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
+#include "hierarchy/hierarchy.h"
+#include "operator/operator.h"
 
 #include <lapacke.h>
 #include <omp.h>

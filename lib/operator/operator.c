@@ -1,14 +1,10 @@
-/* The low-rank operator: F̄ from hemicubes and, per colour channel c, the
- * Sherman–Morrison–Woodbury matrices (DESIGN.md "Low-rank model")
- *
- *     G_c = I_k - Vᵀ diag(rho_c) F̄        G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq
- *     M_c = G_c^{-1}
- *
- * so that B_c = E_c + rho_c ∘ (F̄ · (M_c · (Vᵀ E_c))) solves (I - diag(rho_c) F̄ Vᵀ) B_c = E_c.
- * G_c is factorised in double (its condition grows like (1+rho)/(1-rho)) and M_c stored in
- * float; the 1-norm condition estimate (dgecon) is kept for the user. */
+/* The low-rank operator's life: lrr_operator_build (scene → [adaptive hierarchy] → F̄ from
+ * hemicubes → SMW factorisation, smw.c), the accessors, and the changes that refactor it
+ * (reflectance, storage). */
 #include "config.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
+#include "hierarchy/hierarchy.h"
+#include "operator/operator.h"
 
 #include <lapacke.h>
 #include <math.h>
@@ -76,109 +72,6 @@ fail:
     return st;
 }
 
-lrr_status lrr__operator_factor(lrr_operator *op)
-{
-    const size_t k = op->k, *first = op->geom.first;
-    double *G;
-    lapack_int *ipiv;
-    lrr_status st;
-    size_t kk = k * k; /* checked in lrr__operator_new */
-    if (k > (size_t)INT32_MAX)
-        return lrr__error(op->ctx, LRR_ERR_OVERFLOW, "k = %zu exceeds LAPACK's int range", k);
-    if ((st = lrr__calloc(op->ctx, &G, kk, sizeof(double), "G (k×k doubles)")))
-        return st;
-    if ((st = lrr__calloc(op->ctx, &ipiv, k, sizeof(lapack_int), "pivots"))) {
-        lrr_aligned_free(G);
-        return st;
-    }
-    /* with 16-bit storage, rows are decoded into one scratch row per thread */
-    float *rowbuf = NULL;
-    int threads = omp_get_max_threads();
-    if (op->storage != LRR_STORAGE_F32 &&
-        (st = lrr__calloc(op->ctx, &rowbuf, (size_t)threads, k * sizeof(float),
-                          "decoded F̄ rows"))) {
-        lrr_aligned_free(G);
-        lrr_aligned_free(ipiv);
-        return st;
-    }
-    for (int c = 0; c < 3; c++) {
-        /* G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq: rows of G are independent segmented sums */
-        #pragma omp parallel for schedule(static) num_threads(threads)
-        for (size_t p = 0; p < k; p++) {
-            double *gp = G + p * k;
-            float *scratch = rowbuf ? rowbuf + (size_t)omp_get_thread_num() * k : NULL;
-            for (size_t q = 0; q < k; q++)
-                gp[q] = 0;
-            for (size_t i = first[p]; i < first[p + 1]; i++) {
-                double r = op->rho[3 * i + c];
-                if (r == 0)
-                    continue; /* black subpatches reflect nothing */
-                const float *fi = op->fbar ? op->fbar + i * k : scratch;
-                if (!op->fbar)
-                    lrr_operator_fbar_row(op, i, scratch);
-                for (size_t q = 0; q < k; q++)
-                    gp[q] -= r * fi[q];
-            }
-            gp[p] += 1;
-        }
-        double anorm = LAPACKE_dlange(LAPACK_ROW_MAJOR, '1', (lapack_int)k, (lapack_int)k, G,
-                                      (lapack_int)k);
-        lapack_int info = LAPACKE_dgetrf(LAPACK_ROW_MAJOR, (lapack_int)k, (lapack_int)k, G,
-                                         (lapack_int)k, ipiv);
-        if (info > 0) {
-            st = lrr__error(op->ctx, LRR_ERR_SINGULAR,
-                            "channel %d: G = I - Vᵀ diag(rho) F̄ is singular (U[%d][%d] = 0)", c,
-                            (int)info, (int)info);
-            break;
-        }
-        double rcond = 0;
-        if (info == 0)
-            info = LAPACKE_dgecon(LAPACK_ROW_MAJOR, '1', (lapack_int)k, G, (lapack_int)k, anorm,
-                                  &rcond);
-        if (info == 0)
-            info = LAPACKE_dgetri(LAPACK_ROW_MAJOR, (lapack_int)k, G, (lapack_int)k, ipiv);
-        if (info != 0) {
-            st = lrr__error(op->ctx, info < 0 ? LRR_ERR_INVALID_ARG : LRR_ERR_SINGULAR,
-                            "channel %d: LAPACK failed (info = %d)", c, (int)info);
-            break;
-        }
-        op->cond[c] = rcond > 0 ? 1.0 / rcond : INFINITY;
-        float *mc = op->m + (size_t)c * kk;
-        for (size_t j = 0; j < kk; j++) {
-            if (!isfinite(G[j])) {
-                st = lrr__error(op->ctx, LRR_ERR_SINGULAR,
-                                "channel %d: M has a non-finite entry at (%zu, %zu)", c, j / k,
-                                j % k);
-                break;
-            }
-            mc[j] = (float)G[j];
-        }
-        if (st)
-            break;
-    }
-    lrr_aligned_free(G);
-    lrr_aligned_free(ipiv);
-    lrr_aligned_free(rowbuf);
-    return st;
-}
-
-lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_options *opts,
-                                      lrr_build_options *o)
-{
-    if (!scene->geom.depth)
-        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG,
-                          "the scene is not subdivided: call lrr_scene_subdivide first");
-    memset(o, 0, sizeof *o);
-    if (opts)
-        *o = *opts;
-    if (o->hemicube_resolution == 0)
-        o->hemicube_resolution = 128;
-    if (o->threads < 0)
-        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0",
-                          o->threads);
-    return LRR_OK;
-}
-
 lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *opts,
                               lrr_operator **out)
 {
@@ -206,7 +99,8 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
             !(st = lrr__calloc(ctx, &emission, n, 3 * sizeof(float), "subpatch emission")) &&
             !(st = lrr__calloc(ctx, &area, n, sizeof(float), "subpatch areas")) &&
             !(st = lrr_scene_subpatches(scene, NULL, NULL, area, rho, emission)))
-            st = lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, NULL, &o, &ag, NULL);
+            st = lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, NULL, &o,
+                                     lrr__hemicube_sample_rows, &ag, NULL);
         lrr_aligned_free(rho);
         lrr_aligned_free(emission);
         lrr_aligned_free(area);
@@ -227,13 +121,24 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
     op->no_rotation = o.no_rotation != 0;
     if ((st = lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission)) ||
         (st = lrr__hemicube_fbar(ctx, &op->geom, &o, op->fbar)) ||
-        (st = lrr__operator_factor(op))) {
+        (st = lrr__smw_factor(op))) {
         lrr_operator_destroy(op);
         return st;
     }
     op->build_seconds = lrr__now() - t0;
     *out = op;
     return LRR_OK;
+}
+
+lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
+{
+    if (!lrr_storage_name(storage))
+        return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown storage %d", (int)storage);
+    if (storage == op->storage)
+        return LRR_OK;
+    lrr_status st = lrr__fbar_convert(op, storage);
+    /* M must invert I − Vᵀ R F̄ for the F̄ the kernels now read */
+    return st ? st : lrr__smw_factor(op);
 }
 
 lrr_status lrr_operator_set_reflectance(lrr_operator *op, const float *rho)
@@ -251,10 +156,10 @@ lrr_status lrr_operator_set_reflectance(lrr_operator *op, const float *rho)
     memcpy(op->rho, rho, op->n * 3 * sizeof(float));
     double cond[3];
     memcpy(cond, op->cond, sizeof cond);
-    if ((st = lrr__operator_factor(op))) {
+    if ((st = lrr__smw_factor(op))) {
         /* keep the operator usable: restore the old reflectances and M */
         memcpy(op->rho, old, op->n * 3 * sizeof(float));
-        lrr__operator_factor(op);
+        lrr__smw_factor(op);
     }
     lrr_aligned_free(old);
     return st;

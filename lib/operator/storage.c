@@ -11,7 +11,7 @@
  * The kernels decode with F16C/AVX-512 instructions (realtime_kernel.c).
  */
 #include "config.h"
-#include "internal.h"
+#include "operator/operator.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -131,13 +131,9 @@ void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
                                                      : lrr__bf16_to_f32(row[q]));
 }
 
-lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
+lrr_status lrr__fbar_convert(lrr_operator *op, lrr_storage storage)
 {
     lrr_context *ctx = op->ctx;
-    if (!lrr_storage_name(storage))
-        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "unknown storage %d", (int)storage);
-    if (storage == op->storage)
-        return LRR_OK;
     const size_t n = op->n, k = op->k;
     float *f32 = NULL, *scale = NULL;
     uint16_t *f16 = NULL;
@@ -185,6 +181,5 @@ lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
     op->fbar16 = f16;
     op->row_scale = scale;
     op->storage = storage;
-    /* M must invert I − Vᵀ R F̄ for the F̄ the kernels now read */
-    return lrr__operator_factor(op);
+    return LRR_OK;
 }

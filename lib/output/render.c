@@ -1,7 +1,7 @@
 /* Pictures: a software z-buffer rasteriser that draws the subpatch mesh with Gouraud-
  * interpolated radiosity, tone maps it and writes a PNG atomically. */
 #include "config.h"
-#include "internal.h"
+#include "operator/operator.h"
 
 #include <errno.h>
 #include <fcntl.h>

@@ -18,7 +18,7 @@
 #include <sys/stat.h>
 
 extern "C" {
-#include "internal.h"
+#include "probe/probe.h"
 }
 
 namespace {

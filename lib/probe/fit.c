@@ -1,7 +1,7 @@
 /* Fits to a light probe: median cut into directional lights, and the order-2 spherical
  * harmonics projection with its irradiance. */
 #include "config.h"
-#include "internal.h"
+#include "probe/probe.h"
 
 #include <float.h>
 #include <math.h>

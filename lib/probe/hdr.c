@@ -13,7 +13,7 @@
  * pixels would cost 1.5 GB on its way to an error (found by fuzzing). A stream that passes
  * holds every pixel, at most 128 per 2 bytes, so the allocation is bounded by the file. */
 #include "config.h"
-#include "internal.h"
+#include "probe/probe.h"
 
 #include <errno.h>
 #include <limits.h>

@@ -1,7 +1,7 @@
 /* Direct light of directional sources (a fitted light probe) on the operator's subpatches,
  * with shadows from Embree occlusion rays: the emission vector of the first bounce. */
 #include "config.h"
-#include "internal.h"
+#include "probe/probe.h"
 
 #include <embree3/rtcore.h>
 #include <math.h>

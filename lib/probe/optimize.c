@@ -9,7 +9,7 @@
  * clamps negative radiances to 0, and keeps the step only if the objective (evaluated after the
  * clamp) decreases; λ shrinks after an accepted step and grows after a rejected one. */
 #include "config.h"
-#include "internal.h"
+#include "probe/probe.h"
 
 #include <cblas.h>
 #include <lapacke.h>

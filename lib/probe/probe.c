@@ -2,7 +2,7 @@
  * validation, the ground-truth
  * irradiance sum and the irradiance of a set of directional lights. */
 #include "config.h"
-#include "internal.h"
+#include "probe/probe.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -7,7 +7,7 @@
  * one, ||E − (I − R F) B||₂ / ||E||₂ per channel, recomputed from F before stopping.
  */
 #include "config.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
 
 #include <lapacke.h>
 #include <math.h>

@@ -38,7 +38,7 @@
 #include <CGAL/intersections.h>
 
 extern "C" {
-#include "internal.h"
+#include "scene/scene.h"
 }
 
 namespace {

@@ -25,7 +25,7 @@
  * assimp keeps its last error string in a global; with several threads importing at once the
  * message may belong to another import. That is assimp's, and only affects message text. */
 #include "config.h"
-#include "internal.h"
+#include "scene/scene.h"
 
 #include <assimp/cimport.h>
 #include <assimp/material.h>

@@ -10,7 +10,7 @@
  * every list count must fit in what is left of the file. A well-formed file passes
  * unchanged; the walk reads the file once. */
 #include "config.h"
-#include "internal.h"
+#include "scene/scene.h"
 
 #include <inttypes.h>
 #include <stdio.h>

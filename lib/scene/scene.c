@@ -1,7 +1,7 @@
 /* Scenes: validation of input triangles and materials, the built-in Cornell box, and the
  * choice of patch depths (DESIGN.md "Patches", "Subpatches"). */
 #include "config.h"
-#include "internal.h"
+#include "scene/scene.h"
 
 #include <float.h>
 #include <math.h>

@@ -1,7 +1,7 @@
 /* The patch/subpatch hierarchy: 4-way midpoint subdivision, patch-major indices and the
  * barycentric → index map (DESIGN.md "Patches" and "Subpatches"). */
 #include "config.h"
-#include "internal.h"
+#include "scene/scene.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -17,7 +17,7 @@
  * OpenBLAS sgemm; small ones are a loop of single frames (thresholds measured below).
  */
 #include "config.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 #include <cblas.h>
 #include <math.h>

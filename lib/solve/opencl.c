@@ -15,7 +15,7 @@
  * Only the OpenCL 1.2 API is used.
  */
 #include "config.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -55,7 +55,7 @@ void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 
 #else
 
-#include "opencl_util.h"
+#include "core/opencl_util.h"
 
 #include <stdio.h>
 

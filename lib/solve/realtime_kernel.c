@@ -20,7 +20,7 @@
  * n×3 partial sums written back per column instead.
  */
 #include "config.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 #include <stdlib.h>
 #include <string.h>

@@ -1,6 +1,6 @@
 /* Status codes, error records, callbacks, versions and checked allocation. */
 #include "testutil.h"
-#include "internal.h"
+#include "core/internal.h"
 
 #include <stdint.h>
 

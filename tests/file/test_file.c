@@ -8,7 +8,7 @@
 #include <unistd.h>
 
 #include "testutil.h"
-#include "internal.h"
+#include "operator/operator.h"
 
 /* ------------------------------------------------------------ format, from the docs */
 enum { HDR = 64, ENTRY = 32, NSEC = 6 };

@@ -11,7 +11,7 @@
  *   - a read-only directory (as root: in a child that drops to uid 65534, since root may
  *     write anywhere). */
 #include "testutil.h"
-#include "internal.h"
+#include "operator/operator.h"
 
 #include <dirent.h>
 #include <errno.h>

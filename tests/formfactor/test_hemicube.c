@@ -1,6 +1,7 @@
 /* Hemicube form factors against closed forms (shared/reference/view-factors.md). */
 #include "testutil.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
+#include "operator/operator.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846

@@ -3,7 +3,8 @@
  * Skips (exit 77) when the library has no OpenCL or the machine no OpenCL platform, after
  * checking that the option then fails with LRR_ERR_UNSUPPORTED. */
 #include "testutil.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
+#include "operator/operator.h"
 
 static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned levels)
 {

@@ -2,7 +2,9 @@
  * files and solvers). */
 #include "testutil.h"
 
-#include "internal.h"
+#include "formfactor/formfactor.h"
+#include "hierarchy/hierarchy.h"
+#include "operator/operator.h"
 
 #include <float.h>
 
@@ -145,7 +147,8 @@ static void test_objective_monotone(void **state)
                             .adaptive_samples = 64};
     lrr__geometry ag;
     lrr__adaptive_trace trace = {.objective = obj};
-    LRR_CHECK(ctx, lrr__adaptive_select(ctx, g, rho, NULL, NULL, NULL, &bo, &ag, &trace));
+    LRR_CHECK(ctx, lrr__adaptive_select(ctx, g, rho, NULL, NULL, NULL, &bo,
+                                        lrr__hemicube_sample_rows, &ag, &trace));
     assert_true(ag.k <= K && ag.k + 3 > K);
     assert_true(obj[0] > 0);
     for (size_t q = 1; q < steps; q++)
@@ -186,7 +189,8 @@ static void test_exchange(void **state)
                             .adaptive_samples = 256};
     lrr__geometry ag;
     lrr__adaptive_trace trace = {0};
-    LRR_CHECK(ctx, lrr__adaptive_select(ctx, g, rho, em, area, NULL, &bo, &ag, &trace));
+    LRR_CHECK(ctx, lrr__adaptive_select(ctx, g, rho, em, area, NULL, &bo,
+                                        lrr__hemicube_sample_rows, &ag, &trace));
     printf("n = %zu, K = %zu: %zu exchanges, objective %.6g -> %.6g (summed anew %.6g)\n",
            g->n, K, trace.exchanges, trace.greedy, trace.exchanged, trace.recomputed);
     assert_true(trace.greedy > 0);
@@ -217,8 +221,9 @@ static void test_sampled_variance(void **state)
     LRR_CHECK(ctx, lrr_scene_subpatches(s, NULL, NULL, NULL, rho, NULL));
     lrr_build_options bo = {.hemicube_resolution = HEMI, .seed = 11};
     lrr__ffsample all, some;
-    LRR_CHECK(ctx, lrr__ffsample_take(ctx, g, rho, &bo, 0, &all));
-    LRR_CHECK(ctx, lrr__ffsample_take(ctx, g, rho, &bo, 100, &some));
+    LRR_CHECK(ctx, lrr__ffsample_take(ctx, g, rho, &bo, lrr__hemicube_sample_rows, 0, &all));
+    LRR_CHECK(ctx, lrr__ffsample_take(ctx, g, rho, &bo, lrr__hemicube_sample_rows, 100,
+                                      &some));
     assert_int_equal(all.count, g->n);
     assert_int_equal(some.count, 100);
     for (size_t r = 1; r < some.count; r++)

@@ -4,7 +4,8 @@
  * context; the exact need and above build; sizes whose byte counts overflow size_t are
  * refused with LRR_ERR_OVERFLOW, again before any allocation. */
 #include "testutil.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
+#include "operator/operator.h"
 
 static lrr_scene *cornell(lrr_context *ctx, size_t patches, unsigned levels)
 {

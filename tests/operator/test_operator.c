@@ -1,6 +1,6 @@
 /* The low-rank operator and the CPU solve against exact cases and a dense LAPACK solve. */
 #include "testutil.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 #include <lapacke.h>
 

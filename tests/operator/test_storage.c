@@ -1,6 +1,6 @@
 /* Reduced-precision storage of F̄ (lib/operator/storage.c and the 16-bit kernels). */
 #include "testutil.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 #include <lapacke.h>
 #if defined(__x86_64__)

@@ -2,7 +2,7 @@
  * and atomic writing. Pictures are decoded again with stb_image and inspected. */
 #include "testutil.h"
 
-#include "internal.h"
+#include "operator/operator.h"
 
 #include <dirent.h>
 #include <errno.h>

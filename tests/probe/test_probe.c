@@ -1,6 +1,6 @@
 /* Light probes: loading, ground-truth irradiance, median cut, SH9, errors. */
 #include "testutil.h"
-#include "internal.h" /* the pixels, to compare .exr with .hdr */
+#include "probe/probe.h" /* the pixels, to compare .exr with .hdr */
 
 #define PI 3.14159265358979323846
 

@@ -1,6 +1,7 @@
 /* The full form-factor matrix and the reference solvers (lib/reference/reference.c). */
 #include "testutil.h"
-#include "internal.h"
+#include "formfactor/formfactor.h"
+#include "operator/operator.h"
 
 static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned levels)
 {

@@ -1,7 +1,7 @@
 /* Scene validation: every bad input returns its error code with a message naming the face;
  * the built-in Cornell box has the published geometry and faces inwards. */
 #include "testutil.h"
-#include "internal.h"
+#include "scene/scene.h"
 
 static void unit_triangles(float *v, float *rho, float *em, size_t n)
 {

@@ -1,7 +1,7 @@
 /* The patch/subpatch hierarchy: child areas, counts, patch-major order and the
  * barycentric → subpatch index map. */
 #include "testutil.h"
-#include "internal.h"
+#include "scene/scene.h"
 
 static double area9(const double v[9])
 {

@@ -1,7 +1,7 @@
 /* The OpenCL solver (lib/solve/opencl.c) against the CPU solver on the same operator.
  * Skips (exit 77) when the library has no OpenCL or the machine no OpenCL platform. */
 #include "testutil.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 {

@@ -1,6 +1,6 @@
 /* The CPU solver's paths (lib/solve/cpu.c): full, sparse emitters, incremental, batches. */
 #include "testutil.h"
-#include "internal.h"
+#include "solve/solve.h"
 
 static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 {

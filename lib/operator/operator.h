@@ -1,0 +1,70 @@
+/* The operator stage (lib/operator/): the low-rank operator (F̄, M_c), its storage formats
+ * and the memory a build needs. Used by the solvers, the file format, probes and output. */
+#ifndef LRR_OPERATOR_H
+#define LRR_OPERATOR_H
+
+#include "scene/scene.h"
+
+struct lrr_operator {
+    lrr_context *ctx;
+    int builtin;               /* LRR__SCENE_* of the source scene */
+    lrr__geometry geom;
+    size_t n, k, d;
+    float *rho;                /* n×3 */
+    float *emission;           /* n×3, the scene's own emission */
+    float *area;               /* n */
+    float *centre, *normal;    /* n×3, derived from geom (not stored in files) */
+    lrr_storage storage;       /* which of fbar / fbar16 holds F̄ */
+    float *fbar;               /* n×k row-major, 64-byte aligned: F̄_ip = F_{i→p}/d (F32) */
+    uint16_t *fbar16;          /* n×k binary16 or bfloat16 (F16, BF16), F̄_ip / row_scale_i */
+    float *row_scale;          /* n powers of two (F16, BF16; all 1 for BF16) */
+    float *m;                  /* 3×k×k row-major: M_c = G_c^{-1} */
+    double cond[3];            /* dgecon estimates (1-norm) of G_c */
+    double build_seconds;
+    double selection_seconds;  /* adaptive selection's part of build_seconds */
+    unsigned hemicube_resolution;
+    uint64_t seed;
+    int no_rotation;           /* built with lrr_build_options.no_rotation */
+};
+
+/* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, m and
+ * F̄ in the given storage (fbar, or fbar16 + row_scale) are allocated (zeroed);
+ * area/centre/normal are filled from the geometry. */
+lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
+                             lrr_operator **out);
+
+/* Round-to-nearest-even conversions (storage.c). */
+uint16_t lrr__f32_to_f16(float f);
+float lrr__f16_to_f32(uint16_t h);
+uint16_t lrr__f32_to_bf16(float f);
+float lrr__bf16_to_f32(uint16_t b);
+/* Rewrites F̄ in `storage` (storage.c); M is then stale: lrr_operator_set_storage
+ * refactors. */
+lrr_status lrr__fbar_convert(lrr_operator *op, lrr_storage storage);
+
+/* budget.c: the bytes an operator build holds at its peak (the layout is described there),
+ * for n_tri input triangles, n subpatches, k patches, F̄ in `storage` and the resolved build
+ * options o (hemicube resolution, threads, backend). Overflow-checked: LRR_ERR_OVERFLOW,
+ * naming n and k, when a byte count does not fit in size_t; LRR_ERR_INVALID_ARG for a bad
+ * hemicube resolution. Allocates nothing. */
+typedef struct lrr__operator_bytes_t {
+    size_t fbar;          /* F̄ (and its row scales) */
+    size_t m;             /* M_c, 3×k×k floats */
+    size_t per_subpatch;  /* 13 floats per subpatch and the geometry */
+    size_t working;       /* the build's largest working set (hemicubes or factorisation) */
+    size_t total;
+    int threads;          /* the thread count the working set was computed for */
+} lrr__operator_bytes_t;
+lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t k,
+                               lrr_storage storage, const lrr_build_options *o,
+                               lrr__operator_bytes_t *out);
+/* lrr__operator_bytes, then LRR_ERR_BUDGET naming the need (in MiB, with its parts) when it
+ * exceeds o->memory_budget (0: no limit). */
+lrr_status lrr__operator_budget_check(lrr_context *ctx, size_t n_tri, size_t n, size_t k,
+                                      lrr_storage storage, const lrr_build_options *o);
+
+/* smw.c: recomputes M_c = (I − Vᵀ diag(rho_c) F̄)⁻¹ and cond from F̄ (in any storage) and
+ * rho, in double precision (LAPACKE). */
+lrr_status lrr__smw_factor(lrr_operator *op);
+
+#endif

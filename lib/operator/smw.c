@@ -1,0 +1,102 @@
+/* The low-rank operator: F̄ from hemicubes and, per colour channel c, the
+ * Sherman–Morrison–Woodbury matrices (DESIGN.md "Low-rank model")
+ *
+ *     G_c = I_k - Vᵀ diag(rho_c) F̄        G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq
+ *     M_c = G_c^{-1}
+ *
+ * so that B_c = E_c + rho_c ∘ (F̄ · (M_c · (Vᵀ E_c))) solves (I - diag(rho_c) F̄ Vᵀ) B_c = E_c.
+ * G_c is factorised in double (its condition grows like (1+rho)/(1-rho)) and M_c stored in
+ * float; the 1-norm condition estimate (dgecon) is kept for the user. */
+#include "config.h"
+#include "operator/operator.h"
+
+#include <lapacke.h>
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+
+lrr_status lrr__smw_factor(lrr_operator *op)
+{
+    const size_t k = op->k, *first = op->geom.first;
+    double *G;
+    lapack_int *ipiv;
+    lrr_status st;
+    size_t kk = k * k; /* checked in lrr__operator_new */
+    if (k > (size_t)INT32_MAX)
+        return lrr__error(op->ctx, LRR_ERR_OVERFLOW, "k = %zu exceeds LAPACK's int range", k);
+    if ((st = lrr__calloc(op->ctx, &G, kk, sizeof(double), "G (k×k doubles)")))
+        return st;
+    if ((st = lrr__calloc(op->ctx, &ipiv, k, sizeof(lapack_int), "pivots"))) {
+        lrr_aligned_free(G);
+        return st;
+    }
+    /* with 16-bit storage, rows are decoded into one scratch row per thread */
+    float *rowbuf = NULL;
+    int threads = omp_get_max_threads();
+    if (op->storage != LRR_STORAGE_F32 &&
+        (st = lrr__calloc(op->ctx, &rowbuf, (size_t)threads, k * sizeof(float),
+                          "decoded F̄ rows"))) {
+        lrr_aligned_free(G);
+        lrr_aligned_free(ipiv);
+        return st;
+    }
+    for (int c = 0; c < 3; c++) {
+        /* G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq: rows of G are independent segmented sums */
+        #pragma omp parallel for schedule(static) num_threads(threads)
+        for (size_t p = 0; p < k; p++) {
+            double *gp = G + p * k;
+            float *scratch = rowbuf ? rowbuf + (size_t)omp_get_thread_num() * k : NULL;
+            for (size_t q = 0; q < k; q++)
+                gp[q] = 0;
+            for (size_t i = first[p]; i < first[p + 1]; i++) {
+                double r = op->rho[3 * i + c];
+                if (r == 0)
+                    continue; /* black subpatches reflect nothing */
+                const float *fi = op->fbar ? op->fbar + i * k : scratch;
+                if (!op->fbar)
+                    lrr_operator_fbar_row(op, i, scratch);
+                for (size_t q = 0; q < k; q++)
+                    gp[q] -= r * fi[q];
+            }
+            gp[p] += 1;
+        }
+        double anorm = LAPACKE_dlange(LAPACK_ROW_MAJOR, '1', (lapack_int)k, (lapack_int)k, G,
+                                      (lapack_int)k);
+        lapack_int info = LAPACKE_dgetrf(LAPACK_ROW_MAJOR, (lapack_int)k, (lapack_int)k, G,
+                                         (lapack_int)k, ipiv);
+        if (info > 0) {
+            st = lrr__error(op->ctx, LRR_ERR_SINGULAR,
+                            "channel %d: G = I - Vᵀ diag(rho) F̄ is singular (U[%d][%d] = 0)", c,
+                            (int)info, (int)info);
+            break;
+        }
+        double rcond = 0;
+        if (info == 0)
+            info = LAPACKE_dgecon(LAPACK_ROW_MAJOR, '1', (lapack_int)k, G, (lapack_int)k, anorm,
+                                  &rcond);
+        if (info == 0)
+            info = LAPACKE_dgetri(LAPACK_ROW_MAJOR, (lapack_int)k, G, (lapack_int)k, ipiv);
+        if (info != 0) {
+            st = lrr__error(op->ctx, info < 0 ? LRR_ERR_INVALID_ARG : LRR_ERR_SINGULAR,
+                            "channel %d: LAPACK failed (info = %d)", c, (int)info);
+            break;
+        }
+        op->cond[c] = rcond > 0 ? 1.0 / rcond : INFINITY;
+        float *mc = op->m + (size_t)c * kk;
+        for (size_t j = 0; j < kk; j++) {
+            if (!isfinite(G[j])) {
+                st = lrr__error(op->ctx, LRR_ERR_SINGULAR,
+                                "channel %d: M has a non-finite entry at (%zu, %zu)", c, j / k,
+                                j % k);
+                break;
+            }
+            mc[j] = (float)G[j];
+        }
+        if (st)
+            break;
+    }
+    lrr_aligned_free(G);
+    lrr_aligned_free(ipiv);
+    lrr_aligned_free(rowbuf);
+    return st;
+}

@@ -1,0 +1,106 @@
+/* The scene stage (lib/scene/): input triangles with their materials, and each triangle's
+ * quadtree of patches and subpatches (subdivide.c). Used by every later stage. */
+#ifndef LRR_SCENE_H
+#define LRR_SCENE_H
+
+#include "core/internal.h"
+
+/* ------------------------------------------------------------ geometry and hierarchy */
+/* Input triangles and their subdivision; shared by scenes and operators.
+ * Triangle t is split into 4^depth[t] patches, numbered patch0[t] .. patch0[t+1]-1, and each
+ * patch into d = 4^levels subpatches. Children of a split (a,b,c) are, in order:
+ *   0 (a, ab, ca)   1 (ab, b, bc)   2 (ca, bc, c)   3 (bc, ca, ab)
+ * where ab is the midpoint of a and b. A patch/subpatch's local index is its sequence of
+ * child digits, most significant first (base 4), so every node of a triangle's quadtree
+ * covers a contiguous, aligned range of its subpatches.
+ *
+ * Adaptive hierarchy (node != NULL): depth[t] is then the subpatch depth of triangle t,
+ * levels = 0 and d = 0, and the patches are quadtree nodes of varying depth node[p] <=
+ * depth[t]: patch p holds the 4^(depth[t] - node[p]) subpatches first[p] .. first[p+1]-1.
+ * first and sub0 exist in both cases (uniform: first[p] = p·d, sub0[t] = patch0[t]·d), so
+ * code that walks patches' subpatches need not know which hierarchy it has. */
+typedef struct lrr__geometry {
+    size_t n_tri;
+    float *vert;        /* n_tri×9 */
+    uint8_t *depth;     /* n_tri, patch depth (adaptive: subpatch depth); NULL until subdivided */
+    size_t *patch0;     /* n_tri+1: first patch of each triangle; NULL until subdivided */
+    size_t *sub0;       /* n_tri+1: first subpatch of each triangle */
+    size_t *first;      /* k+1: first subpatch of each patch */
+    uint8_t *node;      /* k: quadtree depth of each patch (adaptive only, else NULL) */
+    unsigned levels;
+    size_t d, k, n;     /* d = 4^levels (0 if adaptive), k patches, n subpatches */
+} lrr__geometry;
+
+void lrr__geometry_free(lrr__geometry *g);
+/* Deep copy (dst is overwritten). */
+lrr_status lrr__geometry_copy(lrr_context *ctx, lrr__geometry *dst, const lrr__geometry *src);
+/* Computes patch0/sub0/first/k/n/d from depth and levels (uniform hierarchy); checks for
+ * overflow, and refuses (before allocating the offsets) more than max_subpatches
+ * subpatches: a file's depths must not make the loader allocate beyond what its header
+ * and size allow. */
+lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g, size_t max_subpatches);
+/* dst = the adaptive hierarchy over src's subpatches (src uniform with levels = 0) whose
+ * patches are the k quadtree nodes of depth node[0..k-1], in index order. Checks that they
+ * tile every triangle (each node aligned, inside its triangle, no gaps); errors (status
+ * `bad`) name `where` and the patch. */
+lrr_status lrr__geometry_adaptive(lrr_context *ctx, const lrr__geometry *src,
+                                  const uint8_t *node, size_t k, const char *where,
+                                  lrr_status bad, lrr__geometry *dst);
+/* Subpatches in patch p. */
+static inline size_t lrr__patch_size(const lrr__geometry *g, size_t p)
+{
+    return g->first[p + 1] - g->first[p];
+}
+/* Patch holding subpatch i. */
+size_t lrr__patch_of(const lrr__geometry *g, size_t i);
+
+/* Index of the child containing barycentric (b0,b1,b2), rewriting them to the child's. */
+static inline unsigned lrr__child_at(double *b0, double *b1, double *b2)
+{
+    double u = *b0, v = *b1, w = *b2;
+    if (u >= 0.5) { *b0 = 2 * u - 1; *b1 = 2 * v; *b2 = 2 * w; return 0; }
+    if (v >= 0.5) { *b0 = 2 * u; *b1 = 2 * v - 1; *b2 = 2 * w; return 1; }
+    if (w >= 0.5) { *b0 = 2 * u; *b1 = 2 * v; *b2 = 2 * w - 1; return 2; }
+    *b0 = 1 - 2 * u; *b1 = 1 - 2 * v; *b2 = 1 - 2 * w; return 3;
+}
+/* Subpatch index of barycentric point (b1, b2) (b0 = 1-b1-b2) of triangle t. */
+size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2);
+/* Patch index only (used by the hemicube item buffer). */
+size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2);
+/* Triangle that owns subpatch i (binary search on sub0). */
+size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i);
+/* Vertices (9 doubles) of subpatch i, in the triangle's orientation. */
+void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9]);
+/* Per-subpatch centre (n×3), unit normal (n×3) and area (n); any may be NULL. */
+void lrr__subpatch_frames(const lrr__geometry *g, float *centre, float *normal, float *area);
+
+/* ------------------------------------------------------------ scene */
+enum { LRR__SCENE_FILE = 0, LRR__SCENE_CORNELL = 1, LRR__SCENE_CORNELL_CLOSED = 2 };
+
+struct lrr_scene {
+    lrr_context *ctx;
+    int builtin;          /* LRR__SCENE_* : chooses the render camera */
+    size_t skipped;       /* zero-area triangles removed */
+    lrr__geometry geom;
+    float *rho;           /* n_tri×3 */
+    float *emission;      /* n_tri×3 */
+    double max_patch_area;
+};
+
+/* Checks a PLY file (f at its start, file_size bytes) before assimp reads it: a strict
+ * header, and a body that holds what the header declares (scene_ply.c). */
+lrr_status lrr__ply_check(lrr_context *ctx, const char *path, FILE *f, uint64_t file_size);
+/* Validates and takes a copy of the arrays: NaN/Inf coordinates and bad materials are errors
+ * naming `source` and the face index face_ids[t] (or t when face_ids is NULL); zero-area
+ * triangles are skipped and counted. */
+lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *vert,
+                                  const float *rho, const float *emission,
+                                  const size_t *face_ids, const char *source, int builtin,
+                                  lrr_scene **out);
+
+/* scene_import.c: every imported triangle, degenerate ones included, with its face number
+ * (nothing validated); free the arrays with lrr_aligned_free. For the scene check. */
+lrr_status lrr__scene_import_raw(lrr_context *ctx, const char *path, size_t *n_tri,
+                                 float **vert, float **rho, float **emission,
+                                 size_t **face_ids);
+#endif

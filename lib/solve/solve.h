@@ -1,0 +1,61 @@
+/* The solve stage (lib/solve/): the real-time step on the CPU (row kernels chosen at run
+ * time) and on an OpenCL device. */
+#ifndef LRR_SOLVE_H
+#define LRR_SOLVE_H
+
+#include "operator/operator.h"
+
+/* ------------------------------------------------------------ real-time kernels */
+/* One instruction-set variant of the two row kernels (realtime_kernel.c). */
+typedef struct lrr__kernel {
+    const char *name; /* "c", "avx2", "avx512" */
+    /* rows [i0, i1): B_c = E_c + rho_c ∘ (F̄ z_c), z 3×k channel-major */
+    void (*fbar_rows)(const float *fbar, size_t i0, size_t i1, size_t k, const float *z,
+                      const float *E, const float *rho, float *B);
+    /* the same with F̄ stored as binary16 / bfloat16, row i scaled by scale[i] */
+    void (*f16_rows)(const uint16_t *fbar, const float *scale, size_t i0, size_t i1, size_t k,
+                     const float *z, const float *E, const float *rho, float *B);
+    void (*bf16_rows)(const uint16_t *fbar, const float *scale, size_t i0, size_t i1,
+                      size_t k, const float *z, const float *E, const float *rho, float *B);
+    /* rows [i0, i1) of y = A x, A row-major with k columns */
+    void (*gemv_rows)(const float *a, size_t i0, size_t i1, size_t k, const float *x, float *y);
+} lrr__kernel;
+
+/* The fastest variant this CPU runs for rows of k entries, or the one named by force
+ * (LRR_SIMD: c, avx2, avx512). */
+lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, size_t k,
+                              const lrr__kernel **out);
+/* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
+void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z);
+/* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ n×k row-major read once, in the operator's storage;
+ * E, rho, B n×3 (rho is usually op->rho). */
+void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
+                     const float *E, const float *rho, float *B);
+
+/* Tests only: when lrr_solve_batch hands a batch to sgemm (at least min_count frames and
+ * F̄ of at least min_bytes), so small test operators can exercise both ways. */
+void lrr__solver_batch_thresholds(lrr_solver *s, size_t min_count, size_t min_bytes);
+
+/* ------------------------------------------------------------ OpenCL backend */
+/* Validates one frame of emission (3n entries): finite and >= 0, the message naming the
+ * subpatch and channel; shared by the CPU and OpenCL solvers so both say the same. */
+lrr_status lrr__emission_check(lrr_context *ctx, size_t n, const float *E);
+/* The error for entry `bad` of E (index 3·subpatch + channel). */
+lrr_status lrr__emission_error(lrr_context *ctx, const float *E, size_t bad);
+
+/* The device side of an OpenCL solver (solve_opencl.c); without OpenCL support create
+ * returns LRR_ERR_UNSUPPORTED. */
+typedef struct lrr__cl_solver lrr__cl_solver;
+lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out);
+void lrr__cl_destroy(lrr__cl_solver *cl);
+const char *lrr__cl_name(const lrr__cl_solver *cl); /* "opencl:<device name>" */
+/* One full pass for validated E: E up, three kernels, B down. */
+lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B);
+/* The last frame's kernel and transfer times (profiling events; 0 before the first frame). */
+void lrr__cl_timings(const lrr__cl_solver *cl, double *kernel_ms, double *transfer_ms);
+/* Tests only: the work-group-per-row kernel (GPUs) instead of item-per-row (CPU devices). */
+void lrr__cl_use_groups(lrr__cl_solver *cl, int groups);
+void lrr__solver_opencl_groups(lrr_solver *s, int groups);
+/* lib/solve/realtime.cl as a string (generated at build time). */
+extern const char lrr__kernel_realtime_cl[];
+#endif

@@ -1,0 +1,57 @@
+#!/bin/sh
+# The layering of lib/ (docs/ARCHITECTURE.md): a stage includes only its own header and
+# those of the stages it may call, so the pipeline reads one way; the numerics (operator,
+# solve) include no file-format, import or CLI library. Fails naming the file and the
+# include that breaks the rule.
+set -u
+top=${LRR_SRCDIR:-$(cd "$(dirname "$0")/.." && pwd)}
+fail=0
+allowed() {
+    case $1 in
+        core) echo "core" ;;
+        scene) echo "core scene" ;;
+        hierarchy) echo "core scene hierarchy" ;;
+        formfactor) echo "core scene formfactor" ;;
+        operator) echo "core scene hierarchy formfactor operator" ;;
+        solve) echo "core scene operator solve" ;;
+        file) echo "core scene operator" ;;
+        reference) echo "core scene formfactor" ;;
+        probe) echo "core scene operator probe" ;;
+        output) echo "core scene operator" ;;
+        *) echo "" ;;
+    esac
+}
+stages=0
+for dir in "$top"/lib/*/; do
+    stage=$(basename "$dir")
+    ok=$(allowed "$stage")
+    if [ -z "$ok" ]; then
+        echo "lib/$stage: a folder the layering does not know (add it to tests/layers.sh and docs/ARCHITECTURE.md)"
+        fail=1
+        continue
+    fi
+    stages=$((stages + 1))
+    for f in "$dir"*.c "$dir"*.cpp "$dir"*.h "$dir"*.cl; do
+        [ -f "$f" ] || continue
+        rel=lib/$stage/$(basename "$f")
+        for inc in $(sed -n 's/^[[:space:]]*#[[:space:]]*include[[:space:]]*"\([a-z_]*\)\/.*/\1/p' "$f"); do
+            case " $ok " in
+                *" $inc "*) ;;
+                *) echo "$rel includes $inc/: stage $stage may include only: $ok"; fail=1 ;;
+            esac
+        done
+        if grep -q '^[[:space:]]*#[[:space:]]*include[[:space:]]*"internal.h"' "$f"; then
+            echo "$rel includes \"internal.h\": name the stage header (core/internal.h, scene/scene.h, ...)"
+            fail=1
+        fi
+        case $stage in operator|solve)
+            if grep -En '^[[:space:]]*#[[:space:]]*include[[:space:]]*<(assimp|stb_|Imf|openexr|CGAL|embree)' "$f"; then
+                echo "$rel: the numerics include a file-format or geometry library"
+                fail=1
+            fi ;;
+        esac
+    done
+done
+[ "$stages" -ge 10 ] || { echo "found only $stages stage folders under $top/lib"; fail=1; }
+[ "$fail" -eq 0 ] && echo "layers: $stages stages, every include allowed"
+exit "$fail"
