@@ -215,3 +215,44 @@ double lrr__now(void)
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
+
+const char *lrr__errno_text(int err, char *buf, size_t len)
+{
+    /* strerror() may share one buffer between threads; strerror_r does not. glibc gives the
+     * GNU variant (returns the text, maybe not in buf) under _GNU_SOURCE, else POSIX's. */
+#if defined(__GLIBC__) && defined(_GNU_SOURCE)
+    return strerror_r(err, buf, len);
+#else
+    if (strerror_r(err, buf, len) != 0)
+        snprintf(buf, len, "error %d", err);
+    return buf;
+#endif
+}
+
+/* ------------------------------------------------------------ the atomic writer's hooks */
+static int atomic_step(void *user, const char *what)
+{
+    return lrr__io_step(user, what);
+}
+
+static void *atomic_alloc(void *user, size_t bytes)
+{
+    return lrr__alloc(user, bytes);
+}
+
+void lrr__context_atomic_io(lrr_context *ctx, lrr__atomic_io *io)
+{
+    io->step = atomic_step;
+    io->alloc = atomic_alloc;
+    io->user = ctx;
+}
+
+lrr_status lrr__atomic_error(lrr_context *ctx, const lrr__atomic_file *w)
+{
+    if (!w->tmp)
+        return lrr__error(ctx, LRR_ERR_NOMEM, "file %s: no memory for the temporary name",
+                          w->path);
+    char eb[128];
+    return lrr__error(ctx, LRR_ERR_IO, "file %s: %s (%s): %s", w->path, w->what, w->tmp,
+                      lrr__errno_text(w->err, eb, sizeof eb));
+}

@@ -7,6 +7,7 @@
 #define LRR_CORE_INTERNAL_H
 
 #include "lrr.h"
+#include "core/atomic_file.h"
 #include <pthread.h>
 #include <stdarg.h>
 #include <stdbool.h>
@@ -71,6 +72,15 @@ typedef int (*lrr__io_hook_fn)(void *user, unsigned long step, const char *what)
 void lrr__context_set_io_hook(lrr_context *ctx, lrr__io_hook_fn hook, void *user);
 /* The injected errno for the next step (0: go ahead); 0 without a hook or a context. */
 int lrr__io_step(lrr_context *ctx, const char *what);
+/* The atomic writer's hooks for ctx (core/atomic_file.h): its steps go through lrr__io_step,
+ * its temporary name through lrr__alloc, so the tests' fault injection reaches every file
+ * the library writes. */
+void lrr__context_atomic_io(lrr_context *ctx, lrr__atomic_io *io);
+/* The error of a failed atomic write, recorded on ctx: LRR_ERR_IO naming the file, the step,
+ * the temporary file and the errno (LRR_ERR_NOMEM when the temporary name was not had). */
+lrr_status lrr__atomic_error(lrr_context *ctx, const lrr__atomic_file *w);
+/* Thread-safe strerror: the text of errno err, in buf or a static string. */
+const char *lrr__errno_text(int err, char *buf, size_t len);
 /* ------------------------------------------------------------ misc */
 /* Below about this many multiply-adds (or bytes touched) a parallel region costs more than it
  * saves: waking the OpenMP team takes microseconds when idle, and milliseconds on a loaded

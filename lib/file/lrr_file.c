@@ -69,6 +69,7 @@
  * corrupted header cannot make it allocate (or read) more than the file holds.
  */
 #include "config.h"
+#include "core/atomic_file.h"
 #include "operator/operator.h"
 
 #include <errno.h>
@@ -164,75 +165,22 @@ struct section {
 };
 
 struct writer {
-    FILE *f;
+    lrr__atomic_file file;
     uint64_t pos;
-    int err; /* errno of the first failure, 0 if none */
-    lrr_context *ctx; /* for the tests' fault injection (lrr__io_step) */
 };
 
 static void w_bytes(struct writer *w, const void *p, size_t len)
 {
-    if (w->err || len == 0 || (w->err = lrr__io_step(w->ctx, "write")))
-        return;
-    errno = 0;
-    if (fwrite(p, 1, len, w->f) != len)
-        w->err = errno ? errno : EIO;
+    lrr__atomic_write(&w->file, p, len);
     w->pos += len;
 }
 
 static void w_pad_to(struct writer *w, uint64_t offset)
 {
     static const unsigned char zeros[ALIGN];
-    while (!w->err && w->pos < offset) {
+    while (!w->file.err && w->pos < offset) {
         uint64_t gap = offset - w->pos;
         w_bytes(w, zeros, gap < ALIGN ? (size_t)gap : ALIGN);
-    }
-}
-
-/* mkstemp creates 0600; give the file the mode an ordinary creat(0666) would have: that of
- * the file being replaced, else 0666 minus the umask. umask() itself cannot be read without
- * changing it (process-wide, racy), so read it from /proc when available. */
-static mode_t new_file_mode(const char *path)
-{
-    struct stat st;
-    if (stat(path, &st) == 0 && S_ISREG(st.st_mode))
-        return st.st_mode & 07777;
-    mode_t mask = 022;
-    FILE *f = fopen("/proc/self/status", "re");
-    if (f) {
-        char line[256];
-        while (fgets(line, sizeof line, f)) {
-            unsigned m;
-            if (sscanf(line, "Umask: %o", &m) == 1) {
-                mask = (mode_t)(m & 0777);
-                break;
-            }
-        }
-        fclose(f);
-    }
-    return 0666 & ~mask;
-}
-
-/* After rename, the directory entry itself must reach the disk for the new name to survive
- * a crash. Best effort: some file systems refuse fsync on directories, and the data is
- * already safe under one of the two names. */
-static void sync_parent_dir(const char *path)
-{
-    const char *slash = strrchr(path, '/');
-    char *dir = NULL;
-    if (!slash)
-        dir = strdup(".");
-    else if (slash == path)
-        dir = strdup("/");
-    else
-        dir = strndup(path, (size_t)(slash - path));
-    if (!dir)
-        return;
-    int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    free(dir);
-    if (fd >= 0) {
-        (void)fsync(fd);
-        close(fd);
     }
 }
 
@@ -337,74 +285,21 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     put32(header + 48, (uint32_t)op->storage);
     put64(header + 56, checksum(header, 56));
 
-    size_t plen = strlen(path);
-    char *tmp = lrr__alloc(ctx, plen + sizeof ".tmp.XXXXXX");
-    if (!tmp) {
-        lrr_aligned_free(geom);
-        lrr_aligned_free(patches);
-        return lrr__error(ctx, LRR_ERR_NOMEM, "file %s: no memory for the temporary name", path);
+    /* through the atomic writer (core/atomic_file.c), its steps seen by the fault hook */
+    lrr__atomic_io io;
+    lrr__context_atomic_io(ctx, &io);
+    struct writer w = {{0}, 0};
+    if (!lrr__atomic_open(&w.file, path, &io)) {
+        w_bytes(&w, header, sizeof header);
+        w_bytes(&w, table, tsize);
+        for (int s = 0; s < count; s++) {
+            w_pad_to(&w, sec[s].offset);
+            w_bytes(&w, sec[s].data, (size_t)sec[s].size);
+        }
+        lrr__atomic_commit(&w.file);
     }
-    memcpy(tmp, path, plen);
-    memcpy(tmp + plen, ".tmp.XXXXXX", sizeof ".tmp.XXXXXX");
-
-    const char *what = "cannot create temporary file";
-    int err = 0;
-    int fd = (err = lrr__io_step(ctx, "create")) ? -1 : mkstemp(tmp);
-    if (fd < 0) {
-        err = err ? err : errno;
-        goto fail_nofile;
-    }
-    (void)fcntl(fd, F_SETFD, FD_CLOEXEC); /* mkostemp would need _GNU_SOURCE */
-    struct writer w = {fdopen(fd, "wb"), 0, 0, ctx};
-    if (!w.f) {
-        err = errno;
-        close(fd);
-        what = "cannot open temporary file";
-        goto fail;
-    }
-    if (fchmod(fd, new_file_mode(path)) != 0) {
-        err = errno;
-        what = "cannot set the mode of the temporary file";
-        fclose(w.f);
-        goto fail;
-    }
-    w_bytes(&w, header, sizeof header);
-    w_bytes(&w, table, tsize);
-    for (int s = 0; s < count; s++) {
-        w_pad_to(&w, sec[s].offset);
-        w_bytes(&w, sec[s].data, (size_t)sec[s].size);
-    }
-    what = "cannot write temporary file";
-    if (!w.err && !(w.err = lrr__io_step(ctx, "flush")) && fflush(w.f) != 0)
-        w.err = errno;
-    if (!w.err && !(w.err = lrr__io_step(ctx, "fsync")) && fsync(fd) != 0)
-        w.err = errno;
-    int close_err = w.err ? 0 : lrr__io_step(ctx, "close");
-    if (fclose(w.f) != 0 && !w.err)
-        w.err = errno;
-    if (!w.err)
-        w.err = close_err;
-    if (w.err) {
-        err = w.err;
-        goto fail;
-    }
-    if ((err = lrr__io_step(ctx, "rename")) || rename(tmp, path) != 0) {
-        err = err ? err : errno;
-        what = "cannot rename the temporary file onto it";
-        goto fail;
-    }
-    (void)lrr__io_step(ctx, "sync directory"); /* best effort: an injected error changes nothing */
-    sync_parent_dir(path);
-    free(tmp);
-    lrr_aligned_free(geom);
-    lrr_aligned_free(patches);
-    return LRR_OK;
-
-fail:
-    unlink(tmp);
-fail_nofile:
-    st = lrr__error(ctx, LRR_ERR_IO, "file %s: %s (%s): %s", path, what, tmp, strerror(err));
-    free(tmp);
+    st = w.file.err ? lrr__atomic_error(ctx, &w.file) : LRR_OK;
+    lrr__atomic_free(&w.file);
     lrr_aligned_free(geom);
     lrr_aligned_free(patches);
     return st;
@@ -430,8 +325,9 @@ static lrr_status read_at(struct reader *r, uint64_t offset, void *buf, size_t l
         if (got < 0) {
             if (errno == EINTR)
                 continue;
+            char eb[128];
             return lrr__error(r->ctx, LRR_ERR_IO, "file %s: cannot read %s: %s", r->path, what,
-                              strerror(errno));
+                              lrr__errno_text(errno, eb, sizeof eb));
         }
         if (got == 0)
             return lrr__error(r->ctx, LRR_ERR_CORRUPT,
@@ -777,13 +673,18 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     /* O_NONBLOCK: opening a FIFO without a writer would otherwise hang; it changes nothing
      * for the regular files accepted below. */
     r.fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-    if (r.fd < 0)
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path, strerror(errno));
+    if (r.fd < 0) {
+        char eb[128];
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
+                          lrr__errno_text(errno, eb, sizeof eb));
+    }
     struct stat sb;
     if (fstat(r.fd, &sb) != 0) {
         int err = errno;
         close(r.fd);
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot stat: %s", path, strerror(err));
+        char eb[128];
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot stat: %s", path,
+                          lrr__errno_text(err, eb, sizeof eb));
     }
     if (!S_ISREG(sb.st_mode)) {
         close(r.fd);

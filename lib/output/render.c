@@ -642,85 +642,21 @@ static void membuf_write(void *user, void *data, int size)
     m->len += (size_t)size;
 }
 
-static const char *errno_text(int err, char *buf, size_t len)
-{
-#if defined(__GLIBC__) && defined(_GNU_SOURCE)
-    return strerror_r(err, buf, len);
-#else
-    if (strerror_r(err, buf, len) != 0)
-        snprintf(buf, len, "error %d", err);
-    return buf;
-#endif
-}
-
-/* Writes data to path through a temporary file in the same directory, flushed and renamed,
- * so that path never holds a partial picture. */
+/* Writes data to path through the atomic writer (core/atomic_file.c), so that path never
+ * holds a partial picture; its steps go through the context's I/O fault hook. */
 static lrr_status write_atomic(lrr_context *ctx, const char *path, const unsigned char *data,
                                size_t len)
 {
-    size_t plen = strlen(path);
-    char *tmp = lrr__alloc(ctx, plen + 16);
-    if (!tmp)
-        return lrr__error(ctx, LRR_ERR_NOMEM, "file %s: cannot allocate a temporary name", path);
-    snprintf(tmp, plen + 16, "%s.tmp-XXXXXX", path);
-    char ebuf[128];
-    const char *what;
-    int fd = mkstemp(tmp);
-    if (fd < 0) {
-        int err = errno;
-        free(tmp);
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot create a temporary file: %s", path,
-                          errno_text(err, ebuf, sizeof ebuf));
+    lrr__atomic_io io;
+    lrr__context_atomic_io(ctx, &io);
+    lrr__atomic_file w;
+    if (!lrr__atomic_open(&w, path, &io)) {
+        lrr__atomic_write(&w, data, len);
+        lrr__atomic_commit(&w);
     }
-    /* mkstemp makes the file private; a picture is normally world-readable */
-    (void)fchmod(fd, 0644);
-    size_t done = 0;
-    while (done < len) {
-        ssize_t w = write(fd, data + done, len - done);
-        if (w < 0 && errno == EINTR)
-            continue;
-        if (w <= 0) {
-            what = "write";
-            goto fail;
-        }
-        done += (size_t)w;
-    }
-    if (fsync(fd) != 0) {
-        what = "fsync";
-        goto fail;
-    }
-    if (close(fd) != 0) {
-        fd = -1;
-        what = "close";
-        goto fail;
-    }
-    fd = -1;
-    if (rename(tmp, path) != 0) {
-        what = "rename";
-        goto fail;
-    }
-    free(tmp);
-    /* make the rename itself durable; failure here leaves a complete file, so ignore it */
-    char *dir = strdup(path);
-    if (dir) {
-        char *slash = strrchr(dir, '/');
-        const char *d = slash ? (slash == dir ? "/" : (*slash = '\0', dir)) : ".";
-        int dfd = open(d, O_RDONLY | O_DIRECTORY);
-        if (dfd >= 0) {
-            (void)fsync(dfd);
-            close(dfd);
-        }
-        free(dir);
-    }
-    return LRR_OK;
-fail:;
-    int err = errno ? errno : EIO;
-    if (fd >= 0)
-        close(fd);
-    unlink(tmp);
-    free(tmp);
-    return lrr__error(ctx, LRR_ERR_IO, "file %s: %s failed: %s", path, what,
-                      errno_text(err, ebuf, sizeof ebuf));
+    lrr_status st = w.err ? lrr__atomic_error(ctx, &w) : LRR_OK;
+    lrr__atomic_free(&w);
+    return st;
 }
 
 /* ------------------------------------------------------------------ the entry point */

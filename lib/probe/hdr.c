@@ -92,8 +92,11 @@ lrr_status lrr__hdr_read_rgb(lrr_context *ctx, const char *path, float **rgb, si
     *rgb = NULL;
     *width = *height = 0;
     FILE *f = fopen(path, "rb");
-    if (!f)
-        return lrr__error(ctx, LRR_ERR_IO, "'%s': cannot open: %s", path, strerror(errno));
+    if (!f) {
+        char eb[128];
+        return lrr__error(ctx, LRR_ERR_IO, "'%s': cannot open: %s", path,
+                          lrr__errno_text(errno, eb, sizeof eb));
+    }
     struct stat sb;
     if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode) || sb.st_size < 0 ||
         (uint64_t)sb.st_size > (uint64_t)INT_MAX) {

@@ -75,13 +75,19 @@ static bool has_extension(const char *path, const char *ext)
 static lrr_status check_readable(lrr_context *ctx, const char *path)
 {
     struct stat st;
-    if (stat(path, &st) != 0)
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path, strerror(errno));
+    if (stat(path, &st) != 0) {
+        char eb[128];
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
+                          lrr__errno_text(errno, eb, sizeof eb));
+    }
     if (S_ISDIR(st.st_mode))
         return lrr__error(ctx, LRR_ERR_IO, "file %s: is a directory, not a scene file", path);
     FILE *f = fopen(path, "rb");
-    if (!f)
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path, strerror(errno));
+    if (!f) {
+        char eb[128];
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
+                          lrr__errno_text(errno, eb, sizeof eb));
+    }
     fclose(f);
     return LRR_OK;
 }

@@ -618,7 +618,7 @@ static void test_io_errors(void **state)
     tu_tmp_path(dir, sizeof dir, "render-is-a-dir");
     assert_int_equal(mkdir(dir, 0755), 0);
     char prefix[256];
-    snprintf(prefix, sizeof prefix, "%s.tmp-", strrchr(dir, '/') + 1);
+    snprintf(prefix, sizeof prefix, "%s.tmp.", strrchr(dir, '/') + 1);
     assert_int_equal(lrr_render_png(op, B, &o, dir), LRR_ERR_IO);
     assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_ERR_IO);
     assert_non_null(strstr(msg, dir));
@@ -639,9 +639,73 @@ static void test_io_errors(void **state)
     assert_int_equal(h, 32);
     stbi_image_free(img);
     remove(path);
-    snprintf(prefix, sizeof prefix, "%s.tmp-", strrchr(path, '/') + 1);
+    snprintf(prefix, sizeof prefix, "%s.tmp.", strrchr(path, '/') + 1);
     assert_int_equal(count_prefixed(tmp_dir(), prefix), 0);
 
+    free(B);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+}
+
+/* Pictures are written through the library's one atomic writer: every step sees the I/O
+ * fault hook, a failure at any step leaves neither the picture nor a temporary file, and a
+ * failed directory sync (best effort) still gives the picture. */
+typedef struct render_fault {
+    unsigned long at, steps;
+    char names[16][24];
+} render_fault;
+
+static int render_inject(void *user, unsigned long step, const char *what)
+{
+    render_fault *f = user;
+    if (step < 16)
+        snprintf(f->names[step], sizeof f->names[step], "%s", what);
+    f->steps = step;
+    return step == f->at ? ENOSPC : 0;
+}
+
+static void test_write_faults(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    float v[18];
+    unit_quad(v, 0, 1);
+    lrr_operator *op = make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
+    float *B = uniform_radiosity(op->n, 0.5f, 0.5f, 0.5f);
+    lrr_render_options o = {32, 32, 0, 0};
+    char path[640], msg[512], prefix[256];
+    tu_tmp_path(path, sizeof path, "render-faults.png");
+    remove(path);
+    snprintf(prefix, sizeof prefix, "%s.tmp.", strrchr(path, '/') + 1);
+
+    render_fault f = {0};
+    lrr__context_set_io_hook(ctx, render_inject, &f); /* at = 0: no fault, count the steps */
+    LRR_CHECK(ctx, lrr_render_png(op, B, &o, path));
+    const unsigned long steps = f.steps;
+    assert_true(steps >= 7 && steps < 16);
+    assert_string_equal(f.names[1], "create");
+    assert_string_equal(f.names[steps - 1], "rename");
+    assert_string_equal(f.names[steps], "sync directory");
+    assert_int_equal(remove(path), 0);
+    for (unsigned long at = 1; at < steps; at++) {
+        f = (render_fault){.at = at};
+        lrr__context_set_io_hook(ctx, render_inject, &f);
+        assert_int_equal(lrr_render_png(op, B, &o, path), LRR_ERR_IO);
+        assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_ERR_IO);
+        if (!strstr(msg, path) || !strstr(msg, strerror(ENOSPC)))
+            fail_msg("step %lu (%s): the message should name the path and the cause: %s", at,
+                     f.names[at], msg);
+        if (file_exists(path))
+            fail_msg("step %lu (%s) failed, yet the picture exists", at, f.names[at]);
+        assert_int_equal(count_prefixed(tmp_dir(), prefix), 0);
+    }
+    f = (render_fault){.at = steps};
+    lrr__context_set_io_hook(ctx, render_inject, &f);
+    LRR_CHECK(ctx, lrr_render_png(op, B, &o, path));
+    assert_true(file_exists(path));
+    remove(path);
+    lrr__context_set_io_hook(ctx, NULL, NULL);
     free(B);
     lrr_operator_destroy(op);
     lrr_context_destroy(ctx);
@@ -689,7 +753,8 @@ int main(void)
         cmocka_unit_test(test_back_face),
         cmocka_unit_test(test_near_clipping), cmocka_unit_test(test_cornell_camera),
         cmocka_unit_test(test_cornell_solved), cmocka_unit_test(test_invalid),
-        cmocka_unit_test(test_io_errors),     cmocka_unit_test(test_exposure),
+        cmocka_unit_test(test_io_errors),     cmocka_unit_test(test_write_faults),
+        cmocka_unit_test(test_exposure),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
