@@ -100,7 +100,7 @@ int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const size_t *f
 /* The same for a solved operator, with its stored geometry. */
 int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const float *radiosity);
 
-/* ------------------------------------------------------------------ CSV comparison (compare.c) */
+/* ------------------------------------------------------------------ CSV comparison (cmd_compare.c) */
 typedef struct cli_csv_row {
     size_t subpatch, patch;
     double area, centre[3], normal[3], b[3];
@@ -143,7 +143,8 @@ int cli_compare_radiosity(const cli_csv_table *a, const char *a_path, const cli_
  * parse_only != 0 every command stops right after parsing and checking its options and
  * returns CLI_EXIT_OK (or the usual CLI_EXIT_USAGE), before it opens a file, creates a
  * directory or does any work: the fuzz target of the option parsers (tests/fuzz/fuzz_cli.c)
- * builds tools/lrr.c with -DLRR_CLI_NO_MAIN and calls this. Not reentrant (getopt). */
+ * builds the tool's sources (tools/lrr.c, tools/cmd_*.c, ...) with -DLRR_CLI_NO_MAIN and
+ * calls this. Not reentrant (getopt). */
 int lrr_cli_main(int argc, char *argv[], int parse_only);
 
 /* ------------------------------------------------------------------ misc */

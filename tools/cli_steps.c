@@ -1,0 +1,264 @@
+/* Steps several of the `lrr` tool's subcommands take: opening scenes and operators, the
+ * emission, timed solves and the summaries they print. See commands.h. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "commands.h"
+
+/* ------------------------------------------------------------------ scenes */
+int is_builtin(const char *name)
+{
+    return strcmp(name, "cornell") == 0 || strcmp(name, "cornell-closed") == 0;
+}
+
+int open_scene(lrr_context *ctx, const char *name, lrr_scene **scene)
+{
+    struct stat st;
+    lrr_status s;
+    if (stat(name, &st) == 0) {
+        s = lrr_scene_load(ctx, name, scene);
+    } else if (is_builtin(name)) {
+        s = lrr_scene_builtin(ctx, name, scene);
+    } else {
+        return cli_fail(LRR_ERR_IO, "scene '%s': %s (built-in scenes: cornell, cornell-closed)",
+                        name, strerror(errno));
+    }
+    return s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, s);
+}
+
+int open_subdivided_scene(lrr_context *ctx, const char *name, const subdiv_args *sa,
+                          lrr_scene **scene)
+{
+    int rc = open_scene(ctx, name, scene);
+    if (rc != CLI_EXIT_OK)
+        return rc;
+    lrr_status s = lrr_scene_subdivide(*scene, &sa->sub);
+    if (s != LRR_OK) {
+        rc = cli_lib_error(ctx, s);
+        lrr_scene_destroy(*scene);
+        *scene = NULL;
+        return rc;
+    }
+    return CLI_EXIT_OK;
+}
+
+void print_scene_info(const char *name, const lrr_scene *scene)
+{
+    lrr_scene_info si;
+    lrr_scene_get_info(scene, &si);
+    printf("scene: %s\n", name);
+    printf("triangles: %zu\n", si.triangles);
+    printf("skipped: %zu\n", si.skipped);
+    printf("patches: %zu\n", si.patches);
+    printf("subpatches: %zu\n", si.subpatches);
+    printf("d: %zu\n", si.d);
+    printf("area: %.9g\n", si.area);
+    printf("emitters: %zu\n", si.emitters);
+    printf("max_patch_area: %.9g\n", si.max_patch_area);
+    printf("bounds_min: %.9g %.9g %.9g\n", si.bounds_min[0], si.bounds_min[1],
+           si.bounds_min[2]);
+    printf("bounds_max: %.9g %.9g %.9g\n", si.bounds_max[0], si.bounds_max[1],
+           si.bounds_max[2]);
+}
+
+/* ------------------------------------------------------------------ operator builds */
+void budget_hint(const char *prog, size_t budget)
+{
+    fprintf(stderr, "%s: --memory-budget is %zu MiB (default: physical memory): raise it, "
+                    "or use fewer patches, levels or threads\n", prog, budget >> 20);
+}
+
+void print_operator_info(const lrr_operator *op)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    printf("n: %zu\n", oi.n);
+    printf("k: %zu\n", oi.k);
+    printf("d: %zu\n", oi.d);
+    if (oi.d == 0) { /* adaptive hierarchy */
+        printf("d_min: %zu\n", oi.d_min);
+        printf("d_max: %zu\n", oi.d_max);
+        printf("selection_seconds: %.3f\n", oi.selection_seconds);
+    }
+    printf("hemicube: %u\n", oi.hemicube_resolution);
+    printf("seed: %llu\n", (unsigned long long)oi.seed);
+    printf("build_seconds: %.3f\n", oi.build_seconds);
+    printf("cond_r: %.6g\n", oi.condition[0]);
+    printf("cond_g: %.6g\n", oi.condition[1]);
+    printf("cond_b: %.6g\n", oi.condition[2]);
+    printf("storage: %s\n", lrr_storage_name(oi.storage));
+    printf("memory_mb: %.3f\n", (double)oi.bytes / (1024.0 * 1024.0));
+}
+
+int check_writable_dir(const char *path)
+{
+    const char *slash = strrchr(path, '/');
+    char *dir = slash ? strndup(path, slash == path ? 1 : (size_t)(slash - path)) : strdup(".");
+    if (!dir)
+        return cli_fail(LRR_ERR_NOMEM, "cannot copy the path '%s'", path);
+    int rc = CLI_EXIT_OK;
+    if (access(dir, W_OK | X_OK) != 0)
+        rc = cli_fail(LRR_ERR_IO, "cannot write '%s': directory '%s': %s", path, dir,
+                      strerror(errno));
+    free(dir);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ emission */
+int load_operator(lrr_context *ctx, const char *path, lrr_operator **op)
+{
+    lrr_status s = lrr_operator_load(ctx, path, op);
+    return s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, s);
+}
+
+int scaled_emission(const lrr_operator *op, double scale, float **out)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    const float *e0 = lrr_operator_emission(op);
+    if (!e0)
+        return cli_fail(LRR_ERR_INVALID_ARG, "the operator has no stored emission");
+    float *e = cli_alloc_rgb(oi.n);
+    if (!e)
+        return CLI_EXIT_FAIL;
+    for (size_t i = 0; i < 3 * oi.n; i++) {
+        e[i] = (float)((double)e0[i] * scale);
+        if (!isfinite(e[i])) {
+            free(e);
+            return cli_fail(LRR_ERR_INVALID_ARG,
+                            "--emission-scale %g: the emission of subpatch %zu overflows", scale,
+                            i / 3);
+        }
+    }
+    *out = e;
+    return CLI_EXIT_OK;
+}
+
+int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *p, float *e,
+                    double *seconds)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    lrr_probe *probe = NULL;
+    lrr_light *lights = calloc(p->sources, sizeof *lights);
+    float *direct = cli_alloc_rgb(oi.n);
+    int rc = CLI_EXIT_OK;
+    lrr_status st = lights && direct ? lrr_probe_load(ctx, p->path, &probe) : LRR_ERR_NOMEM;
+    if (st == LRR_OK) {
+        if (p->median_cut) {
+            st = lrr_probe_median_cut(probe, p->sources, lights);
+        } else {
+            lrr_fit_stats fs;
+            st = lrr_probe_fit_irradiance(probe, p->sources, PROBE_DEFAULT_NORMALS, NULL, lights,
+                                          &fs);
+        }
+    }
+    if (st == LRR_OK) {
+        for (size_t l = 0; l < p->sources; l++)
+            for (int c = 0; c < 3; c++)
+                lights[l].rgb[c] = (float)(lights[l].rgb[c] * p->scale);
+        double t0 = cli_now();
+        st = lrr_probe_direct_light(op, lights, p->sources, direct);
+        *seconds = cli_now() - t0;
+    }
+    if (st != LRR_OK) {
+        rc = cli_lib_error(st == LRR_ERR_NOMEM && !probe ? NULL : ctx, st);
+    } else {
+        for (size_t i = 0; i < 3 * oi.n; i++) {
+            e[i] = p->no_scene_emission ? direct[i] : e[i] + direct[i];
+            if (!isfinite(e[i])) {
+                rc = cli_fail(LRR_ERR_INVALID_ARG,
+                              "--probe-scale %g: the emission of subpatch %zu overflows",
+                              p->scale, i / 3);
+                break;
+            }
+        }
+    }
+    free(direct);
+    free(lights);
+    lrr_probe_destroy(probe);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ solving */
+int check_finite(const float *b, size_t n)
+{
+    for (size_t i = 0; i < 3 * n; i++)
+        if (!isfinite(b[i])) {
+            fprintf(stderr, "lrr: the radiosity of subpatch %zu is not finite (%g)\n", i / 3,
+                    (double)b[i]);
+            return CLI_EXIT_FAIL;
+        }
+    return CLI_EXIT_OK;
+}
+
+/* Solves once to warm up, then `repeat` timed runs; *median_ms gets their median. */
+int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend, const float *e,
+                float *b, unsigned repeat, lrr_path path, double *median_ms, lrr_path *used,
+                char *kernel)
+{
+    lrr_solver *solver = NULL;
+    lrr_status s = lrr_solver_create(op, backend, &solver);
+    if (s == LRR_OK)
+        s = lrr_solver_set_path(solver, path);
+    if (s != LRR_OK) {
+        lrr_solver_destroy(solver);
+        return cli_lib_error(ctx, s);
+    }
+    double *t = calloc(repeat ? repeat : 1, sizeof *t);
+    if (!t) {
+        lrr_solver_destroy(solver);
+        return cli_fail(LRR_ERR_NOMEM, "cannot allocate %u timings", repeat);
+    }
+    s = lrr_solve(solver, e, b);
+    for (unsigned r = 0; s == LRR_OK && r < repeat; r++) {
+        double t0 = cli_now();
+        s = lrr_solve(solver, e, b);
+        t[r] = 1e3 * (cli_now() - t0);
+    }
+    if (used)
+        *used = lrr_solver_last_path(solver);
+    if (kernel)
+        snprintf(kernel, KERNEL_NAME_MAX, "%s", lrr_solver_kernel(solver));
+    lrr_solver_destroy(solver);
+    if (s != LRR_OK) {
+        free(t);
+        return cli_lib_error(ctx, s);
+    }
+    *median_ms = repeat ? cli_median(t, repeat) : 0.0;
+    free(t);
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    return check_finite(b, oi.n);
+}
+
+/* ------------------------------------------------------------------ summaries */
+void print_radiosity_summary(size_t n, const float *area, const float *b)
+{
+    double sum[3] = {0, 0, 0}, total = 0.0, maxb = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        double a = area ? (double)area[i] : 1.0;
+        total += a;
+        for (int c = 0; c < 3; c++) {
+            sum[c] += a * (double)b[3 * i + c];
+            if (b[3 * i + c] > maxb)
+                maxb = b[3 * i + c];
+        }
+    }
+    static const char ch[3] = {'r', 'g', 'b'};
+    for (int c = 0; c < 3; c++)
+        printf("mean_b_%c: %.9g\n", ch[c], total > 0 ? sum[c] / total : 0.0);
+    printf("max_b: %.9g\n", maxb);
+}
+
+void print_solution_summary(const lrr_operator *op, const float *b)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    print_radiosity_summary(oi.n, lrr_operator_area(op), b);
+}

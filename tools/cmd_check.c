@@ -1,0 +1,267 @@
+/* lrr check: the scene doctor (degenerate, intersecting, z-fighting and flipped faces), and
+ * --fix to write a repaired OBJ. */
+#include <errno.h>
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "commands.h"
+
+static const char prog[] = "lrr check";
+
+static const char check_help[] =
+    "Usage: lrr check SCENE [--fix OUT.obj] [--max-report N] [--strict]\n"
+    "The scene doctor (exact predicates, CGAL). Reads the raw triangles (zero-area ones\n"
+    "included) and prints 'key: value' lines (triangles, degenerate, intersecting_pairs,\n"
+    "coplanar_overlaps, contacts, open_edges, inconsistent_components), then one line per\n"
+    "finding naming the file's face numbers (for a built-in scene, triangle indices).\n"
+    "Errors: degenerate (zero-area) triangles; intersecting pairs (each crosses the other's\n"
+    "plane: light leaks); coplanar overlaps facing the same way (z-fighting); closed\n"
+    "components whose faces disagree on orientation (the minority is named).\n"
+    "Warnings: open edges (boundaries; the Cornell box's front is open) and contacts\n"
+    "(coplanar overlaps facing opposite ways, e.g. a block standing on the floor).\n"
+    "\n" SCENE_HELP "\n"
+    "  --fix OUT.obj        write the scene without degenerates and with each closed\n"
+    "                       component oriented like its majority (OBJ + OUT.mtl with Kd/Ke,\n"
+    "                       written atomically); intersections are not repaired\n"
+    "  --max-report N       print at most N finding lines (default 50; 0 = none)\n"
+    "  --strict             warnings count as errors\n"
+    "  -h, --help           show this help\n"
+    "Exit status: 0 no errors, 1 errors found (about the input, also with --fix) or the scene\n"
+    "cannot be read, 2 usage error.\n";
+
+typedef struct check_args {
+    const char *scene, *fix;
+    size_t max_report;
+    int strict;
+} check_args;
+
+/* ------------------------------------------------------------------ parsing */
+/* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
+static int parse_check(check_args *a, int argc, char *argv[])
+{
+    enum { OPT_FIX = 1024, OPT_MAX_REPORT, OPT_STRICT };
+    static const struct option longopts[] = {{"fix", required_argument, NULL, OPT_FIX},
+                                             {"max-report", required_argument, NULL, OPT_MAX_REPORT},
+                                             {"strict", no_argument, NULL, OPT_STRICT},
+                                             {"help", no_argument, NULL, 'h'},
+                                             {NULL, 0, NULL, 0}};
+    *a = (check_args){.fix = NULL, .max_report = 50, .strict = 0};
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        if (c == 'h') {
+            fputs(check_help, stdout);
+            return CLI_EXIT_OK;
+        } else if (c == OPT_FIX) {
+            if (!*optarg) {
+                cli_usage_error(prog, "--fix: the file name is empty");
+                return CLI_EXIT_USAGE;
+            }
+            a->fix = optarg;
+        } else if (c == OPT_MAX_REPORT) {
+            if (cli_parse_size(prog, "--max-report", optarg, 0, SIZE_MAX, &a->max_report) != 0)
+                return CLI_EXIT_USAGE;
+        } else if (c == OPT_STRICT) {
+            a->strict = 1;
+        } else {
+            return bad_option(prog, c, argv);
+        }
+    }
+    a->scene = one_positional(prog, "SCENE", argc, argv);
+    if (!a->scene)
+        return CLI_EXIT_USAGE;
+    return CLI_RUN;
+}
+
+/* ------------------------------------------------------------------ printing */
+static void print_finding(const lrr_check_finding *f)
+{
+    switch (f->kind) {
+    case LRR_CHECK_DEGENERATE:
+        printf("error: face %zu is degenerate (zero area)\n", f->face_a);
+        break;
+    case LRR_CHECK_INTERSECT:
+        printf("error: face %zu and face %zu intersect\n", f->face_a, f->face_b);
+        break;
+    case LRR_CHECK_ZFIGHT:
+        printf("error: face %zu and face %zu are coplanar and overlap, facing the same way "
+               "(z-fighting)\n", f->face_a, f->face_b);
+        break;
+    case LRR_CHECK_CONTACT:
+        printf("warning: face %zu and face %zu are coplanar and overlap, facing opposite ways "
+               "(contact)\n", f->face_a, f->face_b);
+        break;
+    case LRR_CHECK_OPEN_EDGE:
+        printf("warning: face %zu has an open edge (boundary)\n", f->face_a);
+        break;
+    case LRR_CHECK_ORIENTATION:
+        printf("error: face %zu is oriented against its closed component (e.g. face %zu)\n",
+               f->face_a, f->face_b);
+        break;
+    }
+}
+
+/* The counts, the first max_report findings and the verdict; returns the exit status. */
+static int print_report(const check_args *a, const lrr_check_report *r)
+{
+    printf("scene: %s\ntriangles: %zu\ndegenerate: %zu\nintersecting_pairs: %zu\n"
+           "coplanar_overlaps: %zu\ncontacts: %zu\nopen_edges: %zu\n"
+           "inconsistent_components: %zu\n",
+           a->scene, r->triangles, r->degenerate, r->intersecting_pairs, r->coplanar_overlaps,
+           r->contacts, r->open_edges, r->inconsistent_components);
+    for (size_t i = 0; i < r->n_findings && i < a->max_report; i++)
+        print_finding(&r->findings[i]);
+    if (r->n_findings > a->max_report)
+        printf("(%zu more findings not shown; see --max-report)\n",
+               r->n_findings - a->max_report);
+    size_t errors = r->degenerate + r->intersecting_pairs + r->coplanar_overlaps +
+                    r->inconsistent_components;
+    size_t warnings = r->contacts + r->open_edges;
+    int rc = errors || (a->strict && warnings) ? CLI_EXIT_FAIL : CLI_EXIT_OK;
+    printf("result: %s\n", errors ? "errors" : warnings ? (a->strict ? "warnings (strict)" : "warnings only") : "clean");
+    return rc;
+}
+
+/* ------------------------------------------------------------------ --fix */
+/* materials: distinct (rho, emission) pairs, numbered by first use; mat[t] is triangle t's.
+ * Returns their count. */
+static size_t number_materials(const lrr_check_report *r, size_t *mat)
+{
+    size_t n_mat = 0;
+    for (size_t t = 0; t < r->triangles; t++) {
+        mat[t] = n_mat;
+        for (size_t u = 0; u < t; u++)
+            if (memcmp(r->rho + 3 * u, r->rho + 3 * t, 3 * sizeof(float)) == 0 &&
+                memcmp(r->emission + 3 * u, r->emission + 3 * t, 3 * sizeof(float)) == 0) {
+                mat[t] = mat[u];
+                break;
+            }
+        if (mat[t] == n_mat)
+            n_mat++;
+    }
+    return n_mat;
+}
+
+/* Commits an output file written through out.f; returns CLI_EXIT_OK or the failure. */
+static int finish_output(cli_outfile *out, const char *path)
+{
+    if (ferror(out->f)) {
+        cli_outfile_abort(out);
+        return cli_fail(LRR_ERR_IO, "'%s': write failed", path);
+    }
+    if (cli_outfile_commit(out) != 0)
+        return cli_fail(LRR_ERR_IO, "'%s': cannot write: %s", path, strerror(errno));
+    return CLI_EXIT_OK;
+}
+
+/* OUT.mtl: one material per number, Kd the reflectance and Ke the emission. */
+static int write_fixed_mtl(const lrr_check_report *r, const size_t *mat, size_t n_mat,
+                           const char *mtl)
+{
+    cli_outfile out;
+    if (cli_outfile_open(&out, mtl) != 0)
+        return cli_fail(LRR_ERR_IO, "'%s': cannot create: %s", mtl, strerror(errno));
+    fprintf(out.f, "# written by lrr check --fix\n");
+    for (size_t m = 0, t = 0; m < n_mat; m++) {
+        while (mat[t] != m)
+            t++;
+        fprintf(out.f, "newmtl m%zu\nKd %.9g %.9g %.9g\nKe %.9g %.9g %.9g\n", m,
+                (double)r->rho[3 * t], (double)r->rho[3 * t + 1], (double)r->rho[3 * t + 2],
+                (double)r->emission[3 * t], (double)r->emission[3 * t + 1],
+                (double)r->emission[3 * t + 2]);
+    }
+    return finish_output(&out, mtl);
+}
+
+/* OUT.obj: the triangles the report keeps (fix 1 drops one, fix 2 flips it), each with its
+ * three own vertices. */
+static int write_fixed_triangles(const lrr_check_report *r, const size_t *mat,
+                                 const char *path, const char *mtl_base)
+{
+    cli_outfile out;
+    if (cli_outfile_open(&out, path) != 0)
+        return cli_fail(LRR_ERR_IO, "'%s': cannot create: %s", path, strerror(errno));
+    fprintf(out.f, "# written by lrr check --fix\nmtllib %s\n", mtl_base);
+    size_t v = 0;
+    for (size_t t = 0; t < r->triangles; t++) {
+        if (r->fix[t] == 1)
+            continue;
+        static const int order[2][3] = {{0, 1, 2}, {0, 2, 1}};
+        const int *o = order[r->fix[t] == 2];
+        for (int i = 0; i < 3; i++) {
+            const float *p = r->vert + 9 * t + 3 * o[i];
+            fprintf(out.f, "v %.9g %.9g %.9g\n", (double)p[0], (double)p[1], (double)p[2]);
+        }
+        fprintf(out.f, "usemtl m%zu\nf %zu %zu %zu\n", mat[t], v + 1, v + 2, v + 3);
+        v += 3;
+    }
+    return finish_output(&out, path);
+}
+
+/* OUT.obj + OUT.mtl (the extension replaced, or appended), each written atomically. */
+static int write_fixed_obj(const lrr_check_report *r, const char *path)
+{
+    size_t len = strlen(path);
+    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
+    size_t stem = dot && (!slash || dot > slash) ? (size_t)(dot - path) : len;
+    char *mtl = malloc(stem + 5);
+    size_t *mat = malloc((r->triangles ? r->triangles : 1) * sizeof *mat);
+    if (!mtl || !mat) {
+        free(mtl);
+        free(mat);
+        return cli_fail(LRR_ERR_NOMEM, "--fix: out of memory");
+    }
+    memcpy(mtl, path, stem);
+    memcpy(mtl + stem, ".mtl", 5);
+    const char *mtl_base = strrchr(mtl, '/') ? strrchr(mtl, '/') + 1 : mtl;
+    size_t n_mat = number_materials(r, mat);
+    int rc = write_fixed_mtl(r, mat, n_mat, mtl);
+    if (rc == CLI_EXIT_OK)
+        rc = write_fixed_triangles(r, mat, path, mtl_base);
+    free(mtl);
+    free(mat);
+    return rc;
+}
+
+/* ------------------------------------------------------------------ running */
+static int run_check(const check_args *a)
+{
+    struct stat st;
+    if (stat(a->scene, &st) != 0 && !is_builtin(a->scene))
+        return cli_fail(LRR_ERR_IO, "scene '%s': %s (built-in scenes: cornell, cornell-closed)",
+                        a->scene, strerror(errno));
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return cli_lib_error(NULL, s);
+    lrr_check_report *r = NULL;
+    s = lrr_scene_check(ctx, a->scene, &r);
+    if (s != LRR_OK) {
+        int rc = cli_lib_error(ctx, s);
+        lrr_context_destroy(ctx);
+        return rc;
+    }
+    int rc = print_report(a, r);
+    if (a->fix) {
+        int frc = write_fixed_obj(r, a->fix);
+        if (frc != CLI_EXIT_OK)
+            rc = frc;
+    }
+    lrr_check_report_destroy(r);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
+int cmd_check(int argc, char *argv[])
+{
+    check_args a;
+    int rc = parse_check(&a, argc, argv);
+    if (rc != CLI_RUN)
+        return rc;
+    if (cli_parse_only)
+        return CLI_EXIT_OK;
+    return run_check(&a);
+}

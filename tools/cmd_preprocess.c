@@ -1,0 +1,272 @@
+/* lrr preprocess: build the low-rank operator (F̄, M_c) of a scene and save it. */
+#include <float.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "commands.h"
+
+/* lrr preprocess warns when cond × FLT_EPSILON exceeds this: M_c is stored in float, so a
+ * larger condition number leaves less than ~0.1% of accuracy in the solution. */
+#define COND_WARN_ERROR 1e-3
+
+static const char prog[] = "lrr preprocess";
+
+static const char preprocess_help[] =
+    "Usage: lrr preprocess SCENE -o FILE.lrr [OPTIONS]\n"
+    "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
+    "saves it atomically. Prints 'key: value' lines: n, k, d, hemicube, seed,\n"
+    "build_seconds, cond_r, cond_g, cond_b, storage, memory_mb, backend, output. Warns on\n"
+    "stderr when a condition estimate is so large (cond × FLT_EPSILON > 1e-3) that M_c,\n"
+    "stored in single precision, may not carry the solution to 0.1%.\n"
+    "\n" SCENE_HELP "\n"
+    "Options:\n"
+    "  -o, --output FILE    where to write the operator (required)\n"
+    "  --storage S          f32 (default), f16 or bf16: how F̄ is stored. 16-bit halves the\n"
+    "                       file, the memory and the bytes each frame reads; f16 rows carry\n"
+    "                       a power-of-two scale, and M is recomputed from the rounded F̄\n"
+    "  --backend B          cpu (default) or opencl: where the hemicube pixels are integrated\n"
+    "                       into F̄ (rasterisation stays on the CPU; LRR_OPENCL_DEVICE picks\n"
+    "                       the device as for 'lrr solve'; the same F̄ to rounding)\n"
+    "  --adaptive K         adaptive hierarchy: the scene's patches (--levels 0, the default\n"
+    "                       with --adaptive) become\n"
+    "                       the subpatches and are regrouped into at most K patches, nodes\n"
+    "                       of each triangle's quadtree, splitting first where the sampled\n"
+    "                       form-factor columns vary most (shadow edges, contacts, corners).\n"
+    "                       K is between the triangle count and the subpatch count; the\n"
+    "                       count reached can be up to 2 less (a split adds 3). Prints\n"
+    "                       d_min, d_max and selection_seconds (part of build_seconds)\n"
+    "  --adaptive-samples S receivers sampled to estimate the variance (default 2048,\n"
+    "                       rendered at a quarter of the hemicube resolution)\n"
+    "  --adaptive-split X   variance (default) or area: area splits the largest patch first,\n"
+    "                       i.e. uniform subdivision at the same K (the baseline)\n" BUILD_HELP
+    OPERATOR_BUDGET_HELP
+    "  -h, --help           show this help\n" SUBDIV_HELP;
+
+typedef struct preprocess_args {
+    const char *scene, *output;
+    subdiv_args sa;
+    build_args ba;
+    lrr_storage storage;
+    int on_device;
+    size_t adaptive, adaptive_samples;
+    int adaptive_split, adaptive_only;
+    size_t budget;
+} preprocess_args;
+
+/* ------------------------------------------------------------------ parsing */
+/* The options of preprocess alone: 1 handled, 0 not one of them, -1 usage error (reported). */
+static int preprocess_option(preprocess_args *a, int c, const char *arg)
+{
+    switch (c) {
+    case OPT_STORAGE:
+        if (lrr_storage_from_name(arg, &a->storage) != LRR_OK) {
+            cli_usage_error(prog, "--storage: '%s' is not one of f32, f16, bf16", arg);
+            return -1;
+        }
+        return 1;
+    case OPT_BACKEND: {
+        lrr_backend b;
+        if (cli_parse_backend(prog, arg, &b) != 0)
+            return -1;
+        a->on_device = b == LRR_BACKEND_OPENCL;
+        return 1;
+    }
+    case OPT_ADAPTIVE:
+        return cli_parse_size(prog, "--adaptive", arg, 1, SIZE_MAX, &a->adaptive) != 0 ? -1 : 1;
+    case OPT_ADAPTIVE_SAMPLES:
+        a->adaptive_only = 1;
+        return cli_parse_size(prog, "--adaptive-samples", arg, 1, (size_t)1 << 20,
+                              &a->adaptive_samples) != 0 ? -1 : 1;
+    case OPT_ADAPTIVE_SPLIT:
+        a->adaptive_only = 1;
+        if (strcmp(arg, "variance") == 0)
+            a->adaptive_split = LRR_SPLIT_VARIANCE;
+        else if (strcmp(arg, "area") == 0)
+            a->adaptive_split = LRR_SPLIT_AREA;
+        else {
+            cli_usage_error(prog, "--adaptive-split: '%s' is not variance or area", arg);
+            return -1;
+        }
+        return 1;
+    case OPT_MEMORY_BUDGET:
+        return parse_operator_budget(prog, arg, &a->budget) != 0 ? -1 : 1;
+    default:
+        return 0;
+    }
+}
+
+/* The checks after getopt: the scene, -o, and how the options combine. */
+static int preprocess_finish(preprocess_args *a, int argc, char *argv[])
+{
+    a->scene = one_positional(prog, "SCENE", argc, argv);
+    if (!a->scene)
+        return CLI_EXIT_USAGE;
+    if (!a->output || !a->output[0]) {
+        cli_usage_error(prog, "-o FILE.lrr is required");
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return CLI_EXIT_USAGE;
+    }
+    int rc = subdiv_finish(&a->sa, prog);
+    if (rc)
+        return rc;
+    if (a->adaptive_only && !a->adaptive) {
+        cli_usage_error(prog, "--adaptive-samples and --adaptive-split need --adaptive K");
+        return CLI_EXIT_USAGE;
+    }
+    if (a->adaptive && !a->sa.have_levels)
+        a->sa.sub.levels = 0;
+    if (a->adaptive && a->sa.sub.levels != 0) {
+        cli_usage_error(prog, "--adaptive: the patches become the subpatches, so give "
+                              "--levels 0 (not %u)", a->sa.sub.levels);
+        return CLI_EXIT_USAGE;
+    }
+    return CLI_RUN;
+}
+
+/* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
+static int parse_preprocess(preprocess_args *a, int argc, char *argv[])
+{
+    static const struct option longopts[] = {
+        {"output", required_argument, NULL, 'o'},
+        {"storage", required_argument, NULL, OPT_STORAGE},
+        {"backend", required_argument, NULL, OPT_BACKEND},
+        {"adaptive", required_argument, NULL, OPT_ADAPTIVE},
+        {"adaptive-samples", required_argument, NULL, OPT_ADAPTIVE_SAMPLES},
+        {"adaptive-split", required_argument, NULL, OPT_ADAPTIVE_SPLIT},
+        {"memory-budget", required_argument, NULL, OPT_MEMORY_BUDGET},
+        SUBDIV_LONGOPTS,
+        BUILD_LONGOPTS,
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    *a = (preprocess_args){.storage = LRR_STORAGE_F32,
+                           .adaptive_split = LRR_SPLIT_VARIANCE,
+                           .budget = physical_memory_bytes()};
+    subdiv_init(&a->sa);
+    build_init(&a->ba);
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
+        int r = preprocess_option(a, c, optarg);
+        if (r == 0)
+            r = subdiv_option(&a->sa, prog, c, optarg);
+        if (r == 0)
+            r = build_option(&a->ba, prog, c, optarg);
+        if (r < 0)
+            return CLI_EXIT_USAGE;
+        if (r > 0)
+            continue;
+        switch (c) {
+        case 'h':
+            fputs(preprocess_help, stdout);
+            return CLI_EXIT_OK;
+        case 'o':
+            a->output = optarg;
+            break;
+        default:
+            return bad_option(prog, c, argv);
+        }
+    }
+    return preprocess_finish(a, argc, argv);
+}
+
+/* ------------------------------------------------------------------ running */
+/* M_c is stored in float: a condition number κ costs about log10(κ) of its ~7 digits. */
+static void warn_condition(const lrr_operator *op)
+{
+    static const char ch[3] = {'r', 'g', 'b'};
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    for (int c = 0; c < 3; c++) {
+        double cond = oi.condition[c];
+        if (!(cond * FLT_EPSILON > COND_WARN_ERROR))
+            continue;
+        fprintf(stderr,
+                "lrr: warning: condition estimate %.3g of channel %c: single-precision M_%c may "
+                "lose about %.1f of its %.1f significant digits (relative error up to ~%.2g)\n",
+                cond, ch[c], ch[c], log10(cond), -log10((double)FLT_EPSILON),
+                cond * FLT_EPSILON);
+    }
+}
+
+static void note_skipped(const preprocess_args *a, const lrr_scene *scene)
+{
+    lrr_scene_info si;
+    lrr_scene_get_info(scene, &si);
+    if (si.skipped)
+        fprintf(stderr, "lrr preprocess: note: %zu zero-area triangle(s) skipped; "
+                        "'lrr check %s' reports them and more\n", si.skipped, a->scene);
+}
+
+/* Builds the operator (*op, also on some failures: the caller destroys it), stores F̄ as
+ * asked and saves it. Returns CLI_EXIT_OK or the failure (reported). */
+static int build_and_save(lrr_context *ctx, const preprocess_args *a, const lrr_scene *scene,
+                          lrr_operator **op)
+{
+    int rc = CLI_EXIT_OK;
+    cli_progress bar;
+    lrr_build_options bo = build_start(&a->ba, &bar);
+    bo.backend = a->on_device ? LRR_BACKEND_OPENCL : LRR_BACKEND_CPU;
+    bo.adaptive_patches = a->adaptive;
+    bo.adaptive_samples = a->adaptive_samples;
+    bo.adaptive_split = a->adaptive_split;
+    bo.memory_budget = a->budget;
+    lrr_status s = lrr_operator_build(scene, &bo, op);
+    cli_progress_finish(&bar);
+    if (s == LRR_ERR_BUDGET) {
+        rc = cli_lib_error(ctx, s);
+        budget_hint(prog, a->budget);
+        s = LRR_OK;
+    }
+    if (s == LRR_OK && *op)
+        s = lrr_operator_set_storage(*op, a->storage);
+    if (s == LRR_OK && *op) {
+        warn_condition(*op);
+        s = lrr_operator_save(*op, a->output);
+    }
+    if (s != LRR_OK)
+        rc = cli_lib_error(ctx, s);
+    return rc;
+}
+
+static void print_preprocess(const preprocess_args *a, const lrr_operator *op)
+{
+    print_operator_info(op);
+    printf("backend: %s\n", a->on_device ? "opencl" : "cpu");
+    printf("output: %s\n", a->output);
+}
+
+static int run_preprocess(const preprocess_args *a)
+{
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return cli_lib_error(NULL, s);
+    lrr_scene *scene = NULL;
+    lrr_operator *op = NULL;
+    int rc = check_writable_dir(a->output);
+    if (rc == CLI_EXIT_OK)
+        rc = open_subdivided_scene(ctx, a->scene, &a->sa, &scene);
+    if (rc == CLI_EXIT_OK) {
+        note_skipped(a, scene);
+        rc = build_and_save(ctx, a, scene, &op);
+    }
+    if (rc == CLI_EXIT_OK)
+        print_preprocess(a, op);
+    lrr_operator_destroy(op);
+    lrr_scene_destroy(scene);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
+int cmd_preprocess(int argc, char *argv[])
+{
+    preprocess_args a;
+    int rc = parse_preprocess(&a, argc, argv);
+    if (rc != CLI_RUN)
+        return rc;
+    if (cli_parse_only)
+        return CLI_EXIT_OK;
+    return run_preprocess(&a);
+}

@@ -1,0 +1,229 @@
+/*
+ * The subcommands of the `lrr` tool (tools/cmd_*.c, dispatched by lrr_cli_main in
+ * tools/lrr.c) and what several of them share: defaults, option codes, help fragments, the
+ * option groups (cli_options.c) and the common steps (cli_steps.c). Uses only the public API
+ * (lrr.h).
+ */
+#ifndef LRR_COMMANDS_H
+#define LRR_COMMANDS_H
+
+#include <getopt.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "cli.h"
+#include "lrr.h"
+
+/* ------------------------------------------------------------------ the subcommands */
+/* Each takes the command line from the subcommand's name on (argv[0] = "info", ...) and
+ * returns the exit status. */
+int cmd_info(int argc, char *argv[]);
+int cmd_check(int argc, char *argv[]);
+int cmd_preprocess(int argc, char *argv[]);
+int cmd_solve(int argc, char *argv[]);
+int cmd_render(int argc, char *argv[]);
+int cmd_reference(int argc, char *argv[]);
+int cmd_compare(int argc, char *argv[]);
+int cmd_demo(int argc, char *argv[]);
+int cmd_probe(int argc, char *argv[]);
+
+/* Set by lrr_cli_main: each command returns CLI_EXIT_OK right after its command line has
+ * been parsed and checked, before it touches a file or does any work (see cli.h). */
+extern int cli_parse_only;
+
+/* What a command's parse function returns when the command line is good and the command is
+ * to run; otherwise it returns the exit status (CLI_EXIT_OK after --help). */
+enum { CLI_RUN = -1 };
+
+/* Defaults when no subdivision option is given (documented in the help texts). */
+#define DEFAULT_PATCHES 216
+#define DEFAULT_LEVELS 2u
+#define DEFAULT_HEMICUBE 128u
+#define DEFAULT_SEED 1u
+#define DEFAULT_REPEAT 10u
+#define DEFAULT_TOL 1e-6
+#define DEFAULT_BUDGET_MB 4096u
+
+#define PROBE_DEFAULT_SOURCES 16u
+#define PROBE_DEFAULT_NORMALS 1024u
+
+/* Long-only options get codes above the char range. */
+enum {
+    OPT_MAX_PATCH_AREA = 256,
+    OPT_PATCHES,
+    OPT_LEVELS,
+    OPT_HEMICUBE,
+    OPT_SEED,
+    OPT_THREADS,
+    OPT_PROGRESS,
+    OPT_NO_ROTATION,
+    OPT_CSV,
+    OPT_EMISSION_SCALE,
+    OPT_REPEAT,
+    OPT_PATH,
+    OPT_BACKEND,
+    OPT_STORAGE,
+    OPT_WIDTH,
+    OPT_HEIGHT,
+    OPT_EXPOSURE,
+    OPT_CAMERA,
+    OPT_OUT,
+    OPT_METHOD,
+    OPT_TOL,
+    OPT_MAX_ITERATIONS,
+    OPT_MEMORY_BUDGET,
+    OPT_SOURCES,
+    OPT_NORMALS,
+    OPT_JSON,
+    OPT_LIGHTS,
+    OPT_PROBE,
+    OPT_PROBE_METHOD,
+    OPT_PROBE_SCALE,
+    OPT_NO_SCENE_EMISSION,
+    OPT_ADAPTIVE,
+    OPT_ADAPTIVE_SAMPLES,
+    OPT_ADAPTIVE_SPLIT
+};
+
+/* ------------------------------------------------------------------ help fragments */
+#define SUBDIV_HELP                                                                           \
+    "Subdivision (default when neither --max-patch-area nor --patches is given:\n"           \
+    "--patches 216 --levels 2):\n"                                                            \
+    "  --max-patch-area A   split input triangles until every patch has area <= A\n"          \
+    "  --patches K          choose the area threshold giving about K patches\n"               \
+    "  --levels L           split each patch L more times: d = 4^L subpatches (0..10,\n"      \
+    "                       default 2)\n"
+
+#define SCENE_HELP                                                                            \
+    "SCENE is an OBJ/PLY/glTF file, or a built-in scene: 'cornell' or 'cornell-closed'.\n"  \
+    "A built-in name is used only when no file of that name exists.\n"
+
+#define BUILD_HELP                                                                            \
+    "  --hemicube R         hemicube resolution: even, 8..4096 (default 128)\n"                \
+    "  --seed S             seed of the random hemicube rotations (default 1)\n"               \
+    "  --no-rotation        no random rotation: every hemicube in the same tangent frame\n"     \
+    "  --threads T          OpenMP threads, 0 = OpenMP's default (default 0)\n"                \
+    "  --progress           draw a progress bar on stderr even when it is not a terminal\n"
+
+#define OPERATOR_BUDGET_HELP                                                                  \
+    "  --memory-budget MB   the most memory the build may hold, in MiB: F̄, M, the\n"          \
+    "                       per-subpatch data and the hemicube buffers of every thread\n"     \
+    "                       (default: the machine's physical memory; 0 = no limit). A larger\n" \
+    "                       build is refused before it starts, naming the MiB it needs\n"
+
+/* ------------------------------------------------------------------ option parsing (cli_options.c) */
+/* Reports the option getopt_long rejected (it is told to stay quiet: the optstring starts
+ * with ':' and opterr = 0) and returns the usage exit status. */
+int bad_option(const char *prog, int c, char *const argv[]);
+
+/* getopt_long entries of the shared option groups, for the commands' longopts tables. */
+#define SUBDIV_LONGOPTS                                                                       \
+    {"max-patch-area", required_argument, NULL, OPT_MAX_PATCH_AREA},                          \
+    {"patches", required_argument, NULL, OPT_PATCHES},                                        \
+    {"levels", required_argument, NULL, OPT_LEVELS}
+#define BUILD_LONGOPTS                                                                        \
+    {"hemicube", required_argument, NULL, OPT_HEMICUBE},                                      \
+    {"seed", required_argument, NULL, OPT_SEED},                                              \
+    {"threads", required_argument, NULL, OPT_THREADS},                                        \
+    {"progress", no_argument, NULL, OPT_PROGRESS},                                            \
+    {"no-rotation", no_argument, NULL, OPT_NO_ROTATION}
+#define PROBE_LONGOPTS                                                                         \
+    {"probe", required_argument, NULL, OPT_PROBE},                                            \
+    {"sources", required_argument, NULL, OPT_SOURCES},                                        \
+    {"probe-method", required_argument, NULL, OPT_PROBE_METHOD},                              \
+    {"probe-scale", required_argument, NULL, OPT_PROBE_SCALE},                                \
+    {"no-scene-emission", no_argument, NULL, OPT_NO_SCENE_EMISSION}
+
+void start_getopt(void);
+
+/* Takes exactly one positional argument; returns it or NULL after a usage message. */
+const char *one_positional(const char *prog, const char *what, int argc, char *const argv[]);
+
+typedef struct subdiv_args {
+    lrr_subdivision sub;
+    int have_area, have_patches, have_levels;
+} subdiv_args;
+
+void subdiv_init(subdiv_args *s);
+/* Returns 1 if c was a subdivision option, 0 if not, -1 on a bad value. */
+int subdiv_option(subdiv_args *s, const char *prog, int c, const char *arg);
+/* Checks the combination and fills in the default. Returns 0 or the usage exit status. */
+int subdiv_finish(subdiv_args *s, const char *prog);
+
+/* Options of the hemicube build, shared by preprocess and reference. */
+typedef struct build_args {
+    unsigned hemicube, threads;
+    uint64_t seed;
+    int force_progress;
+    int no_rotation;
+} build_args;
+
+void build_init(build_args *b);
+/* Returns 1 if c was a build option, 0 if not, -1 on a bad value. */
+int build_option(build_args *b, const char *prog, int c, const char *arg);
+/* The library's options, with a progress bar (drawn on a terminal or with --progress). */
+lrr_build_options build_start(const build_args *b, cli_progress *bar);
+
+/* The default of --memory-budget for operator builds: the machine's physical memory (a build
+ * beyond it would only swap or be killed), 0 (no limit) where sysconf cannot tell. */
+size_t physical_memory_bytes(void);
+/* --memory-budget MB of preprocess and demo: 0 = no limit. */
+int parse_operator_budget(const char *prog, const char *arg, size_t *bytes);
+
+/* The --probe options of solve and render. */
+typedef struct probe_args {
+    const char *path;        /* --probe; NULL: none */
+    size_t sources;
+    int median_cut;          /* --probe-method median-cut */
+    double scale;            /* --probe-scale */
+    int no_scene_emission;
+    int probe_only_given;    /* an option that needs --probe was given */
+} probe_args;
+
+void probe_args_init(probe_args *p);
+/* 1: handled, 0: not a probe option, -1: usage error (reported). */
+int probe_option(probe_args *p, const char *prog, int c, const char *arg);
+/* 0, or -1 after a usage message. */
+int probe_finish(const probe_args *p, const char *prog);
+
+/* ------------------------------------------------------------------ shared steps (cli_steps.c) */
+int is_builtin(const char *name);
+/* A file wins over a built-in name, so a scene file called "cornell" stays reachable. */
+int open_scene(lrr_context *ctx, const char *name, lrr_scene **scene);
+int open_subdivided_scene(lrr_context *ctx, const char *name, const subdiv_args *sa,
+                          lrr_scene **scene);
+void print_scene_info(const char *name, const lrr_scene *scene);
+
+/* After lrr_operator_build refused with LRR_ERR_BUDGET: how to get past it. */
+void budget_hint(const char *prog, size_t budget);
+void print_operator_info(const lrr_operator *op);
+/* Fails early when the directory of an output file cannot be written, so a long build is
+ * not thrown away at the save. */
+int check_writable_dir(const char *path);
+
+int load_operator(lrr_context *ctx, const char *path, lrr_operator **op);
+/* E = S × (stored emission); fails if scaling makes a value overflow to infinity. */
+int scaled_emission(const lrr_operator *op, double scale, float **out);
+/* e (n×3, the scaled stored emission) += the probe's direct light, or = it with
+ * --no-scene-emission; *seconds the time of lrr_probe_direct_light. */
+int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *p, float *e,
+                    double *seconds);
+
+/* A solve must never hand back NaN or Inf silently; the tool double-checks. */
+int check_finite(const float *b, size_t n);
+
+/* Room for lrr_solver_kernel's name, copied before the solver goes ("opencl:<device>"). */
+#define KERNEL_NAME_MAX 160
+
+/* Times `repeat` solves of the same emission on the given backend and path after one
+ * warm-up, and reports the path the last one took and the kernel variant (kernel has
+ * KERNEL_NAME_MAX bytes, or is NULL). */
+int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend, const float *e,
+                float *b, unsigned repeat, lrr_path path, double *median_ms, lrr_path *used,
+                char *kernel);
+
+/* mean_b_r/g/b (area-weighted; plain means without areas) and max_b of n subpatches. */
+void print_radiosity_summary(size_t n, const float *area, const float *b);
+void print_solution_summary(const lrr_operator *op, const float *b);
+
+#endif /* LRR_COMMANDS_H */
