@@ -10,6 +10,7 @@
 #include <stdio.h>
 
 #include "lrr.h"
+#include "core/atomic_file.h"
 
 /* Exit statuses: 1 for a failure while working, 2 for a malformed command line, 3 when an
  * iterative reference solve stopped before its tolerance (its result is still written). */
@@ -73,11 +74,12 @@ void cli_progress_finish(cli_progress *p);
 
 /* ------------------------------------------------------------------ atomic output files */
 /* Writes go to a temporary file next to `path`; cli_outfile_commit flushes, syncs and
- * renames it into place, so readers never see a half-written file under the final name. */
+ * renames it into place, so readers never see a half-written file under the final name.
+ * The library's own writer (lib/core/atomic_file.c, compiled into lrr and lrr-bench). */
 typedef struct cli_outfile {
-    FILE *f;
+    FILE *f;          /* write here */
     char *path;
-    char *tmp_path;
+    lrr__atomic_file w;
 } cli_outfile;
 
 /* Returns 0, or -1 with errno set (nothing is left behind). */

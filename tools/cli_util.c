@@ -199,93 +199,41 @@ void cli_progress_finish(cli_progress *p)
 /* ------------------------------------------------------------------ atomic output files */
 int cli_outfile_open(cli_outfile *out, const char *path)
 {
-    static const char suffix[] = ".tmpXXXXXX";
-    out->f = NULL;
-    out->path = NULL;
-    out->tmp_path = NULL;
-    size_t len = strlen(path);
-    if (len > SIZE_MAX - sizeof suffix) {
-        errno = ENAMETOOLONG;
-        return -1;
-    }
-    out->path = strdup(path);
-    out->tmp_path = malloc(len + sizeof suffix);
-    if (!out->path || !out->tmp_path) {
-        free(out->path);
-        free(out->tmp_path);
-        out->path = out->tmp_path = NULL;
+    memset(out, 0, sizeof *out);
+    if (!(out->path = strdup(path))) {
         errno = ENOMEM;
         return -1;
     }
-    memcpy(out->tmp_path, path, len);
-    memcpy(out->tmp_path + len, suffix, sizeof suffix);
-    /* Same directory as the target, so rename() stays within one file system. */
-    int fd = mkstemp(out->tmp_path);
-    if (fd < 0) {
-        int e = errno;
+    int e = lrr__atomic_open(&out->w, out->path, NULL);
+    if (e) {
+        lrr__atomic_free(&out->w);
         free(out->path);
-        free(out->tmp_path);
-        out->path = out->tmp_path = NULL;
+        out->path = NULL;
         errno = e;
         return -1;
     }
-    /* mkstemp creates mode 0600; give the result the permissions a plain fopen would. */
-    mode_t mask = umask(0);
-    umask(mask);
-    (void)fchmod(fd, 0666 & ~mask);
-    out->f = fdopen(fd, "w");
-    if (!out->f) {
-        int e = errno;
-        close(fd);
-        unlink(out->tmp_path);
-        free(out->path);
-        free(out->tmp_path);
-        out->path = out->tmp_path = NULL;
-        errno = e;
-        return -1;
-    }
+    out->f = out->w.f;
     return 0;
-}
-
-static void outfile_release(cli_outfile *out)
-{
-    free(out->path);
-    free(out->tmp_path);
-    out->f = NULL;
-    out->path = out->tmp_path = NULL;
 }
 
 int cli_outfile_commit(cli_outfile *out)
 {
-    int e = 0;
-    if (ferror(out->f))
-        e = EIO;
-    if (!e && fflush(out->f) != 0)
-        e = errno ? errno : EIO;
-    if (!e && fsync(fileno(out->f)) != 0)
-        e = errno;
-    if (fclose(out->f) != 0 && !e)
-        e = errno ? errno : EIO;
+    int e = lrr__atomic_commit(&out->w);
+    lrr__atomic_free(&out->w);
+    free(out->path);
+    out->path = NULL;
     out->f = NULL;
-    if (!e && rename(out->tmp_path, out->path) != 0)
-        e = errno;
-    if (e) {
-        unlink(out->tmp_path);
-        outfile_release(out);
-        errno = e;
-        return -1;
-    }
-    outfile_release(out);
-    return 0;
+    errno = e;
+    return e ? -1 : 0;
 }
 
 void cli_outfile_abort(cli_outfile *out)
 {
-    if (out->f)
-        fclose(out->f);
-    if (out->tmp_path)
-        unlink(out->tmp_path);
-    outfile_release(out);
+    lrr__atomic_abort(&out->w);
+    lrr__atomic_free(&out->w);
+    free(out->path);
+    out->path = NULL;
+    out->f = NULL;
 }
 
 int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const size_t *first,
