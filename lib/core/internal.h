@@ -89,4 +89,25 @@ const char *lrr__errno_text(int err, char *buf, size_t len);
 #define LRR__PARALLEL_MIN ((size_t)1 << 16)
 double lrr__now(void);  /* monotonic seconds */
 
+/* splitmix64 (Steele, Lea and Flood 2014): lrr__mix64 is its output function, a bijective
+ * mix of 64 bits; lrr__splitmix64(x) the value the generator gives from state x (a good
+ * hash of x); lrr__splitmix64_next the generator itself. The per-receiver hemicube
+ * rotations, the adaptive selection's sample and the picture welding's hash use them. */
+static inline uint64_t lrr__mix64(uint64_t x)
+{
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+    return x ^ (x >> 31);
+}
+static inline uint64_t lrr__splitmix64(uint64_t x)
+{
+    return lrr__mix64(x + 0x9e3779b97f4a7c15ULL);
+}
+static inline uint64_t lrr__splitmix64_next(uint64_t *state)
+{
+    uint64_t x = *state;
+    *state = x + 0x9e3779b97f4a7c15ULL;
+    return lrr__splitmix64(x);
+}
+
 #endif

@@ -91,21 +91,6 @@ static inline void cross3(const double *a, const double *b, double *o)
     o[1] = a[2] * b[0] - a[0] * b[2];
     o[2] = a[0] * b[1] - a[1] * b[0];
 }
-static inline void normalise3(double *a)
-{
-    double l = sqrt(dot3(a, a));
-    a[0] /= l;
-    a[1] /= l;
-    a[2] /= l;
-}
-
-static uint64_t splitmix64(uint64_t x)
-{
-    x += 0x9e3779b97f4a7c15ull;
-    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
-    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
-    return x ^ (x >> 31);
-}
 
 /* ------------------------------------------------------------------ per-triangle data */
 typedef struct {
@@ -352,16 +337,18 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         e2[j] = v[6 + j] - v[j];
     }
     cross3(e1, e2, N);
-    normalise3(N);
+    lrr__normalize3(N);
     /* tangent frame, then the per-receiver random rotation about N */
     double helper[3] = {1, 0, 0};
     if (fabs(N[0]) > 0.6) { helper[0] = 0; helper[1] = 1; }
     double U0[3], V0[3], U[3], Vv[3];
     cross3(helper, N, U0);
-    normalise3(U0);
+    lrr__normalize3(U0);
     cross3(N, U0, V0);
     double theta =
-        rotate ? 2 * M_PI * (double)(splitmix64(seed ^ splitmix64(i)) >> 11) * 0x1.0p-53 : 0;
+        rotate ? 2 * M_PI * (double)(lrr__splitmix64(seed ^ lrr__splitmix64(i)) >> 11) *
+                     0x1.0p-53
+               : 0;
     double ct = cos(theta), st = sin(theta);
     for (int j = 0; j < 3; j++)
         U[j] = ct * U0[j] + st * V0[j];

@@ -69,23 +69,16 @@ static void cross3(const double a[3], const double b[3], double out[3])
     out[2] = a[0] * b[1] - a[1] * b[0];
 }
 
-static void normalize3(double v[3])
-{
-    double len = sqrt(dot3(v, v));
-    if (len > 0)
-        for (int j = 0; j < 3; j++)
-            v[j] /= len;
-}
 
 static void camera_orient(camera *cam, const double fwd[3])
 {
     static const double world_up[3] = {0, 1, 0};
     memcpy(cam->fwd, fwd, sizeof cam->fwd);
-    normalize3(cam->fwd);
+    lrr__normalize3(cam->fwd);
     /* image right = forward × up: for the Cornell camera this is −x, so the red wall at
      * x ≈ 556 appears on the left, as in the published pictures */
     cross3(cam->fwd, world_up, cam->right);
-    normalize3(cam->right);
+    lrr__normalize3(cam->right);
     cross3(cam->right, cam->fwd, cam->up);
 }
 
@@ -158,7 +151,7 @@ static void camera_setup(camera *cam, const lrr_operator *op, int cornell, unsig
     double dist = 1.02 * r / sin(half);
     double dir[2][3] = {{0, 0.3, 1}, {0, 0.3, -1}}, eyes[2][3];
     for (int s = 0; s < 2; s++) {
-        normalize3(dir[s]);
+        lrr__normalize3(dir[s]);
         for (int j = 0; j < 3; j++)
             eyes[s][j] = c[j] + dist * dir[s][j];
     }
@@ -192,11 +185,7 @@ static uint64_t hash_key(const int32_t k[3])
     uint64_t h = ((uint64_t)(uint32_t)k[0] * 0x9E3779B97F4A7C15ull) ^
                  ((uint64_t)(uint32_t)k[1] << 21) ^ ((uint64_t)(uint32_t)k[2] << 42) ^
                  (uint64_t)(uint32_t)k[2];
-    h ^= h >> 30;
-    h *= 0xBF58476D1CE4E5B9ull;
-    h ^= h >> 27;
-    h *= 0x94D049BB133111EBull;
-    return h ^ (h >> 31);
+    return lrr__mix64(h);
 }
 
 static int normals_agree(const float *a, const float *b)

@@ -8,19 +8,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static double tri_area(const float *v)
-{
-    double e1[3], e2[3];
-    for (int j = 0; j < 3; j++) {
-        e1[j] = (double)v[3 + j] - v[j];
-        e2[j] = (double)v[6 + j] - v[j];
-    }
-    double c0 = e1[1] * e2[2] - e1[2] * e2[1];
-    double c1 = e1[2] * e2[0] - e1[0] * e2[2];
-    double c2 = e1[0] * e2[1] - e1[1] * e2[0];
-    return 0.5 * sqrt(c0 * c0 + c1 * c1 + c2 * c2);
-}
-
 /* A triangle is degenerate when its area is negligible next to its longest edge squared:
  * such slivers have no well-defined normal and would only add noise to the hemicubes. */
 static bool degenerate(const float *v)
@@ -34,7 +21,7 @@ static bool degenerate(const float *v)
         if (s > l2)
             l2 = s;
     }
-    return !(tri_area(v) > 1e-10 * l2) || l2 == 0;
+    return !(lrr__tri_area(v) > 1e-10 * l2) || l2 == 0;
 }
 
 lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *vert,
@@ -67,7 +54,7 @@ lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *v
         }
         /* Finite coordinates near FLT_MAX can still span more area than a float holds:
          * subpatch areas (float) would become infinite, and every form factor with them. */
-        double area = tri_area(vert + 9 * t);
+        double area = lrr__tri_area(vert + 9 * t);
         if (!(area <= FLT_MAX))
             return lrr__error(ctx, LRR_ERR_GEOMETRY,
                               "%s: face %zu: area %g is beyond float's range (rescale the "
@@ -286,7 +273,7 @@ static double patch_count(const lrr_scene *s, double max_area)
 {
     double k = 0;
     for (size_t t = 0; t < s->geom.n_tri; t++)
-        k += ldexp(1.0, 2 * (int)depth_for(tri_area(s->geom.vert + 9 * t), max_area));
+        k += ldexp(1.0, 2 * (int)depth_for(lrr__tri_area(s->geom.vert + 9 * t), max_area));
     return k;
 }
 
@@ -309,7 +296,7 @@ static lrr_status choose_threshold(lrr_scene *s, size_t target, double *best_are
     if (st)
         return st;
     for (size_t t = 0; t < nt; t++) {
-        double a = tri_area(s->geom.vert + 9 * t);
+        double a = lrr__tri_area(s->geom.vert + 9 * t);
         for (int j = 0; j < J; j++)
             cand[t * J + j] = a * ldexp(1.0, -2 * j) * (1 + 1e-12);
     }
@@ -356,7 +343,7 @@ lrr_status lrr_scene_subdivide(lrr_scene *s, const lrr_subdivision *opts)
         return st;
     }
     for (size_t t = 0; t < g.n_tri; t++)
-        depth[t] = (uint8_t)depth_for(tri_area(g.vert + 9 * t), max_area);
+        depth[t] = (uint8_t)depth_for(lrr__tri_area(g.vert + 9 * t), max_area);
     g.depth = depth;
     g.patch0 = patch0;
     g.levels = opts->levels;
@@ -390,7 +377,7 @@ void lrr_scene_get_info(const lrr_scene *s, lrr_scene_info *info)
         info->bounds_max[j] = -INFINITY;
     }
     for (size_t t = 0; t < s->geom.n_tri; t++) {
-        info->area += tri_area(s->geom.vert + 9 * t);
+        info->area += lrr__tri_area(s->geom.vert + 9 * t);
         if (s->emission[3 * t] > 0 || s->emission[3 * t + 1] > 0 || s->emission[3 * t + 2] > 0)
             info->emitters++;
         for (int i = 0; i < 3; i++)

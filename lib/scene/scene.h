@@ -5,6 +5,8 @@
 
 #include "core/internal.h"
 
+#include <math.h>
+
 /* ------------------------------------------------------------ geometry and hierarchy */
 /* Input triangles and their subdivision; shared by scenes and operators.
  * Triangle t is split into 4^depth[t] patches, numbered patch0[t] .. patch0[t+1]-1, and each
@@ -73,6 +75,27 @@ size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i);
 void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9]);
 /* Per-subpatch centre (n×3), unit normal (n×3) and area (n); any may be NULL. */
 void lrr__subpatch_frames(const lrr__geometry *g, float *centre, float *normal, float *area);
+
+/* Area of triangle v (9 floats), in double. */
+static inline double lrr__tri_area(const float *v)
+{
+    double e1[3], e2[3];
+    for (int j = 0; j < 3; j++) {
+        e1[j] = (double)v[3 + j] - v[j];
+        e2[j] = (double)v[6 + j] - v[j];
+    }
+    double c0 = e1[1] * e2[2] - e1[2] * e2[1], c1 = e1[2] * e2[0] - e1[0] * e2[2],
+           c2 = e1[0] * e2[1] - e1[1] * e2[0];
+    return 0.5 * sqrt(c0 * c0 + c1 * c1 + c2 * c2);
+}
+/* v /= |v| (unchanged when |v| = 0). */
+static inline void lrr__normalize3(double v[3])
+{
+    double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (len > 0)
+        for (int j = 0; j < 3; j++)
+            v[j] /= len;
+}
 
 /* ------------------------------------------------------------ scene */
 enum { LRR__SCENE_FILE = 0, LRR__SCENE_CORNELL = 1, LRR__SCENE_CORNELL_CLOSED = 2 };
