@@ -14,7 +14,7 @@ typedef lrr_status (*lrr__rows_fn)(lrr_context *ctx, const lrr__geometry *g,
 
 #define LRR__ADAPTIVE_DEFAULT_SAMPLES 2048 /* lrr_build_options.adaptive_samples = 0 */
 #define LRR__ADAPTIVE_MAX_EMITTER_ROWS 256 /* emitters rendered for the radiosity weights */
-/* Rows of the full F (subpatch columns) for a uniform sample of receivers (adaptive.c). */
+/* Rows of the full F (subpatch columns) for a uniform sample of receivers (ffsample.c). */
 typedef struct lrr__ffsample {
     size_t count, n;   /* sampled receivers, columns */
     size_t *rows;      /* count receiver indices, ascending */

@@ -104,12 +104,20 @@ static void jacobian(const problem *pb, const double *x, double *dirs, double *J
     }
 }
 
-lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe, size_t count, size_t m,
-                                    const lrr_fit_options *opts, lrr_light *out,
-                                    lrr_fit_stats *stats)
+/* The fit's settings: opts' or the defaults. */
+typedef struct settings {
+    size_t max_iter;
+    double tol;
+    int absolute, warm;
+    double *history; /* history_len entries (opts->history), or none */
+    size_t history_len;
+} settings;
+
+/* Checks the sizes and opts and reads the settings. */
+static lrr_status check_args(lrr_context *ctx, const lrr_probe *probe, size_t count, size_t m,
+                             const lrr_fit_options *opts, settings *set)
 {
-    lrr_context *ctx = probe->ctx;
-    double t_start = lrr__now();
+    *set = (settings){.max_iter = DEFAULT_MAX_ITER, .tol = DEFAULT_TOL};
     size_t npix = probe->w * probe->h;
     if (count == 0 || count > npix)
         return lrr__error(ctx, LRR_ERR_INVALID_ARG,
@@ -120,145 +128,214 @@ lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe, size_t count, size_t
     if (count > ((size_t)1 << 16) || m > ((size_t)1 << 24))
         return lrr__error(ctx, LRR_ERR_OVERFLOW,
                           "irradiance fit: %zu lights × %zu normals is too large", count, m);
-    size_t max_iter = DEFAULT_MAX_ITER;
-    double tol = DEFAULT_TOL;
-    int absolute = 0, warm = 0;
     if (opts) {
         if (opts->max_iterations)
-            max_iter = opts->max_iterations;
+            set->max_iter = opts->max_iterations;
         if (opts->tolerance != 0) {
             if (!(opts->tolerance > 0) || !isfinite(opts->tolerance))
                 return lrr__error(ctx, LRR_ERR_INVALID_ARG,
                                   "irradiance fit: tolerance %g is not a positive number",
                                   opts->tolerance);
-            tol = opts->tolerance;
+            set->tol = opts->tolerance;
         }
-        absolute = opts->absolute != 0;
-        warm = opts->warm_start != 0;
+        set->absolute = opts->absolute != 0;
+        set->warm = opts->warm_start != 0;
         if (opts->history_len && !opts->history)
             return lrr__error(ctx, LRR_ERR_INVALID_ARG,
                               "irradiance fit: history_len %zu without a history array",
                               opts->history_len);
+        set->history = opts->history;
+        set->history_len = opts->history_len;
     }
-    size_t n = count, P = 5 * n, R = 3 * m;
+    size_t P = 5 * count, R = 3 * m;
     if (R > SIZE_MAX / P / sizeof(double))
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "irradiance fit: Jacobian size overflows");
+    return LRR_OK;
+}
 
+/* The fit's arrays, for n lights (P = 5n parameters) and m normals (R = 3m residuals). */
+typedef struct workspace {
+    float *fn, *fe;                  /* m×3: the normals, the probe's irradiance on them */
+    double *nrm, *E, *w;             /* R: the same in double, the residual weights */
+    double *r, *rt, *x, *xt;         /* residuals (R) and parameters (P), current and trial */
+    double *g, *diag, *dirs;         /* −Jᵀr, the damping diagonal (P); 9n directions */
+    double *J, *A, *A2;              /* R×P; P×P JᵀJ, and damped (overwritten by dposv) */
+} workspace;
+
+static void workspace_free(workspace *ws)
+{
+    lrr_aligned_free(ws->fn);
+    lrr_aligned_free(ws->fe);
+    lrr_aligned_free(ws->nrm);
+    lrr_aligned_free(ws->E);
+    lrr_aligned_free(ws->w);
+    lrr_aligned_free(ws->x);
+    lrr_aligned_free(ws->xt);
+    lrr_aligned_free(ws->r);
+    lrr_aligned_free(ws->rt);
+    lrr_aligned_free(ws->g);
+    lrr_aligned_free(ws->diag);
+    lrr_aligned_free(ws->dirs);
+    lrr_aligned_free(ws->J);
+    lrr_aligned_free(ws->A);
+    lrr_aligned_free(ws->A2);
+}
+
+static lrr_status workspace_alloc(lrr_context *ctx, size_t n, size_t m, workspace *ws)
+{
+    size_t P = 5 * n, R = 3 * m;
     lrr_status st;
-    float *fn = NULL, *fe = NULL;
-    double *nrm = NULL, *E = NULL, *w = NULL, *x = NULL, *xt = NULL, *r = NULL, *rt = NULL,
-           *dirs = NULL, *J = NULL, *A = NULL, *A2 = NULL, *g = NULL, *diag = NULL;
-    if ((st = lrr__calloc(ctx, &fn, m, 3 * sizeof(float), "fit normals")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &fe, m, 3 * sizeof(float), "fit irradiance")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &nrm, R, sizeof(double), "fit normals")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &E, R, sizeof(double), "fit irradiance")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &w, R, sizeof(double), "fit weights")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &r, R, sizeof(double), "fit residuals")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &rt, R, sizeof(double), "fit residuals")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &x, P, sizeof(double), "fit parameters")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &xt, P, sizeof(double), "fit parameters")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &g, P, sizeof(double), "fit gradient")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &diag, P, sizeof(double), "fit diagonal")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &dirs, 9 * n, sizeof(double), "fit directions")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &J, R * P, sizeof(double), "fit Jacobian")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &A, P * P, sizeof(double), "fit normal matrix")) != LRR_OK ||
-        (st = lrr__calloc(ctx, &A2, P * P, sizeof(double), "fit normal matrix")) != LRR_OK)
-        goto done;
+    if ((st = lrr__calloc(ctx, &ws->fn, m, 3 * sizeof(float), "fit normals")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->fe, m, 3 * sizeof(float), "fit irradiance")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->nrm, R, sizeof(double), "fit normals")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->E, R, sizeof(double), "fit irradiance")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->w, R, sizeof(double), "fit weights")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->r, R, sizeof(double), "fit residuals")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->rt, R, sizeof(double), "fit residuals")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->x, P, sizeof(double), "fit parameters")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->xt, P, sizeof(double), "fit parameters")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->g, P, sizeof(double), "fit gradient")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->diag, P, sizeof(double), "fit diagonal")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->dirs, 9 * n, sizeof(double), "fit directions")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->J, R * P, sizeof(double), "fit Jacobian")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->A, P * P, sizeof(double), "fit normal matrix")) != LRR_OK ||
+        (st = lrr__calloc(ctx, &ws->A2, P * P, sizeof(double), "fit normal matrix")) != LRR_OK)
+        return st;
+    return LRR_OK;
+}
 
-    lrr_sphere_points(m, fn);
-    if ((st = lrr_probe_irradiance(probe, m, fn, fe)) != LRR_OK)
-        goto done;
+/* The truth: the probe's irradiance E on m Fibonacci normals, and the residual weights. */
+static lrr_status targets(const lrr_probe *probe, size_t m, int absolute, workspace *ws)
+{
+    const size_t R = 3 * m;
+    lrr_sphere_points(m, ws->fn);
+    lrr_status st;
+    if ((st = lrr_probe_irradiance(probe, m, ws->fn, ws->fe)) != LRR_OK)
+        return st;
     double emax = 0;
     for (size_t i = 0; i < R; i++) {
-        nrm[i] = fn[i];
-        E[i] = fe[i];
-        emax = fmax(emax, E[i]);
+        ws->nrm[i] = ws->fn[i];
+        ws->E[i] = ws->fe[i];
+        emax = fmax(emax, ws->E[i]);
     }
     double floor_e = emax > 0 ? 1e-4 * emax : 1;
     for (size_t i = 0; i < R; i++)
-        w[i] = absolute ? 1.0 : 1.0 / fmax(E[i], floor_e);
+        ws->w[i] = absolute ? 1.0 : 1.0 / fmax(ws->E[i], floor_e);
+    return LRR_OK;
+}
 
-    if (!warm && (st = lrr_probe_median_cut(probe, count, out)) != LRR_OK)
-        goto done;
+/* The starting parameters x (5n): median cut, or (warm) the lights in out, checked. */
+static lrr_status start(lrr_context *ctx, const lrr_probe *probe, size_t n, int warm,
+                        lrr_light *out, double *x)
+{
+    lrr_status st;
+    if (!warm && (st = lrr_probe_median_cut(probe, n, out)) != LRR_OK)
+        return st;
     for (size_t l = 0; l < n; l++) {
         const lrr_light *L = out + l;
         double dx = L->dir[0], dy = L->dir[1], dz = L->dir[2];
         double len = sqrt(dx * dx + dy * dy + dz * dz);
-        if (!isfinite(len) || len == 0) {
-            st = lrr__error(ctx, LRR_ERR_INVALID_ARG,
-                            "irradiance fit: light %zu has a zero or non-finite direction", l);
-            goto done;
-        }
+        if (!isfinite(len) || len == 0)
+            return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                              "irradiance fit: light %zu has a zero or non-finite direction", l);
         for (int c = 0; c < 3; c++) {
-            if (!isfinite(L->rgb[c])) {
-                st = lrr__error(ctx, LRR_ERR_INVALID_ARG,
-                                "irradiance fit: light %zu has a non-finite radiance", l);
-                goto done;
-            }
+            if (!isfinite(L->rgb[c]))
+                return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                                  "irradiance fit: light %zu has a non-finite radiance", l);
             x[5 * l + c] = fmax(0.0, L->rgb[c]);
         }
         x[5 * l + 3] = acos(fmin(1.0, fmax(-1.0, dy / len)));
         x[5 * l + 4] = atan2(dz, dx);
     }
+    return LRR_OK;
+}
 
-    struct problem pb = {n, m, nrm, E, w};
-    double f = residuals(&pb, x, dirs, r), f0 = f;
-    if (opts && opts->history_len)
-        opts->history[0] = f;
+/* A = JᵀJ (upper triangle) and g = −Jᵀr at x; diag: A's diagonal, kept away from 0. */
+static void normal_equations(const problem *pb, workspace *ws)
+{
+    const size_t P = 5 * pb->n, R = 3 * pb->m;
+    jacobian(pb, ws->x, ws->dirs, ws->J);
+    cblas_dsyrk(CblasRowMajor, CblasUpper, CblasTrans, (int)P, (int)R, 1.0, ws->J, (int)P, 0.0,
+                ws->A, (int)P);
+    cblas_dgemv(CblasRowMajor, CblasTrans, (int)R, (int)P, -1.0, ws->J, (int)P, ws->r, 1, 0.0,
+                ws->g, 1);
+    double dmax = 0;
+    for (size_t j = 0; j < P; j++)
+        dmax = fmax(dmax, ws->A[j * P + j]);
+    for (size_t j = 0; j < P; j++)
+        ws->diag[j] = fmax(ws->A[j * P + j], 1e-9 * dmax + 1e-300);
+}
+
+/* Solves the damped system for *lambda, growing it tenfold, until a step (xt, clamped; its
+ * residuals rt) lowers the objective below f: returns 1 with *fnew its objective, or 0 when
+ * lambda passed LAMBDA_MAX. */
+static int damped_step(const problem *pb, workspace *ws, double *lambda, double f, double *fnew)
+{
+    const size_t n = pb->n, P = 5 * n;
+    double *xt = ws->xt;
+    while (*lambda <= LAMBDA_MAX) {
+        memcpy(ws->A2, ws->A, P * P * sizeof(double));
+        for (size_t j = 0; j < P; j++) {
+            ws->A2[j * P + j] += *lambda * ws->diag[j];
+            xt[j] = ws->g[j];
+        }
+        lapack_int info = LAPACKE_dposv(LAPACK_ROW_MAJOR, 'U', (lapack_int)P, 1, ws->A2,
+                                        (lapack_int)P, xt, 1);
+        if (info == 0) {
+            for (size_t j = 0; j < P; j++)
+                xt[j] += ws->x[j];
+            for (size_t l = 0; l < n; l++)
+                for (int c = 0; c < 3; c++)
+                    xt[5 * l + c] = fmax(0.0, xt[5 * l + c]); /* projection */
+            *fnew = residuals(pb, xt, ws->dirs, ws->rt);
+            if (isfinite(*fnew) && *fnew < f)
+                return 1;
+        }
+        *lambda *= 10;
+    }
+    return 0;
+}
+
+/* Levenberg–Marquardt from ws->x (its residuals computed here); res gets the iterations,
+ * whether it converged and the objectives (not the seconds). */
+static void levenberg_marquardt(const problem *pb, workspace *ws, const settings *set,
+                                lrr_fit_stats *res)
+{
+    const size_t P = 5 * pb->n, R = 3 * pb->m;
+    double f = residuals(pb, ws->x, ws->dirs, ws->r), f0 = f;
+    if (set->history_len)
+        set->history[0] = f;
     double lambda = 1e-3;
     size_t it = 0;
     int converged = 0;
-    while (it < max_iter && f > 0) {
-        jacobian(&pb, x, dirs, J);
-        cblas_dsyrk(CblasRowMajor, CblasUpper, CblasTrans, (int)P, (int)R, 1.0, J, (int)P, 0.0,
-                    A, (int)P);
-        cblas_dgemv(CblasRowMajor, CblasTrans, (int)R, (int)P, -1.0, J, (int)P, r, 1, 0.0, g, 1);
-        double dmax = 0;
-        for (size_t j = 0; j < P; j++)
-            dmax = fmax(dmax, A[j * P + j]);
-        for (size_t j = 0; j < P; j++)
-            diag[j] = fmax(A[j * P + j], 1e-9 * dmax + 1e-300);
-        int accepted = 0;
+    while (it < set->max_iter && f > 0) {
+        normal_equations(pb, ws);
         double fnew = f;
-        while (lambda <= LAMBDA_MAX) {
-            memcpy(A2, A, P * P * sizeof(double));
-            for (size_t j = 0; j < P; j++) {
-                A2[j * P + j] += lambda * diag[j];
-                xt[j] = g[j];
-            }
-            lapack_int info = LAPACKE_dposv(LAPACK_ROW_MAJOR, 'U', (lapack_int)P, 1, A2,
-                                            (lapack_int)P, xt, 1);
-            if (info == 0) {
-                for (size_t j = 0; j < P; j++)
-                    xt[j] += x[j];
-                for (size_t l = 0; l < n; l++)
-                    for (int c = 0; c < 3; c++)
-                        xt[5 * l + c] = fmax(0.0, xt[5 * l + c]); /* projection */
-                fnew = residuals(&pb, xt, dirs, rt);
-                if (isfinite(fnew) && fnew < f) {
-                    accepted = 1;
-                    break;
-                }
-            }
-            lambda *= 10;
-        }
-        if (!accepted) {
+        if (!damped_step(pb, ws, &lambda, f, &fnew)) {
             converged = 1; /* no damped step decreases the objective: a stationary point */
             break;
         }
         double drop = f - fnew;
-        memcpy(x, xt, P * sizeof(double));
-        memcpy(r, rt, R * sizeof(double));
+        memcpy(ws->x, ws->xt, P * sizeof(double));
+        memcpy(ws->r, ws->rt, R * sizeof(double));
         f = fnew;
         it++;
-        if (opts && it < opts->history_len)
-            opts->history[it] = f;
+        if (it < set->history_len)
+            set->history[it] = f;
         lambda = fmax(lambda / 10, 1e-12);
-        if (drop <= tol * (f + drop)) {
+        if (drop <= set->tol * (f + drop)) {
             converged = 1;
             break;
         }
     }
+    res->iterations = it;
+    res->converged = converged;
+    res->initial_objective = f0;
+    res->final_objective = f;
+}
+
+static void write_lights(const double *x, size_t n, lrr_light *out)
+{
     for (size_t l = 0; l < n; l++) {
         double d[3];
         light_dir(x + 5 * l, d, NULL, NULL);
@@ -267,29 +344,35 @@ lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe, size_t count, size_t
             out[l].rgb[c] = (float)x[5 * l + c];
         }
     }
-    if (stats) {
-        stats->iterations = it;
-        stats->converged = converged;
-        stats->initial_objective = f0;
-        stats->final_objective = f;
-        stats->seconds = lrr__now() - t_start;
+}
+
+lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe, size_t count, size_t m,
+                                    const lrr_fit_options *opts, lrr_light *out,
+                                    lrr_fit_stats *stats)
+{
+    lrr_context *ctx = probe->ctx;
+    double t_start = lrr__now();
+    settings set;
+    lrr_status st = check_args(ctx, probe, count, m, opts, &set);
+    if (st != LRR_OK)
+        return st;
+    size_t n = count;
+    workspace ws = {0};
+    if ((st = workspace_alloc(ctx, n, m, &ws)) == LRR_OK &&
+        (st = targets(probe, m, set.absolute, &ws)) == LRR_OK &&
+        (st = start(ctx, probe, n, set.warm, out, ws.x)) == LRR_OK) {
+        struct problem pb = {n, m, ws.nrm, ws.E, ws.w};
+        lrr_fit_stats res;
+        levenberg_marquardt(&pb, &ws, &set, &res);
+        write_lights(ws.x, n, out);
+        if (stats) {
+            stats->iterations = res.iterations;
+            stats->converged = res.converged;
+            stats->initial_objective = res.initial_objective;
+            stats->final_objective = res.final_objective;
+            stats->seconds = lrr__now() - t_start;
+        }
     }
-    st = LRR_OK;
-done:
-    lrr_aligned_free(fn);
-    lrr_aligned_free(fe);
-    lrr_aligned_free(nrm);
-    lrr_aligned_free(E);
-    lrr_aligned_free(w);
-    lrr_aligned_free(x);
-    lrr_aligned_free(xt);
-    lrr_aligned_free(r);
-    lrr_aligned_free(rt);
-    lrr_aligned_free(g);
-    lrr_aligned_free(diag);
-    lrr_aligned_free(dirs);
-    lrr_aligned_free(J);
-    lrr_aligned_free(A);
-    lrr_aligned_free(A2);
+    workspace_free(&ws);
     return st;
 }
