@@ -74,21 +74,9 @@ static lrr__node heap_pop(lrr__node *h, size_t *len)
     return top;
 }
 
-static double tri_area(const float *v)
-{
-    double e1[3], e2[3];
-    for (int j = 0; j < 3; j++) {
-        e1[j] = (double)v[3 + j] - v[j];
-        e2[j] = (double)v[6 + j] - v[j];
-    }
-    double c0 = e1[1] * e2[2] - e1[2] * e2[1], c1 = e1[2] * e2[0] - e1[0] * e2[2],
-           c2 = e1[0] * e2[1] - e1[1] * e2[0];
-    return 0.5 * sqrt(c0 * c0 + c1 * c1 + c2 * c2);
-}
-
 static double node_area(const lrr__geometry *g, const lrr__node *x)
 {
-    return ldexp(tri_area(g->vert + 9 * (size_t)x->t), -2 * (int)x->depth);
+    return ldexp(lrr__tri_area(g->vert + 9 * (size_t)x->t), -2 * (int)x->depth);
 }
 
 /* x->own must be set; computes the children's V and the priority. */

@@ -23,14 +23,6 @@ void lrr__ffsample_free(lrr__ffsample *s)
     memset(s, 0, sizeof *s);
 }
 
-static uint64_t splitmix64(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-}
-
 lrr_status lrr__ffsample_take(lrr_context *ctx, const lrr__geometry *g, const float *rho,
                               const lrr_build_options *opts, lrr__rows_fn render, size_t count,
                               lrr__ffsample *out)
@@ -61,7 +53,7 @@ lrr_status lrr__ffsample_take(lrr_context *ctx, const lrr__geometry *g, const fl
         uint64_t state = opts->seed ^ 0x5ca1ab1e0ddba11ULL;
         for (size_t r = 0; r < count; r++) {
             size_t lo = r * g->n / count, hi = (r + 1) * g->n / count;
-            out->rows[r] = lo + (size_t)(splitmix64(&state) % (uint64_t)(hi - lo));
+            out->rows[r] = lo + (size_t)(lrr__splitmix64_next(&state) % (uint64_t)(hi - lo));
         }
     }
     for (size_t r = 0; r < count; r++) {

@@ -177,54 +177,58 @@ static double rel_norm(size_t n, const double *v, const double *E)
 
 /* ------------------------------------------------------------------ methods */
 
-/* Jacobi: B ← E + R F B. The step B_new − B_old is the old iterate's residual, so the
- * true residual only needs computing once the steps are small. */
-static lrr_status jacobi(const lrr_reference *ref, double tol, size_t max_it, const double *E,
-                         double *B, double *work, size_t *iters, double *res)
+/* One sweep of an iterative method: updates B in place and writes the step B_new − B_old to
+ * delta (n×3); scratch is n×3. */
+typedef void (*sweep_fn)(const lrr_reference *ref, const double *E, double *B, double *delta,
+                         double *scratch);
+
+/* Jacobi: B ← E + R F B. */
+static void jacobi_sweep(const lrr_reference *ref, const double *E, double *B, double *delta,
+                         double *FB)
 {
-    const size_t n = ref->n;
-    double *FB = work, *tmp = work + 3 * n;
-    memcpy(B, E, 3 * n * sizeof(double));
-    for (size_t it = 1; it <= max_it; it++) {
-        f_times(ref, B, FB);
-        for (size_t j = 0; j < 3 * n; j++) {
-            double nb = E[j] + ref->rho[j] * FB[j];
-            tmp[j] = nb - B[j];
-            B[j] = nb;
-        }
-        *iters = it;
-        if (rel_norm(n, tmp, E) <= tol && (*res = residual(ref, E, B, tmp, NULL)) <= tol)
-            return LRR_OK;
+    f_times(ref, B, FB);
+    for (size_t j = 0; j < 3 * ref->n; j++) {
+        double nb = E[j] + ref->rho[j] * FB[j];
+        delta[j] = nb - B[j];
+        B[j] = nb;
     }
-    *res = residual(ref, E, B, tmp, NULL);
-    return *res <= tol ? LRR_OK : LRR_NOT_CONVERGED;
 }
 
 /* Gauss–Seidel: row by row, each new B_i used at once (sequential by nature). */
-static lrr_status gauss_seidel(const lrr_reference *ref, double tol, size_t max_it,
-                               const double *E, double *B, double *work, size_t *iters,
-                               double *res)
+static void gauss_seidel_sweep(const lrr_reference *ref, const double *E, double *B,
+                               double *delta, double *scratch)
+{
+    (void)scratch;
+    const size_t n = ref->n;
+    for (size_t i = 0; i < n; i++) {
+        const float *row = ref->f + i * n;
+        double a0 = 0, a1 = 0, a2 = 0;
+        for (size_t j = 0; j < n; j++) {
+            double fij = row[j];
+            a0 += fij * B[3 * j];
+            a1 += fij * B[3 * j + 1];
+            a2 += fij * B[3 * j + 2];
+        }
+        const double a[3] = {a0, a1, a2};
+        for (int c = 0; c < 3; c++) {
+            double nb = E[3 * i + c] + ref->rho[3 * i + c] * a[c];
+            delta[3 * i + c] = nb - B[3 * i + c];
+            B[3 * i + c] = nb;
+        }
+    }
+}
+
+/* Sweeps from B = E until the step and then the true residual are below tol. The step of a
+ * Jacobi sweep is the old iterate's residual, so the true residual (one more product with F)
+ * only needs computing once the steps are small; for Gauss–Seidel the step bounds it too. */
+static lrr_status iterate(const lrr_reference *ref, sweep_fn sweep, double tol, size_t max_it,
+                          const double *E, double *B, double *work, size_t *iters, double *res)
 {
     const size_t n = ref->n;
     double *delta = work, *tmp = work + 3 * n;
     memcpy(B, E, 3 * n * sizeof(double));
     for (size_t it = 1; it <= max_it; it++) {
-        for (size_t i = 0; i < n; i++) {
-            const float *row = ref->f + i * n;
-            double a0 = 0, a1 = 0, a2 = 0;
-            for (size_t j = 0; j < n; j++) {
-                double fij = row[j];
-                a0 += fij * B[3 * j];
-                a1 += fij * B[3 * j + 1];
-                a2 += fij * B[3 * j + 2];
-            }
-            const double a[3] = {a0, a1, a2};
-            for (int c = 0; c < 3; c++) {
-                double nb = E[3 * i + c] + ref->rho[3 * i + c] * a[c];
-                delta[3 * i + c] = nb - B[3 * i + c];
-                B[3 * i + c] = nb;
-            }
-        }
+        sweep(ref, E, B, delta, tmp);
         *iters = it;
         if (rel_norm(n, delta, E) <= tol && (*res = residual(ref, E, B, tmp, NULL)) <= tol)
             return LRR_OK;
@@ -408,10 +412,10 @@ lrr_status lrr_reference_solve(const lrr_reference *ref, lrr_method method, doub
     size_t iters = 1;
     switch (method) {
     case LRR_METHOD_JACOBI:
-        st = jacobi(ref, tol, max_iterations, E, B, work, &iters, &res);
+        st = iterate(ref, jacobi_sweep, tol, max_iterations, E, B, work, &iters, &res);
         break;
     case LRR_METHOD_GAUSS_SEIDEL:
-        st = gauss_seidel(ref, tol, max_iterations, E, B, work, &iters, &res);
+        st = iterate(ref, gauss_seidel_sweep, tol, max_iterations, E, B, work, &iters, &res);
         break;
     case LRR_METHOD_SOUTHWELL:
         st = southwell(ref, tol, max_iterations, E, B, work, &iters, &res);
