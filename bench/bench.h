@@ -3,7 +3,8 @@
  * scenes, timing, cache size and read bandwidth, the real-time steps that the benchmarks
  * compare (lrr_solve, the paper's method, plain sgemv), comparison of radiosities and
  * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c,
- * probes.c, adaptive.c.
+ * probes.c, adaptive.c; three of them measure in a second file (table_cell.c,
+ * realtime_cell.c, adaptive_scene.c), and what the two files share is declared at the end.
  */
 #ifndef LRR_BENCH_H
 #define LRR_BENCH_H
@@ -74,6 +75,9 @@ int bad_option(const char *prog, int c, char *const argv[]);
 void start_getopt(void);
 /* Non-zero (after a usage message) when positional arguments are left. */
 int no_positional(const char *prog, int argc, char *const argv[]);
+/* What a command's option parser returns when the command is to run; any other value is the
+ * exit status (CLI_EXIT_OK after --help, CLI_EXIT_USAGE, ...). */
+#define BENCH_RUN (-1)
 
 /* ------------------------------------------------------------------ machine, scenes */
 /* cpu, cores, threads, OpenBLAS, lrr version, date and load as 'key: value' lines. */
@@ -183,7 +187,10 @@ const char *fmt_ms(char *buf, size_t len, double v);
 /* a CSV number (%.6g, nan, inf) followed by ',' or, when last, '\n' */
 void csv_num(FILE *f, double v, int last);
 
-/* ------------------------------------------------------------------ cells (table.c) */
+/* ------------------------------------------------------------------ table.c, table_cell.c */
+/* Gauss-Seidel tolerance of the n×n references (table and adaptive) */
+#define REFERENCE_TOL 1e-7
+
 typedef struct cell {
     size_t n, k, d;
 } cell;
@@ -193,5 +200,172 @@ typedef struct cell {
  * (= text); -1 after a usage message, or when out of memory. */
 int parse_cells(const char *prog, const char *text, cell **cells, size_t *n_cells,
                 const char **name);
+
+typedef struct cell_result {
+    cell target;
+    size_t n, k, d;
+    double mem_mb, mem_mb_paper, mem_mib_paper, preprocess_s;
+    timing ours, paper, sgemv3, ours_auto;
+    char auto_path[16], kernel[32];
+    double floor_ms, floor_ms_full, bandwidth_gbs;
+    double rel_l2, max_rel, rel_l2_reflected, reference_s, reference_residual;
+    double paper_vs_ours;
+    double cond[3];
+    int threads;
+    char label[64];
+    char note[256];
+    int have_cl;                          /* --backend opencl */
+    timing ocl;                           /* ours on the OpenCL solver */
+    double ocl_kernel_ms, ocl_transfer_ms, ocl_ratio; /* medians; ours / OpenCL */
+    char ocl_device[160];
+} cell_result;
+
+typedef struct table_args {
+    const char *scene, *csv, *plot;
+    unsigned hemicube, repeat;
+    uint64_t seed;
+    size_t budget;
+    cell *cells;
+    size_t n_cells;
+    const char *cells_name;
+    int opencl; /* --backend opencl */
+} table_args;
+
+/* One cell of lrr-bench table: builds its operator, times the real-time step and measures
+ * the error (table_cell.c). Returns 0, or the exit status having printed why: with r->n still
+ * 0 when nothing was measured, else after a failed check (the row is kept). */
+int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t index,
+             double bandwidth, cell_result *r);
+
+/* ------------------------------------------------------------------ realtime.c, realtime_cell.c */
+/* each implementation's block: warm-up runs, idle time, then (--repeat not given) timed runs
+ * for at least this long; lrr_solve_batch's frames */
+#define RT_WARMUPS 3u
+#define RT_IDLE_MS 200u
+#define RT_MIN_SECONDS 0.3
+#define RT_BATCH 16
+
+/* the rows of a cell: lrr-bench realtime --help says what each measures */
+enum {
+    RT_FUSED_F32,
+    RT_FUSED_F16,
+    RT_FUSED_BF16,
+    RT_SGEMV3,
+    RT_SGEMM3,
+    RT_PAPER,
+    RT_SPARSE,
+    RT_INCREMENTAL,
+    RT_COUNT
+};
+
+typedef struct rt_row {
+    const char *impl, *storage;
+    char kernel[32];
+    char path[16];      /* the path most timed frames took ("-" for the baselines) */
+    size_t other_path;  /* timed frames that took another path */
+    char other_name[16];
+    timing t;
+    double floor_ms, floor_ms_full, ratio_to_floor, ratio_to_paper, rel_l2;
+    double bytes;       /* what one frame must read, for the cache warning */
+    int reads_fbar;     /* ratio_to_floor < 1 means something */
+    const char *backend;  /* "cpu" or "opencl" */
+    double kernel_ms, transfer_ms, ratio_to_cpu; /* OpenCL rows; nan otherwise */
+    char device[160];   /* OpenCL rows: lrr_solver_kernel; "cpu" otherwise */
+} rt_row;
+
+typedef struct rt_cell {
+    cell target;
+    size_t n, k, d;
+    double preprocess_s;
+    double bw_kernel, bw_sgemv3, bw; /* bytes per second; bw_sgemv3 NAN when not used */
+    const char *bw_source;
+    int fits_llc;
+    timing batch;
+    double batch_ms_per_frame, batch_rel_l2;
+    rt_row rows[RT_COUNT];
+    rt_row cl_rows[3];  /* --backend opencl: fused f32, f16, bf16 on the OpenCL solver */
+    int have_cl;
+} rt_cell;
+
+typedef struct rt_args {
+    const char *scene, *csv;
+    unsigned hemicube, repeat;
+    cell *cells;
+    size_t n_cells;
+    const char *cells_name;
+    size_t llc;
+    double bandwidth;
+    int opencl; /* --backend opencl */
+} rt_args;
+
+/* One cell of lrr-bench realtime: builds its operator and times every implementation on it
+ * (realtime_cell.c). Returns 0, or the exit status having printed why. */
+int rt_cell_run(lrr_context *ctx, const rt_args *a, const cell *c, size_t index, rt_cell *r);
+/* Bytes of an n×k F̄ in storage st. */
+double storage_bytes(size_t n, size_t k, lrr_storage st);
+
+/* ----------------------------------------------------------------- adaptive.c, adaptive_scene.c */
+#define MAX_SCENES 16
+#define MAX_BUDGETS 32
+#define MAX_LEVELS 3         /* the standard uniform operator: levels 1..3 are tried */
+
+typedef struct adaptive_row {
+    char scene[64];
+    size_t triangles, n, budget; /* budget 0: a levels-L row */
+    char split[16];
+    size_t k, d_min, d_max;
+    double rel_l2, max_rel, rel_l2_reflected, rel_l2_plain, ratio;
+    double preprocess_s, build_s, selection_s, selection_share;
+    timing rt;
+    double cond_max, mem_mb;
+    double reference_s, reference_residual;
+} adaptive_row;
+
+typedef struct adaptive_args {
+    const char *scenes[MAX_SCENES];
+    size_t n_scenes;
+    size_t subpatches;
+    size_t budgets[MAX_BUDGETS];
+    size_t n_budgets;
+    size_t samples;
+    unsigned hemicube, repeat;
+    uint64_t seed;
+    size_t memory_budget;
+    const char *csv, *plot;
+} adaptive_args;
+
+typedef struct scene_ref {
+    lrr_scene *scene;
+    size_t n, triangles;
+    double max_patch_area, diag;
+    float *centre, *normal, *area; /* the scene's (reference) subpatch order */
+    float *bref, *eref;            /* reference B and E (nan-filled when no reference) */
+    int have_ref;
+    double reference_s, reference_residual;
+    char note[256];
+} scene_ref;
+
+/* One scene of lrr-bench adaptive (adaptive_scene.c). */
+typedef struct adaptive_scene {
+    const char *name;   /* as given (--scene) */
+    char label[64];     /* scene_label */
+    scene_ref ref;      /* subdivided at levels 0, with the n×n reference when it fits */
+    size_t budgets[MAX_BUDGETS], n_budgets;
+    size_t levels[MAX_LEVELS], n_levels; /* the levels-L operators with the same subpatches */
+} adaptive_scene;
+
+/* A short name for a scene argument: the file name without directory and extension
+ * (adaptive.c). */
+void scene_label(const char *scene, char *buf, size_t len);
+/* Subdivides the scene, builds and solves its reference and prints them, then its budgets
+ * and which levels-L operators it has. Returns 0 or the exit status, having printed why;
+ * adaptive_scene_free in either case. */
+int adaptive_scene_open(lrr_context *ctx, const adaptive_args *a, const char *name,
+                        adaptive_scene *sc);
+/* Measures and prints the scene's rows (uniform and adaptive per budget, then levels-L),
+ * appended to rows[0..*count). Returns 0 or the exit status (the rows measured are kept). */
+int adaptive_scene_rows(lrr_context *ctx, const adaptive_args *a, const adaptive_scene *sc,
+                        adaptive_row *rows, size_t *count);
+void adaptive_scene_free(adaptive_scene *sc);
 
 #endif /* LRR_BENCH_H */

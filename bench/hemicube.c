@@ -177,7 +177,15 @@ static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, int no_rota
     return s == LRR_OK ? 0 : lib_fail(ctx, s, "Cornell box");
 }
 
-int cmd_hemicube(int argc, char *argv[])
+typedef struct hemicube_args {
+    const char *csv;
+    unsigned seeds; /* seeds 1..N per resolution */
+    int quick;
+} hemicube_args;
+
+/* The options into *a (--quick without --seeds: one seed). Returns BENCH_RUN, or the exit
+ * status (CLI_EXIT_OK after --help). */
+static int hemicube_parse(int argc, char *argv[], hemicube_args *a)
 {
     static const char prog[] = "lrr-bench hemicube";
     static const struct option longopts[] = {{"csv", required_argument, NULL, OPT_CSV},
@@ -185,9 +193,7 @@ int cmd_hemicube(int argc, char *argv[])
                                              {"quick", no_argument, NULL, OPT_QUICK},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
-    const char *csv = NULL;
-    unsigned seeds = 3;
-    int quick = 0, have_seeds = 0;
+    int have_seeds = 0;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
@@ -196,15 +202,15 @@ int cmd_hemicube(int argc, char *argv[])
             fputs(hemicube_help, stdout);
             return CLI_EXIT_OK;
         case OPT_CSV:
-            csv = optarg;
+            a->csv = optarg;
             break;
         case OPT_SEEDS:
-            if (cli_parse_unsigned(prog, "--seeds", optarg, 1, 10, &seeds) != 0)
+            if (cli_parse_unsigned(prog, "--seeds", optarg, 1, 10, &a->seeds) != 0)
                 return CLI_EXIT_USAGE;
             have_seeds = 1;
             break;
         case OPT_QUICK:
-            quick = 1;
+            a->quick = 1;
             break;
         default:
             return bad_option(prog, c, argv);
@@ -212,17 +218,42 @@ int cmd_hemicube(int argc, char *argv[])
     }
     if (no_positional(prog, argc, argv))
         return CLI_EXIT_USAGE;
-    if (csv && !csv[0]) {
+    if (a->csv && !a->csv[0]) {
         cli_usage_error(prog, "--csv: the file name is empty");
         return CLI_EXIT_USAGE;
     }
+    if (a->quick && !have_seeds)
+        a->seeds = 1;
+    return BENCH_RUN;
+}
+
+/* Relative L2 of F̄ (count floats) against the reference's. */
+static double fbar_rel_l2(const lrr_operator *op, const lrr_operator *ref, size_t count)
+{
+    const float *a = lrr_operator_fbar(op), *bref = lrr_operator_fbar(ref);
+    double num = 0, den = 0;
+    for (size_t j = 0; j < count; j++) {
+        double dlt = (double)a[j] - bref[j];
+        num += dlt * dlt;
+        den += (double)bref[j] * bref[j];
+    }
+    return sqrt(num / den);
+}
+
+int cmd_hemicube(int argc, char *argv[])
+{
+    hemicube_args ha = {NULL, 3, 0};
+    int prc = hemicube_parse(argc, argv, &ha);
+    if (prc != BENCH_RUN)
+        return prc;
+    const char *csv = ha.csv;
+    const unsigned seeds = ha.seeds;
+    const int quick = ha.quick;
     static const unsigned full_res[] = {16, 32, 64, 128, 256}, quick_res[] = {16, 32};
     const unsigned *res = quick ? quick_res : full_res;
     size_t n_res = quick ? 2 : 5;
     unsigned ref_res = quick ? 128 : 512;
     unsigned levels = quick ? 3 : 4;
-    if (quick && !have_seeds)
-        seeds = 1;
 
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
@@ -286,15 +317,8 @@ int cmd_hemicube(int argc, char *argv[])
             double prep = 0;
             if ((rc = cornell_fbar(ctx, R, sd, norot, &op, &prep)))
                 break;
-            const float *a = lrr_operator_fbar(op), *bref = lrr_operator_fbar(ref);
-            double num = 0, den = 0;
-            for (size_t j = 0; j < ri.n * ri.k; j++) {
-                double dlt = (double)a[j] - bref[j];
-                num += dlt * dlt;
-                den += (double)bref[j] * bref[j];
-            }
+            double l2 = fbar_rel_l2(op, ref, ri.n * ri.k);
             lrr_operator_destroy(op);
-            double l2 = sqrt(num / den);
             double ep = par.f / par_exact - 1, epq = par.f / par.quad - 1;
             double er = perp.f / perp_exact - 1, erq = perp.f / perp.quad - 1;
             char seed_text[16];

@@ -3,8 +3,8 @@
  * Everything is drawn by hand into an RGB buffer: axes, a grid at every decade (and at 2..9
  * times it, lighter), tick labels, titles, a legend in the emptiest corner and a label
  * beside each point, placed where it overlaps nothing drawn before. Text uses the 5×7 font
- * below (one byte per row, bit 4 = leftmost column), written for this file; g, p, q and y
- * are stored from their x-height down and drawn DESCENT rows lower. */
+ * in plot_font.c (one byte per row, bit 4 = leftmost column), written for these plots; g, p,
+ * q and y are stored from their x-height down and drawn DESCENT rows lower. */
 #include "plot.h"
 
 #include <errno.h>
@@ -34,106 +34,6 @@
 #define CELL_W 6
 /* g, p, q and y are drawn this many rows lower: their bodies sit at the x-height */
 #define DESCENT 2
-
-/* ASCII 32..126, then '×' (index 95) */
-static const uint8_t font5x7[96][GLYPH_H] = {
-    {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00}, /* ' ' */
-    {0x04, 0x04, 0x04, 0x04, 0x04, 0x00, 0x04}, /* ! */
-    {0x0A, 0x0A, 0x0A, 0x00, 0x00, 0x00, 0x00}, /* " */
-    {0x0A, 0x0A, 0x1F, 0x0A, 0x1F, 0x0A, 0x0A}, /* # */
-    {0x04, 0x0F, 0x14, 0x0E, 0x05, 0x1E, 0x04}, /* $ */
-    {0x18, 0x19, 0x02, 0x04, 0x08, 0x13, 0x03}, /* % */
-    {0x0C, 0x12, 0x14, 0x08, 0x15, 0x12, 0x0D}, /* & */
-    {0x0C, 0x04, 0x08, 0x00, 0x00, 0x00, 0x00}, /* ' */
-    {0x02, 0x04, 0x08, 0x08, 0x08, 0x04, 0x02}, /* ( */
-    {0x08, 0x04, 0x02, 0x02, 0x02, 0x04, 0x08}, /* ) */
-    {0x00, 0x04, 0x15, 0x0E, 0x15, 0x04, 0x00}, /* * */
-    {0x00, 0x04, 0x04, 0x1F, 0x04, 0x04, 0x00}, /* + */
-    {0x00, 0x00, 0x00, 0x00, 0x0C, 0x04, 0x08}, /* , */
-    {0x00, 0x00, 0x00, 0x1F, 0x00, 0x00, 0x00}, /* - */
-    {0x00, 0x00, 0x00, 0x00, 0x00, 0x0C, 0x0C}, /* . */
-    {0x00, 0x01, 0x02, 0x04, 0x08, 0x10, 0x00}, /* / */
-    {0x0E, 0x11, 0x13, 0x15, 0x19, 0x11, 0x0E}, /* 0 */
-    {0x04, 0x0C, 0x04, 0x04, 0x04, 0x04, 0x0E}, /* 1 */
-    {0x0E, 0x11, 0x01, 0x02, 0x04, 0x08, 0x1F}, /* 2 */
-    {0x1F, 0x02, 0x04, 0x02, 0x01, 0x11, 0x0E}, /* 3 */
-    {0x02, 0x06, 0x0A, 0x12, 0x1F, 0x02, 0x02}, /* 4 */
-    {0x1F, 0x10, 0x1E, 0x01, 0x01, 0x11, 0x0E}, /* 5 */
-    {0x06, 0x08, 0x10, 0x1E, 0x11, 0x11, 0x0E}, /* 6 */
-    {0x1F, 0x01, 0x02, 0x04, 0x08, 0x08, 0x08}, /* 7 */
-    {0x0E, 0x11, 0x11, 0x0E, 0x11, 0x11, 0x0E}, /* 8 */
-    {0x0E, 0x11, 0x11, 0x0F, 0x01, 0x02, 0x0C}, /* 9 */
-    {0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x0C, 0x00}, /* : */
-    {0x00, 0x0C, 0x0C, 0x00, 0x0C, 0x04, 0x08}, /* ; */
-    {0x02, 0x04, 0x08, 0x10, 0x08, 0x04, 0x02}, /* < */
-    {0x00, 0x00, 0x1F, 0x00, 0x1F, 0x00, 0x00}, /* = */
-    {0x08, 0x04, 0x02, 0x01, 0x02, 0x04, 0x08}, /* > */
-    {0x0E, 0x11, 0x01, 0x02, 0x04, 0x00, 0x04}, /* ? */
-    {0x0E, 0x11, 0x01, 0x0D, 0x15, 0x15, 0x0E}, /* @ */
-    {0x0E, 0x11, 0x11, 0x11, 0x1F, 0x11, 0x11}, /* A */
-    {0x1E, 0x11, 0x11, 0x1E, 0x11, 0x11, 0x1E}, /* B */
-    {0x0E, 0x11, 0x10, 0x10, 0x10, 0x11, 0x0E}, /* C */
-    {0x1C, 0x12, 0x11, 0x11, 0x11, 0x12, 0x1C}, /* D */
-    {0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x1F}, /* E */
-    {0x1F, 0x10, 0x10, 0x1E, 0x10, 0x10, 0x10}, /* F */
-    {0x0E, 0x11, 0x10, 0x17, 0x11, 0x11, 0x0F}, /* G */
-    {0x11, 0x11, 0x11, 0x1F, 0x11, 0x11, 0x11}, /* H */
-    {0x0E, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E}, /* I */
-    {0x07, 0x02, 0x02, 0x02, 0x02, 0x12, 0x0C}, /* J */
-    {0x11, 0x12, 0x14, 0x18, 0x14, 0x12, 0x11}, /* K */
-    {0x10, 0x10, 0x10, 0x10, 0x10, 0x10, 0x1F}, /* L */
-    {0x11, 0x1B, 0x15, 0x15, 0x11, 0x11, 0x11}, /* M */
-    {0x11, 0x11, 0x19, 0x15, 0x13, 0x11, 0x11}, /* N */
-    {0x0E, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E}, /* O */
-    {0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10}, /* P */
-    {0x0E, 0x11, 0x11, 0x11, 0x15, 0x12, 0x0D}, /* Q */
-    {0x1E, 0x11, 0x11, 0x1E, 0x14, 0x12, 0x11}, /* R */
-    {0x0F, 0x10, 0x10, 0x0E, 0x01, 0x01, 0x1E}, /* S */
-    {0x1F, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04}, /* T */
-    {0x11, 0x11, 0x11, 0x11, 0x11, 0x11, 0x0E}, /* U */
-    {0x11, 0x11, 0x11, 0x11, 0x11, 0x0A, 0x04}, /* V */
-    {0x11, 0x11, 0x11, 0x15, 0x15, 0x15, 0x0A}, /* W */
-    {0x11, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x11}, /* X */
-    {0x11, 0x11, 0x11, 0x0A, 0x04, 0x04, 0x04}, /* Y */
-    {0x1F, 0x01, 0x02, 0x04, 0x08, 0x10, 0x1F}, /* Z */
-    {0x0E, 0x08, 0x08, 0x08, 0x08, 0x08, 0x0E}, /* [ */
-    {0x00, 0x10, 0x08, 0x04, 0x02, 0x01, 0x00}, /* \ */
-    {0x0E, 0x02, 0x02, 0x02, 0x02, 0x02, 0x0E}, /* ] */
-    {0x04, 0x0A, 0x11, 0x00, 0x00, 0x00, 0x00}, /* ^ */
-    {0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x1F}, /* _ */
-    {0x08, 0x04, 0x02, 0x00, 0x00, 0x00, 0x00}, /* ` */
-    {0x00, 0x00, 0x0E, 0x01, 0x0F, 0x11, 0x0F}, /* a */
-    {0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x1E}, /* b */
-    {0x00, 0x00, 0x0E, 0x10, 0x10, 0x11, 0x0E}, /* c */
-    {0x01, 0x01, 0x0D, 0x13, 0x11, 0x11, 0x0F}, /* d */
-    {0x00, 0x00, 0x0E, 0x11, 0x1F, 0x10, 0x0E}, /* e */
-    {0x06, 0x09, 0x08, 0x1C, 0x08, 0x08, 0x08}, /* f */
-    {0x0F, 0x11, 0x11, 0x0F, 0x01, 0x11, 0x0E}, /* g */
-    {0x10, 0x10, 0x16, 0x19, 0x11, 0x11, 0x11}, /* h */
-    {0x04, 0x00, 0x0C, 0x04, 0x04, 0x04, 0x0E}, /* i */
-    {0x02, 0x00, 0x06, 0x02, 0x02, 0x12, 0x0C}, /* j */
-    {0x10, 0x10, 0x12, 0x14, 0x18, 0x14, 0x12}, /* k */
-    {0x0C, 0x04, 0x04, 0x04, 0x04, 0x04, 0x0E}, /* l */
-    {0x00, 0x00, 0x1A, 0x15, 0x15, 0x11, 0x11}, /* m */
-    {0x00, 0x00, 0x16, 0x19, 0x11, 0x11, 0x11}, /* n */
-    {0x00, 0x00, 0x0E, 0x11, 0x11, 0x11, 0x0E}, /* o */
-    {0x1E, 0x11, 0x11, 0x1E, 0x10, 0x10, 0x10}, /* p */
-    {0x0F, 0x11, 0x11, 0x0F, 0x01, 0x01, 0x01}, /* q */
-    {0x00, 0x00, 0x16, 0x19, 0x10, 0x10, 0x10}, /* r */
-    {0x00, 0x00, 0x0E, 0x10, 0x0E, 0x01, 0x1E}, /* s */
-    {0x08, 0x08, 0x1C, 0x08, 0x08, 0x09, 0x06}, /* t */
-    {0x00, 0x00, 0x11, 0x11, 0x11, 0x13, 0x0D}, /* u */
-    {0x00, 0x00, 0x11, 0x11, 0x11, 0x0A, 0x04}, /* v */
-    {0x00, 0x00, 0x11, 0x11, 0x15, 0x15, 0x0A}, /* w */
-    {0x00, 0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11}, /* x */
-    {0x11, 0x11, 0x11, 0x0F, 0x01, 0x11, 0x0E}, /* y */
-    {0x00, 0x00, 0x1F, 0x02, 0x04, 0x08, 0x1F}, /* z */
-    {0x02, 0x04, 0x04, 0x08, 0x04, 0x04, 0x02}, /* { */
-    {0x04, 0x04, 0x04, 0x04, 0x04, 0x04, 0x04}, /* | */
-    {0x08, 0x04, 0x04, 0x02, 0x04, 0x04, 0x08}, /* } */
-    {0x00, 0x00, 0x08, 0x15, 0x02, 0x00, 0x00}, /* ~ */
-    {0x00, 0x11, 0x0A, 0x04, 0x0A, 0x11, 0x00}, /* × */
-};
 
 /* Next glyph index from UTF-8 text (advances *s); '?' for anything the font lacks. */
 static int next_glyph(const char **s)
@@ -212,7 +112,7 @@ int plot_text(unsigned char *rgb, unsigned width, unsigned height, int x, int y,
         int drop = (g == 'g' - 32 || g == 'p' - 32 || g == 'q' - 32 || g == 'y' - 32) ? DESCENT : 0;
         for (int gy = 0; gy < GLYPH_H; gy++)
             for (int gx = 0; gx < GLYPH_W; gx++) {
-                if (!(font5x7[g][gy] & (0x10 >> gx)))
+                if (!(plot_font5x7[g][gy] & (0x10 >> gx)))
                     continue;
                 int u = (pos + gx) * scale, v = (gy + drop) * scale;
                 for (int sy = 0; sy < scale; sy++)
@@ -358,18 +258,24 @@ static int point_ok(const plot_series *s, size_t i)
 }
 
 /* ------------------------------------------------------------------ the plot */
-int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
-                unsigned *h_out)
+static const unsigned char white[3] = {255, 255, 255}, black[3] = {0, 0, 0},
+                           grid_major[3] = {215, 215, 215}, grid_minor[3] = {238, 238, 238},
+                           grey[3] = {90, 90, 90};
+#define TEXT_SCALE 2 /* text scale: pixels per font pixel */
+enum { R_MARK = 6 }; /* marker radius */
+
+/* The image and where the data go in it. */
+typedef struct layout {
+    canvas c;
+    unsigned W, H;
+    int left, right, top, bottom; /* the plot area, in pixels */
+    axis ax, ay;
+} layout;
+
+/* The range of the plottable points; returns their number. */
+static size_t data_range(const plot_spec *spec, double *xmin, double *xmax, double *ymin,
+                         double *ymax)
 {
-    static const unsigned char white[3] = {255, 255, 255}, black[3] = {0, 0, 0},
-                               grid_major[3] = {215, 215, 215}, grid_minor[3] = {238, 238, 238},
-                               grey[3] = {90, 90, 90};
-    unsigned W = spec->width ? spec->width : 960, H = spec->height ? spec->height : 680;
-    if (W < 200 || H < 150 || W > 8192 || H > 8192) {
-        errno = EINVAL;
-        return -1;
-    }
-    double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
     size_t points = 0;
     for (size_t s = 0; s < spec->n_series; s++) {
         const plot_series *se = &spec->series[s];
@@ -377,36 +283,21 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
             if (!point_ok(se, i))
                 continue;
             points++;
-            xmin = fmin(xmin, se->x[i]);
-            xmax = fmax(xmax, se->x[i]);
-            ymin = fmin(ymin, se->y[i]);
-            ymax = fmax(ymax, se->y[i]);
+            *xmin = fmin(*xmin, se->x[i]);
+            *xmax = fmax(*xmax, se->x[i]);
+            *ymin = fmin(*ymin, se->y[i]);
+            *ymax = fmax(*ymax, se->y[i]);
         }
     }
-    if (points == 0) {
-        errno = EINVAL;
-        return -1;
-    }
-    unsigned char *px = malloc((size_t)W * H * 3);
-    if (!px) {
-        errno = ENOMEM;
-        return -1;
-    }
-    memset(px, 255, (size_t)W * H * 3);
-    canvas c = {px, (int)W, (int)H};
-    const int S = 2; /* text scale */
-    const int left = 118, right = (int)W - 28, top = 62, bottom = (int)H - 92;
+    return points;
+}
 
-    axis ax, ay;
-    axis_range(&ax, xmin, xmax);
-    axis_range(&ay, ymin, ymax);
-    ax.p0 = left;
-    ax.p1 = right;
-    ay.p0 = bottom; /* y grows downwards on the canvas */
-    ay.p1 = top;
-
-    /* grid: minor lines at 2..9 × 10^e, major at decades */
-    int xdec = (int)(ax.hi - ax.lo), ydec = (int)(ay.hi - ay.lo);
+/* grid: minor lines at 2..9 × 10^e, major at decades */
+static void draw_grid(const layout *f)
+{
+    canvas c = f->c;
+    const axis ax = f->ax, ay = f->ay;
+    const int left = f->left, right = f->right, top = f->top, bottom = f->bottom;
     for (int pass = 0; pass < 2; pass++)
         for (int e = (int)ax.lo; e <= (int)ax.hi; e++)
             for (int m = 1; m <= 9; m++) {
@@ -426,9 +317,19 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
                 fill_rect(&c, left, y, right, y, m == 1 ? grid_major : grid_minor);
             }
     rect_outline(&c, left, top, right, bottom, black);
+}
 
-    /* ticks and labels: every decade (every other one past 8 decades), plus 2 and 5 when
-     * the axis spans a single decade */
+/* ticks and labels: every decade (every other one past 8 decades), plus 2 and 5 when
+ * the axis spans a single decade */
+static void draw_ticks(const layout *f)
+{
+    canvas c = f->c;
+    const axis ax = f->ax, ay = f->ay;
+    const int left = f->left, right = f->right, top = f->top, bottom = f->bottom;
+    unsigned char *px = c.px;
+    const unsigned W = f->W, H = f->H;
+    const int S = TEXT_SCALE;
+    int xdec = (int)(ax.hi - ax.lo), ydec = (int)(ay.hi - ay.lo);
     char buf[32];
     for (int e = (int)ax.lo; e <= (int)ax.hi; e++)
         for (int m = 1; m <= 9; m++) {
@@ -463,8 +364,15 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
                           0, black);
             }
         }
+}
 
-    /* titles */
+/* titles */
+static void draw_titles(const layout *f, const plot_spec *spec)
+{
+    const int left = f->left, right = f->right, top = f->top, bottom = f->bottom;
+    unsigned char *px = f->c.px;
+    const unsigned W = f->W, H = f->H;
+    const int S = TEXT_SCALE;
     if (spec->title)
         plot_text(px, W, H, ((int)W - text_width(spec->title, S)) / 2, 20, spec->title, S, 0,
                   black);
@@ -474,7 +382,13 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
     if (spec->y_title)
         plot_text(px, W, H, 16, (top + bottom + text_width(spec->y_title, S)) / 2,
                   spec->y_title, S, 1, black);
+}
 
+/* The lines under the markers: links between the first two series, each series' own. */
+static void draw_lines(const layout *f, const plot_spec *spec)
+{
+    canvas c = f->c;
+    const axis ax = f->ax, ay = f->ay;
     /* links between the two series' points of the same index, under the markers */
     if (spec->link_first_two && spec->n_series >= 2) {
         static const unsigned char link[3] = {150, 150, 150};
@@ -501,16 +415,15 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
             prev = i;
         }
     }
+}
 
-    /* markers; their boxes are obstacles for the labels placed afterwards */
-    enum { R_MARK = 6 };
-    size_t nbox = 0, cap = points * 2 + 8;
-    box *taken = calloc(cap, sizeof *taken);
-    if (!taken) {
-        free(px);
-        errno = ENOMEM;
-        return -1;
-    }
+/* markers; their boxes are obstacles for the labels placed afterwards (in taken; returns
+ * how many) */
+static size_t draw_markers(const layout *f, const plot_spec *spec, box *taken)
+{
+    canvas c = f->c;
+    const axis ax = f->ax, ay = f->ay;
+    size_t nbox = 0;
     for (size_t s = 0; s < spec->n_series; s++) {
         const plot_series *se = &spec->series[s];
         unsigned char edge[3] = {(unsigned char)(se->rgb[0] * 0.55),
@@ -524,8 +437,17 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
             taken[nbox++] = (box){x - R_MARK - 1, y - R_MARK - 1, x + R_MARK + 1, y + R_MARK + 1};
         }
     }
+    return nbox;
+}
 
-    /* legend in the corner holding the fewest points */
+/* legend in the corner holding the fewest points (its box is added to taken; returns nbox) */
+static size_t draw_legend(const layout *f, const plot_spec *spec, box *taken, size_t nbox)
+{
+    canvas c = f->c;
+    const int left = f->left, right = f->right, top = f->top, bottom = f->bottom;
+    unsigned char *px = c.px;
+    const unsigned W = f->W, H = f->H;
+    const int S = TEXT_SCALE;
     int lw = 0, lh = 0;
     for (size_t s = 0; s < spec->n_series; s++) {
         int tw = text_width(spec->series[s].name ? spec->series[s].name : "", S);
@@ -564,8 +486,18 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
         }
         taken[nbox++] = L;
     }
+    return nbox;
+}
 
-    /* point labels: the first free spot of eight around the marker, else skip */
+/* point labels: the first free spot of eight around the marker, else skip */
+static void draw_point_labels(const layout *f, const plot_spec *spec, box *taken, size_t nbox,
+                              size_t cap)
+{
+    const axis ax = f->ax, ay = f->ay;
+    const int left = f->left, right = f->right, top = f->top, bottom = f->bottom;
+    unsigned char *px = f->c.px;
+    const unsigned W = f->W, H = f->H;
+    const int S = TEXT_SCALE;
     for (size_t s = 0; s < spec->n_series; s++) {
         const plot_series *se = &spec->series[s];
         if (!se->labels)
@@ -595,6 +527,52 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
             }
         }
     }
+}
+
+int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
+                unsigned *h_out)
+{
+    unsigned W = spec->width ? spec->width : 960, H = spec->height ? spec->height : 680;
+    if (W < 200 || H < 150 || W > 8192 || H > 8192) {
+        errno = EINVAL;
+        return -1;
+    }
+    double xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+    size_t points = data_range(spec, &xmin, &xmax, &ymin, &ymax);
+    if (points == 0) {
+        errno = EINVAL;
+        return -1;
+    }
+    unsigned char *px = malloc((size_t)W * H * 3);
+    if (!px) {
+        errno = ENOMEM;
+        return -1;
+    }
+    memset(px, 255, (size_t)W * H * 3);
+    layout f = {.c = {px, (int)W, (int)H}, .W = W, .H = H,
+                .left = 118, .right = (int)W - 28, .top = 62, .bottom = (int)H - 92};
+
+    axis_range(&f.ax, xmin, xmax);
+    axis_range(&f.ay, ymin, ymax);
+    f.ax.p0 = f.left;
+    f.ax.p1 = f.right;
+    f.ay.p0 = f.bottom; /* y grows downwards on the canvas */
+    f.ay.p1 = f.top;
+    draw_grid(&f);
+    draw_ticks(&f);
+    draw_titles(&f, spec);
+    draw_lines(&f, spec);
+
+    size_t cap = points * 2 + 8;
+    box *taken = calloc(cap, sizeof *taken);
+    if (!taken) {
+        free(px);
+        errno = ENOMEM;
+        return -1;
+    }
+    size_t nbox = draw_markers(&f, spec, taken);
+    nbox = draw_legend(&f, spec, taken, nbox);
+    draw_point_labels(&f, spec, taken, nbox, cap);
     free(taken);
     *rgb_out = px;
     *w_out = W;

@@ -7,6 +7,7 @@
 #define LRR_BENCH_PLOT_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 enum plot_marker { PLOT_CIRCLE = 0, PLOT_SQUARE = 1, PLOT_TRIANGLE = 2, PLOT_DIAMOND = 3 };
 
@@ -51,5 +52,9 @@ int plot_write_rgb_png(const unsigned char *rgb, unsigned width, unsigned height
  * width in pixels. */
 int plot_text(unsigned char *rgb, unsigned width, unsigned height, int x, int y,
               const char *text, int scale, int vertical, const unsigned char colour[3]);
+
+/* The font that plot_text draws (plot_font.c): ASCII 32..126, then '×' (index 95), 5×7
+ * pixels, one byte per row. */
+extern const uint8_t plot_font5x7[96][7];
 
 #endif /* LRR_BENCH_PLOT_H */

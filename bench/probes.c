@@ -434,7 +434,15 @@ static void print_crossover(const probe_result *r, const size_t *sources, size_t
            r->name);
 }
 
-int cmd_probes(int argc, char *argv[])
+typedef struct probes_args {
+    size_t sources[PROBES_MAX_LIST], n_sources;
+    size_t normals, max_iterations;
+    const char *csv, *plot;
+} probes_args;
+
+/* The options into *a (--quick: fewer sources and normals, where not given); the probes are
+ * argv[optind..]. Returns BENCH_RUN, or the exit status (CLI_EXIT_OK after --help). */
+static int probes_parse(int argc, char *argv[], probes_args *a)
 {
     static const char prog[] = "lrr-bench probes";
     static const struct option longopts[] = {
@@ -446,10 +454,7 @@ int cmd_probes(int argc, char *argv[])
         {"quick", no_argument, NULL, OPT_QUICK},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
-    size_t sources[PROBES_MAX_LIST] = {2, 4, 8, 16, 32, 64, 128, 256};
-    size_t n_sources = 8, normals = PROBES_DEFAULT_NORMALS, max_iterations = 0;
     int sources_given = 0, normals_given = 0, quick = 0;
-    const char *csv = NULL, *plot = NULL;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
@@ -458,25 +463,25 @@ int cmd_probes(int argc, char *argv[])
             fputs(probes_help, stdout);
             return CLI_EXIT_OK;
         case OPT_SOURCES:
-            if (parse_sources(prog, optarg, sources, &n_sources) != 0)
+            if (parse_sources(prog, optarg, a->sources, &a->n_sources) != 0)
                 return CLI_EXIT_USAGE;
             sources_given = 1;
             break;
         case OPT_NORMALS:
-            if (cli_parse_size(prog, "--normals", optarg, 1, (size_t)1 << 22, &normals) != 0)
+            if (cli_parse_size(prog, "--normals", optarg, 1, (size_t)1 << 22, &a->normals) != 0)
                 return CLI_EXIT_USAGE;
             normals_given = 1;
             break;
         case OPT_MAX_ITERATIONS:
             if (cli_parse_size(prog, "--max-iterations", optarg, 1, (size_t)1 << 24,
-                               &max_iterations) != 0)
+                               &a->max_iterations) != 0)
                 return CLI_EXIT_USAGE;
             break;
         case OPT_CSV:
-            csv = optarg;
+            a->csv = optarg;
             break;
         case OPT_PLOT:
-            plot = optarg;
+            a->plot = optarg;
             break;
         case OPT_QUICK:
             quick = 1;
@@ -485,18 +490,30 @@ int cmd_probes(int argc, char *argv[])
             return bad_option(prog, c, argv);
         }
     }
-    if ((csv && !csv[0]) || (plot && !plot[0])) {
+    if ((a->csv && !a->csv[0]) || (a->plot && !a->plot[0])) {
         cli_usage_error(prog, "--csv/--plot: the file name is empty");
         return CLI_EXIT_USAGE;
     }
     if (quick) {
         if (!sources_given) {
-            sources[0] = 2, sources[1] = 4, sources[2] = 8;
-            n_sources = 3;
+            a->sources[0] = 2, a->sources[1] = 4, a->sources[2] = 8;
+            a->n_sources = 3;
         }
         if (!normals_given)
-            normals = PROBES_QUICK_NORMALS;
+            a->normals = PROBES_QUICK_NORMALS;
     }
+    return BENCH_RUN;
+}
+
+int cmd_probes(int argc, char *argv[])
+{
+    probes_args pa = {{2, 4, 8, 16, 32, 64, 128, 256}, 8, PROBES_DEFAULT_NORMALS, 0, NULL, NULL};
+    int rc = probes_parse(argc, argv, &pa);
+    if (rc != BENCH_RUN)
+        return rc;
+    const size_t *sources = pa.sources, n_sources = pa.n_sources;
+    const size_t normals = pa.normals, max_iterations = pa.max_iterations;
+    const char *csv = pa.csv, *plot = pa.plot;
     char **owned = NULL;
     const char *const *paths = (const char *const *)(argv + optind);
     size_t n_probes = (size_t)(argc - optind);
@@ -507,7 +524,7 @@ int cmd_probes(int argc, char *argv[])
         paths = (const char *const *)owned;
     }
 
-    int rc = CLI_EXIT_FAIL;
+    rc = CLI_EXIT_FAIL;
     lrr_context *ctx = NULL;
     probe_result *res = calloc(n_probes, sizeof *res);
     float *dirs = cli_alloc_rgb(normals);

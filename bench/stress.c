@@ -184,18 +184,14 @@ static const char *status_word(lrr_status s)
     return s == LRR_OK ? "ok" : s == LRR_NOT_CONVERGED ? "not-converged" : lrr_strerror(s);
 }
 
-/* One room at one rho: the operator and the four reference methods. Appends 5 rows. */
-static int stress_case(lrr_context *ctx, const voxel_room *room, int quick, unsigned R,
-                       double rho, stress_row *rows, size_t *count)
+/* The room as a scene: reflectance rho and emission 1 everywhere, subdivided (*scene is set
+ * once created, also when the subdivision fails). */
+static int room_scene(lrr_context *ctx, const voxel_room *room, int quick, double rho,
+                      lrr_scene **scene)
 {
     size_t ntri = voxel_triangles(room, NULL);
     float *v = calloc(ntri * 9, sizeof *v), *rh = calloc(ntri * 3, sizeof *rh);
     float *em = calloc(ntri * 3, sizeof *em);
-    lrr_scene *scene = NULL;
-    lrr_operator *op = NULL;
-    lrr_solver *solver = NULL;
-    lrr_reference *ref = NULL;
-    float *e = NULL, *b = NULL;
     int rc = CLI_EXIT_OK;
     lrr_status s;
     if (!v || !rh || !em) {
@@ -207,78 +203,82 @@ static int stress_case(lrr_context *ctx, const voxel_room *room, int quick, unsi
         rh[i] = (float)rho;
         em[i] = 1.0f;
     }
-    if ((s = lrr_scene_create(ctx, ntri, v, rh, em, room->name, &scene)) != LRR_OK) {
+    if ((s = lrr_scene_create(ctx, ntri, v, rh, em, room->name, scene)) != LRR_OK) {
         rc = lib_fail(ctx, s, room->name);
         goto done;
     }
     lrr_subdivision sub = {0.0, quick ? room->quick_patches : room->target_patches,
                            quick ? room->quick_levels : room->levels};
-    if ((s = lrr_scene_subdivide(scene, &sub)) != LRR_OK) {
+    if ((s = lrr_scene_subdivide(*scene, &sub)) != LRR_OK)
         rc = lib_fail(ctx, s, "subdivision");
-        goto done;
-    }
-    lrr_build_options bo = {.hemicube_resolution = R, .seed = DEFAULT_SEED};
-    double t0 = cli_now();
-    if ((s = lrr_operator_build(scene, &bo, &op)) != LRR_OK) {
-        rc = lib_fail(ctx, s, "operator build");
-        goto done;
-    }
-    double build_s = cli_now() - t0;
+done:
+    free(v);
+    free(rh);
+    free(em);
+    return rc;
+}
+
+/* the operator: rows of F̄·d are the form factors to whole patches; B (into b) for the
+ * emission e = 1 against the exact one */
+static int operator_row(lrr_context *ctx, const voxel_room *room, double rho,
+                        const lrr_operator *op, const float *e, float *b, stress_row *r)
+{
     lrr_operator_info oi;
     lrr_operator_get_info(op, &oi);
     size_t n = oi.n, k = oi.k, d = oi.d;
-    e = cli_alloc_rgb(n);
-    b = cli_alloc_rgb(n);
-    if (!e || !b) {
-        rc = CLI_EXIT_FAIL;
-        goto done;
-    }
-    for (size_t i = 0; i < 3 * n; i++)
-        e[i] = 1.0f;
-    const double exact = 1.0 / (1.0 - rho);
-    const float *area = lrr_operator_area(op);
-
-    /* the operator: rows of F̄·d are the form factors to whole patches */
-    stress_row r = {room->name, n, k, d, rho, "lrr", 0, 0, 0, 0, NAN, "", 0, 0, INFINITY,
-                    -INFINITY};
+    *r = (stress_row){room->name, n, k, d, rho, "lrr", 0, 0, 0, 0, NAN, "", 0, 0, INFINITY,
+                      -INFINITY};
     const float *fbar = lrr_operator_fbar(op);
     for (size_t i = 0; i < n; i++) {
         double sum = 0;
         for (size_t p = 0; p < k; p++)
             sum += fbar[i * k + p];
         sum *= (double)d;
-        r.row_min = fmin(r.row_min, sum);
-        r.row_max = fmax(r.row_max, sum);
+        r->row_min = fmin(r->row_min, sum);
+        r->row_max = fmax(r->row_max, sum);
     }
-    r.cond_max = fmax(oi.condition[0], fmax(oi.condition[1], oi.condition[2]));
+    r->cond_max = fmax(oi.condition[0], fmax(oi.condition[1], oi.condition[2]));
+    lrr_solver *solver = NULL;
+    lrr_status s;
     if ((s = lrr_solver_create(op, LRR_BACKEND_CPU, &solver)) != LRR_OK ||
         (s = lrr_solver_set_path(solver, LRR_PATH_FULL)) != LRR_OK) {
-        rc = lib_fail(ctx, s, "solver");
-        goto done;
+        lrr_solver_destroy(solver);
+        return lib_fail(ctx, s, "solver");
     }
-    t0 = cli_now();
+    double t0 = cli_now();
     s = lrr_solve(solver, e, b);
-    r.seconds = cli_now() - t0;
-    snprintf(r.status, sizeof r.status, "%s", status_word(s));
+    r->seconds = cli_now() - t0;
+    snprintf(r->status, sizeof r->status, "%s", status_word(s));
     if (s != LRR_OK) {
         char msg[256] = "";
         lrr_context_last_error(ctx, msg, sizeof msg);
         note("%s rho %g lrr_solve: %s%s%s", room->name, rho, lrr_strerror(s), msg[0] ? ": " : "",
              msg);
-        r.max_rel = r.rel_l2 = NAN;
+        r->max_rel = r->rel_l2 = NAN;
     } else {
-        compare_exact(n, area, b, exact, &r.max_rel, &r.rel_l2, &r.nonfinite);
+        compare_exact(n, lrr_operator_area(op), b, 1.0 / (1.0 - rho), &r->max_rel, &r->rel_l2,
+                      &r->nonfinite);
     }
-    rows[(*count)++] = r;
-    print_stress_row(&r);
-    note("%s rho %g: operator n %zu built in %.2f s; reference solvers", room->name, rho, n,
-         build_s);
+    lrr_solver_destroy(solver);
+    return CLI_EXIT_OK;
+}
 
-    /* the reference: full F from the same hemicubes */
-    if ((s = lrr_reference_build(scene, &bo, 0, &ref)) != LRR_OK) {
-        rc = lib_fail(ctx, s, "reference build");
-        goto done;
-    }
+/* the reference: full F from the same hemicubes (options bo), solved for e = 1 by each
+ * method (B into b). Appends 4 rows. */
+static int reference_rows(lrr_context *ctx, const voxel_room *room, double rho,
+                          const lrr_scene *scene, const lrr_build_options *bo,
+                          const lrr_operator *op, const float *e, float *b, stress_row *rows,
+                          size_t *count)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    size_t n = oi.n, k = oi.k, d = oi.d;
+    const double exact = 1.0 / (1.0 - rho);
+    const float *area = lrr_operator_area(op);
+    lrr_reference *ref = NULL;
+    lrr_status s;
+    if ((s = lrr_reference_build(scene, bo, 0, &ref)) != LRR_OK)
+        return lib_fail(ctx, s, "reference build");
     const float *F = lrr_reference_f(ref);
     double fmin_ = INFINITY, fmax_ = -INFINITY;
     for (size_t i = 0; i < n; i++) {
@@ -311,16 +311,52 @@ static int stress_case(lrr_context *ctx, const voxel_room *room, int quick, unsi
         rows[(*count)++] = q;
         print_stress_row(&q);
     }
-done:
     lrr_reference_destroy(ref);
-    lrr_solver_destroy(solver);
+    return CLI_EXIT_OK;
+}
+
+/* One room at one rho: the operator and the four reference methods. Appends 5 rows. */
+static int stress_case(lrr_context *ctx, const voxel_room *room, int quick, unsigned R,
+                       double rho, stress_row *rows, size_t *count)
+{
+    lrr_scene *scene = NULL;
+    lrr_operator *op = NULL;
+    float *e = NULL, *b = NULL;
+    lrr_status s;
+    int rc = room_scene(ctx, room, quick, rho, &scene);
+    if (rc)
+        goto done;
+    lrr_build_options bo = {.hemicube_resolution = R, .seed = DEFAULT_SEED};
+    double t0 = cli_now();
+    if ((s = lrr_operator_build(scene, &bo, &op)) != LRR_OK) {
+        rc = lib_fail(ctx, s, "operator build");
+        goto done;
+    }
+    double build_s = cli_now() - t0;
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi);
+    size_t n = oi.n;
+    e = cli_alloc_rgb(n);
+    b = cli_alloc_rgb(n);
+    if (!e || !b) {
+        rc = CLI_EXIT_FAIL;
+        goto done;
+    }
+    for (size_t i = 0; i < 3 * n; i++)
+        e[i] = 1.0f;
+    stress_row r;
+    if ((rc = operator_row(ctx, room, rho, op, e, b, &r)))
+        goto done;
+    rows[(*count)++] = r;
+    print_stress_row(&r);
+    note("%s rho %g: operator n %zu built in %.2f s; reference solvers", room->name, rho, n,
+         build_s);
+    rc = reference_rows(ctx, room, rho, scene, &bo, op, e, b, rows, count);
+done:
     lrr_operator_destroy(op);
     lrr_scene_destroy(scene);
     free(e);
     free(b);
-    free(v);
-    free(rh);
-    free(em);
     return rc;
 }
 

@@ -1,7 +1,8 @@
 /*
  * lrr-bench table: the paper's n×k table: memory, preprocessing, real-time step (ours, the
  * paper's two-gemv method, three plain sgemv), a bandwidth floor and the error against the
- * full n×n solution, as a table, CSV and plot.
+ * full n×n solution, as a table, CSV and plot. The command, its options and output are here;
+ * the measurements of one cell are in table_cell.c.
  */
 #include <errno.h>
 #include <getopt.h>
@@ -15,8 +16,6 @@
 #include "plot.h"
 
 #define DEFAULT_BUDGET_MIB 4096u
-#define REFERENCE_TOL 1e-7
-#define PAPER_MATCH_TOL 1e-4
 
 static const char table_help[] =
     "Usage: lrr-bench table [OPTIONS]\n"
@@ -89,36 +88,6 @@ static const cell small_cells[] = {{3456, 216, 16}, {3456, 864, 4}, {13824, 216,
 static const cell extra_cells[] = {{216, 216, 1}, {864, 864, 1}};
 /* For `make check`: seconds, not minutes. */
 static const cell tiny_cells[] = {{576, 36, 16}, {144, 144, 1}};
-
-typedef struct cell_result {
-    cell target;
-    size_t n, k, d;
-    double mem_mb, mem_mb_paper, mem_mib_paper, preprocess_s;
-    timing ours, paper, sgemv3, ours_auto;
-    char auto_path[16], kernel[32];
-    double floor_ms, floor_ms_full, bandwidth_gbs;
-    double rel_l2, max_rel, rel_l2_reflected, reference_s, reference_residual;
-    double paper_vs_ours;
-    double cond[3];
-    int threads;
-    char label[64];
-    char note[256];
-    int have_cl;                          /* --backend opencl */
-    timing ocl;                           /* ours on the OpenCL solver */
-    double ocl_kernel_ms, ocl_transfer_ms, ocl_ratio; /* medians; ours / OpenCL */
-    char ocl_device[160];
-} cell_result;
-
-typedef struct table_args {
-    const char *scene, *csv, *plot;
-    unsigned hemicube, repeat;
-    uint64_t seed;
-    size_t budget;
-    cell *cells;
-    size_t n_cells;
-    const char *cells_name;
-    int opencl; /* --backend opencl */
-} table_args;
 
 /* --cells: a named set or "N/K/D,N/K/D,..." */
 int parse_cells(const char *prog, const char *text, cell **cells, size_t *n_cells,
@@ -201,297 +170,6 @@ int parse_cells(const char *prog, const char *text, cell **cells, size_t *n_cell
 bad:
     cli_usage_error(prog, "--cells: '%s' is not paper, small, all or a list N/K/D,...", text);
     return -1;
-}
-
-static int reference_error(lrr_context *ctx, const lrr_scene *scene,
-                           const lrr_build_options *bo, size_t budget, const float *b,
-                           cell_result *r, const char *label)
-{
-    size_t need = lrr_reference_bytes(r->n);
-    if (need == SIZE_MAX || need > budget) {
-        char nb[32], bb[32];
-        snprintf(r->note, sizeof r->note, "n×n needs %s > budget %s",
-                 need == SIZE_MAX ? "more than SIZE_MAX bytes" : fmt_bytes(nb, sizeof nb, need),
-                 fmt_bytes(bb, sizeof bb, budget));
-        return 0;
-    }
-    lrr_reference *ref = NULL;
-    cli_progress bar;
-    lrr_build_options o = *bo;
-    note("%s: reference: n×n form factors (%.1f MB)", label, (double)need / MB);
-    progress_begin(&bar, "n×n hemicubes", &o);
-    double t0 = cli_now();
-    lrr_status s = lrr_reference_build(scene, &o, budget, &ref);
-    cli_progress_finish(&bar);
-    if (s == LRR_ERR_BUDGET) {
-        char msg[256] = "";
-        lrr_context_last_error(ctx, msg, sizeof msg);
-        snprintf(r->note, sizeof r->note, "reference refused: %s", msg);
-        return 0;
-    }
-    if (s != LRR_OK)
-        return lib_fail(ctx, s, "reference build");
-    float *bref = cli_alloc_rgb(r->n);
-    if (!bref) {
-        lrr_reference_destroy(ref);
-        return CLI_EXIT_FAIL;
-    }
-    lrr_reference_stats st = {0};
-    s = lrr_reference_solve(ref, LRR_METHOD_GAUSS_SEIDEL, REFERENCE_TOL, 0,
-                            lrr_reference_emission(ref), bref, &st);
-    r->reference_s = cli_now() - t0;
-    r->reference_residual = st.residual;
-    if (s != LRR_OK && s != LRR_NOT_CONVERGED) {
-        free(bref);
-        lrr_reference_destroy(ref);
-        return lib_fail(ctx, s, "Gauss-Seidel reference solve");
-    }
-    if (s == LRR_NOT_CONVERGED) {
-        char msg[256] = "";
-        lrr_context_last_error(ctx, msg, sizeof msg);
-        snprintf(r->note, sizeof r->note, "Gauss-Seidel stopped at residual %.2g after %zu",
-                 st.residual, st.iterations);
-    }
-    note("%s: reference: Gauss-Seidel %zu sweeps, residual %.2g, %.2f s (%.1f s with F)",
-         label, st.iterations, st.residual, st.seconds, r->reference_s);
-    const float *area = lrr_reference_area(ref);
-    compare_b(r->n, area, b, bref, NULL, &r->rel_l2, &r->max_rel);
-    compare_b(r->n, area, b, bref, lrr_reference_emission(ref), &r->rel_l2_reflected, NULL);
-    free(bref);
-    lrr_reference_destroy(ref);
-    return 0;
-}
-
-/* ---------------------------------------------------------------- one cell */
-static int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t index,
-                    double bandwidth, cell_result *r)
-{
-    memset(r, 0, sizeof *r);
-    r->target = *c;
-    r->rel_l2 = r->max_rel = r->rel_l2_reflected = r->reference_s = NAN;
-    r->reference_residual = r->paper_vs_ours = r->floor_ms = r->floor_ms_full = NAN;
-    r->threads = omp_get_max_threads();
-    r->ocl.median = r->ocl.min = r->ocl.max = NAN;
-    r->ocl_kernel_ms = r->ocl_transfer_ms = r->ocl_ratio = NAN;
-    snprintf(r->ocl_device, sizeof r->ocl_device, "cpu");
-    r->bandwidth_gbs = bandwidth / 1e9;
-    char label[96];
-    snprintf(label, sizeof label, "[%zu/%zu] %zu×%zu (d %zu)", index + 1, a->n_cells, c->n, c->k,
-             c->d);
-
-    lrr_scene *scene = NULL;
-    lrr_operator *op = NULL;
-    lrr_solver *solver = NULL;
-    float *b = NULL;
-    paper_frame pf = {0};
-    sgemv_frame sf = {0};
-    int rc = open_scene(ctx, a->scene, &scene);
-    if (rc)
-        return rc;
-    lrr_subdivision sub = {0.0, c->k, (unsigned)levels_of(c->d)};
-    lrr_status s = lrr_scene_subdivide(scene, &sub);
-    if (s != LRR_OK) {
-        rc = lib_fail(ctx, s, "subdivision");
-        goto done;
-    }
-    lrr_scene_info si;
-    lrr_scene_get_info(scene, &si);
-    r->n = si.subpatches;
-    r->k = si.patches;
-    r->d = si.d;
-    snprintf(r->label, sizeof r->label, "%zu×%zu", r->n, r->k);
-    note("%s: %zu patches, %zu subpatches; building the operator (hemicube %u)", label, r->k,
-         r->n, a->hemicube);
-
-    lrr_build_options bo = {.hemicube_resolution = a->hemicube, .seed = a->seed};
-    cli_progress bar;
-    progress_begin(&bar, "hemicubes", &bo);
-    double t0 = cli_now();
-    s = lrr_operator_build(scene, &bo, &op);
-    r->preprocess_s = cli_now() - t0;
-    cli_progress_finish(&bar);
-    bo.progress = NULL;
-    bo.progress_user = NULL;
-    if (s != LRR_OK) {
-        rc = lib_fail(ctx, s, "operator build");
-        goto done;
-    }
-    lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
-    memcpy(r->cond, oi.condition, sizeof r->cond);
-    if (!lrr_operator_fbar(op)) { /* a fresh build is float; the baselines need that view */
-        rc = bench_fail("%s: F̄ is not stored as float (storage %s)", label,
-                        lrr_storage_name(oi.storage));
-        goto done;
-    }
-    double nk = (double)r->n * (double)r->k;
-    r->mem_mb = (nk + 3.0 * (double)r->k * (double)r->k) * sizeof(float) / MB;
-    r->mem_mb_paper = 2.0 * nk * sizeof(float) / MB;
-    r->mem_mib_paper = 2.0 * nk * sizeof(float) / (1024.0 * 1024.0);
-    /* every method reads F̄ (or Y) once; our full path also reads the three M_c */
-    r->floor_ms = bandwidth > 0 ? 1e3 * nk * sizeof(float) / bandwidth : NAN;
-    r->floor_ms_full = bandwidth > 0 ? 1e3 * r->mem_mb * MB / bandwidth : NAN;
-    note("%s: operator built in %.2f s; timing the real-time step", label, r->preprocess_s);
-
-    /* ours */
-    const float *e = lrr_operator_emission(op);
-    b = cli_alloc_rgb(r->n);
-    if (!b) {
-        rc = CLI_EXIT_FAIL;
-        goto done;
-    }
-    if ((s = lrr_solver_create(op, LRR_BACKEND_CPU, &solver)) != LRR_OK) {
-        rc = lib_fail(ctx, s, "solver");
-        goto done;
-    }
-    snprintf(r->kernel, sizeof r->kernel, "%s", lrr_solver_kernel(solver));
-    if ((s = lrr_solver_set_path(solver, LRR_PATH_FULL)) != LRR_OK) {
-        rc = lib_fail(ctx, s, "solver path");
-        goto done;
-    }
-    ours_frame of = {solver, e, NULL, b, LRR_OK, 0};
-    if (time_frames(ours_step, &of, a->repeat, &r->ours)) {
-        rc = of.status != LRR_OK ? lib_fail(ctx, of.status, "lrr_solve") : CLI_EXIT_FAIL;
-        goto done;
-    }
-    if (lrr_solver_last_path(solver) != LRR_PATH_FULL) {
-        rc = bench_fail("%s: lrr_solve took the %s path, not the full one it was told to",
-                        label, path_name(lrr_solver_last_path(solver)));
-        goto done;
-    }
-    /* the OpenCL solver, f32, full path (its own B buffer; ours stays the reference) */
-    if (a->opencl) {
-        lrr_solver *cls = NULL;
-        float *bcl = cli_alloc_rgb(r->n);
-        cl_frame cf = {{NULL, e, NULL, bcl, LRR_OK, 0}, NULL, NULL, 0, 0};
-        cf.cap = 3 + (a->repeat ? a->repeat : MAX_RUNS);
-        cf.kernel_ms = malloc(cf.cap * sizeof *cf.kernel_ms);
-        cf.transfer_ms = malloc(cf.cap * sizeof *cf.transfer_ms);
-        if (!bcl || !cf.kernel_ms || !cf.transfer_ms)
-            rc = bench_fail("cannot allocate the OpenCL timings");
-        else if ((s = lrr_solver_create(op, LRR_BACKEND_OPENCL, &cls)) != LRR_OK)
-            rc = lib_fail(ctx, s, "OpenCL solver");
-        else {
-            note("%s: ours on %s", label, lrr_solver_kernel(cls));
-            cl_device_name(cls, r->ocl_device, sizeof r->ocl_device);
-            cf.of.solver = cls;
-            if (time_frames(cl_step, &cf, a->repeat, &r->ocl))
-                rc = cf.of.status != LRR_OK ? lib_fail(ctx, cf.of.status, "lrr_solve (OpenCL)")
-                                            : CLI_EXIT_FAIL;
-            else {
-                cl_medians(&cf, r->ocl.runs, &r->ocl_kernel_ms, &r->ocl_transfer_ms);
-                r->ocl_ratio = r->ours.median / r->ocl.median;
-                r->have_cl = 1;
-            }
-        }
-        lrr_solver_destroy(cls);
-        free(bcl);
-        free(cf.kernel_ms);
-        free(cf.transfer_ms);
-        if (rc)
-            goto done;
-    }
-    /* the default path, for an emission that changes every frame (into its own buffer) */
-    {
-        float *e_half = cli_alloc_rgb(r->n), *b_auto = cli_alloc_rgb(r->n);
-        if (!e_half || !b_auto) {
-            free(e_half);
-            free(b_auto);
-            rc = CLI_EXIT_FAIL;
-            goto done;
-        }
-        for (size_t i = 0; i < 3 * r->n; i++)
-            e_half[i] = 0.5f * e[i];
-        ours_frame af = {solver, e, e_half, b_auto, LRR_OK, 0};
-        if ((s = lrr_solver_set_path(solver, LRR_PATH_AUTO)) != LRR_OK)
-            af.status = s;
-        int arc = s != LRR_OK || time_frames(ours_step, &af, a->repeat, &r->ours_auto);
-        snprintf(r->auto_path, sizeof r->auto_path, "%s",
-                 path_name(lrr_solver_last_path(solver)));
-        free(e_half);
-        free(b_auto);
-        if (arc) {
-            rc = lib_fail(ctx, af.status, "lrr_solve (auto path)");
-            goto done;
-        }
-    }
-    for (size_t i = 0; i < 3 * r->n; i++)
-        if (!isfinite(b[i])) {
-            rc = bench_fail("%s: lrr_solve gave a non-finite value at subpatch %zu", label,
-                            i / 3);
-            goto done;
-        }
-
-    /* the paper's method */
-    if ((rc = paper_setup(op, e, &pf)))
-        goto done;
-    if ((rc = time_frames(paper_step, &pf, a->repeat, &r->paper)))
-        goto done;
-    {
-        double num = 0, den = 0;
-        for (size_t i = 0; i < r->n; i++)
-            for (int ch = 0; ch < 3; ch++) {
-                double dlt = (double)pf.b[ch][i] - b[3 * i + ch];
-                num += dlt * dlt;
-                den += (double)b[3 * i + ch] * b[3 * i + ch];
-            }
-        r->paper_vs_ours = den > 0 ? sqrt(num / den) : sqrt(num);
-        if (!(r->paper_vs_ours < PAPER_MATCH_TOL))
-            rc = bench_fail("error: %s: the paper's method and lrr_solve disagree: relative "
-                            "L2 %.3g >= %g (they are the same operator)",
-                            label, r->paper_vs_ours, PAPER_MATCH_TOL);
-    }
-    /* three plain sgemv, with z_c = M_c Vᵀ E_c as the vectors */
-    sf.n = pf.n;
-    sf.k = pf.k;
-    sf.fbar = lrr_operator_fbar(op);
-    for (int ch = 0; ch < 3; ch++) {
-        sf.z[ch] = alloc_floats(r->k, 1);
-        sf.out[ch] = pf.b[ch]; /* reuse: the paper's check is done */
-        if (!sf.z[ch]) {
-            rc = bench_fail("cannot allocate z");
-            goto done;
-        }
-        cblas_sgemv(CblasRowMajor, CblasTrans, pf.n, pf.k, 1.0f, pf.v, pf.k, pf.e[ch], 1, 0.0f,
-                    pf.w, 1);
-        cblas_sgemv(CblasRowMajor, CblasNoTrans, pf.k, pf.k, 1.0f,
-                    lrr_operator_m(op) + (size_t)ch * r->k * r->k, pf.k, pf.w, 1, 0.0f, sf.z[ch],
-                    1);
-    }
-    lrr_aligned_free(pf.v); /* V and Y are not needed any more */
-    pf.v = NULL;
-    for (int ch = 0; ch < 3; ch++) {
-        lrr_aligned_free(pf.y[ch]);
-        pf.y[ch] = NULL;
-    }
-    int rc3 = time_frames(sgemv_step, &sf, a->repeat, &r->sgemv3);
-    if (rc3) {
-        rc = rc3;
-        goto done;
-    }
-    note("%s: ms ours %.3f (auto %.3f, %s), paper %.3f, 3 sgemv %.3f", label, r->ours.median,
-         r->ours_auto.median, r->auto_path, r->paper.median, r->sgemv3.median);
-
-    /* error against the n×n reference (the paper arrays are freed first) */
-    for (int ch = 0; ch < 3; ch++) {
-        lrr_aligned_free(sf.z[ch]);
-        sf.z[ch] = NULL;
-    }
-    paper_free(&pf);
-    lrr_solver_destroy(solver);
-    solver = NULL;
-    int rce = reference_error(ctx, scene, &bo, a->budget, b, r, label);
-    if (rce)
-        rc = rce;
-done:
-    for (int ch = 0; ch < 3; ch++)
-        lrr_aligned_free(sf.z[ch]);
-    paper_free(&pf);
-    lrr_solver_destroy(solver);
-    free(b);
-    lrr_operator_destroy(op);
-    lrr_scene_destroy(scene);
-    return rc;
 }
 
 /* ---------------------------------------------------------------- output */
@@ -641,7 +319,9 @@ static void print_table_row(const cell_result *r, int opencl)
     fflush(stdout);
 }
 
-int cmd_table(int argc, char *argv[])
+/* ---------------------------------------------------------------- command */
+/* The options into *a. Returns BENCH_RUN, or the exit status (CLI_EXIT_OK after --help). */
+static int table_parse(int argc, char *argv[], table_args *a)
 {
     static const char prog[] = "lrr-bench table";
     static const struct option longopts[] = {
@@ -656,9 +336,6 @@ int cmd_table(int argc, char *argv[])
         {"backend", required_argument, NULL, OPT_BACKEND},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
-    table_args a = {.scene = "cornell", .hemicube = DEFAULT_HEMICUBE, .seed = DEFAULT_SEED,
-                    .budget = (size_t)DEFAULT_BUDGET_MIB << 20};
-    int rc = CLI_EXIT_USAGE;
     size_t budget_mib = DEFAULT_BUDGET_MIB;
     start_getopt();
     int c;
@@ -666,80 +343,72 @@ int cmd_table(int argc, char *argv[])
         switch (c) {
         case 'h':
             fputs(table_help, stdout);
-            free(a.cells);
             return CLI_EXIT_OK;
         case OPT_SCENE:
-            a.scene = optarg;
+            a->scene = optarg;
             break;
         case OPT_CELLS:
-            if (parse_cells(prog, optarg, &a.cells, &a.n_cells, &a.cells_name) != 0)
-                goto out;
+            if (parse_cells(prog, optarg, &a->cells, &a->n_cells, &a->cells_name) != 0)
+                return CLI_EXIT_USAGE;
             break;
         case OPT_HEMICUBE:
-            if (cli_parse_unsigned(prog, "--hemicube", optarg, 8, 4096, &a.hemicube) != 0)
-                goto out;
-            if (a.hemicube % 2) {
-                cli_usage_error(prog, "--hemicube: %u is odd (it must be even)", a.hemicube);
-                goto out;
+            if (cli_parse_unsigned(prog, "--hemicube", optarg, 8, 4096, &a->hemicube) != 0)
+                return CLI_EXIT_USAGE;
+            if (a->hemicube % 2) {
+                cli_usage_error(prog, "--hemicube: %u is odd (it must be even)", a->hemicube);
+                return CLI_EXIT_USAGE;
             }
             break;
         case OPT_SEED:
-            if (cli_parse_u64(prog, "--seed", optarg, 0, UINT64_MAX, &a.seed) != 0)
-                goto out;
+            if (cli_parse_u64(prog, "--seed", optarg, 0, UINT64_MAX, &a->seed) != 0)
+                return CLI_EXIT_USAGE;
             break;
         case OPT_CSV:
-            a.csv = optarg;
+            a->csv = optarg;
             break;
         case OPT_PLOT:
-            a.plot = optarg;
+            a->plot = optarg;
             break;
         case OPT_MEMORY_BUDGET:
             if (cli_parse_size(prog, "--memory-budget", optarg, 1, SIZE_MAX >> 20, &budget_mib) !=
                 0)
-                goto out;
-            a.budget = budget_mib << 20;
+                return CLI_EXIT_USAGE;
+            a->budget = budget_mib << 20;
             break;
         case OPT_REPEAT:
-            if (cli_parse_unsigned(prog, "--repeat", optarg, 1, 1000000, &a.repeat) != 0)
-                goto out;
+            if (cli_parse_unsigned(prog, "--repeat", optarg, 1, 1000000, &a->repeat) != 0)
+                return CLI_EXIT_USAGE;
             break;
         case OPT_BACKEND:
-            if (parse_backend(prog, optarg, &a.opencl) != 0)
-                goto out;
+            if (parse_backend(prog, optarg, &a->opencl) != 0)
+                return CLI_EXIT_USAGE;
             break;
         default:
-            rc = bad_option(prog, c, argv);
-            goto out;
+            return bad_option(prog, c, argv);
         }
     }
     if (no_positional(prog, argc, argv))
-        goto out;
-    if ((a.csv && !a.csv[0]) || (a.plot && !a.plot[0])) {
+        return CLI_EXIT_USAGE;
+    if ((a->csv && !a->csv[0]) || (a->plot && !a->plot[0])) {
         cli_usage_error(prog, "--csv/--plot: the file name is empty");
-        goto out;
+        return CLI_EXIT_USAGE;
     }
-    if (!a.cells && parse_cells(prog, "paper", &a.cells, &a.n_cells, &a.cells_name) != 0) {
-        rc = bench_fail("out of memory");
-        goto out;
-    }
+    if (!a->cells && parse_cells(prog, "paper", &a->cells, &a->n_cells, &a->cells_name) != 0)
+        return bench_fail("out of memory");
+    return BENCH_RUN;
+}
 
-    lrr_context *ctx = NULL;
-    if ((rc = bench_start(a.scene, a.opencl, &ctx)) != CLI_EXIT_OK)
-        goto out;
-    cell_result *res = calloc(a.n_cells, sizeof *res);
-    if (!res) {
-        lrr_context_destroy(ctx);
-        rc = bench_fail("out of memory");
-        goto out;
-    }
-    double t_start = cli_now();
+/* The run's configuration, then the read bandwidth (returned, bytes per second; 0 when it
+ * could not be measured) and the table's header. */
+static double table_print_setup(const table_args *a)
+{
     printf("benchmark: table\n");
     print_machine();
-    printf("scene: %s\n", a.scene);
-    printf("cells: %s (%zu)\n", a.cells_name ? a.cells_name : "paper", a.n_cells);
-    printf("hemicube: %u\n", a.hemicube);
-    printf("seed: %llu\n", (unsigned long long)a.seed);
-    printf("memory_budget_mib: %zu\n", a.budget >> 20);
+    printf("scene: %s\n", a->scene);
+    printf("cells: %s (%zu)\n", a->cells_name ? a->cells_name : "paper", a->n_cells);
+    printf("hemicube: %u\n", a->hemicube);
+    printf("seed: %llu\n", (unsigned long long)a->seed);
+    printf("memory_budget_mib: %zu\n", a->budget >> 20);
     fflush(stdout);
     size_t llc = llc_bytes(), bw_bytes = bandwidth_buffer_bytes();
     printf("llc_mib: %zu\n", llc >> 20);
@@ -753,47 +422,74 @@ int cmd_table(int argc, char *argv[])
         printf("read_bandwidth_gbs: nan (cannot allocate %zu MiB)\n", bw_bytes >> 20);
     printf("units: memory in MB = 10^6 bytes; times in ms per frame (median (min-max)); "
            "floor = F̄ bytes / read bandwidth\n");
-    print_table_header(a.opencl);
+    print_table_header(a->opencl);
     fflush(stdout);
+    return bw;
+}
+
+/* Every cell in turn, each printed (and the CSV and plot rewritten) when measured; then the
+ * final plot. */
+static int table_run(const table_args *a)
+{
+    lrr_context *ctx = NULL;
+    int rc;
+    if ((rc = bench_start(a->scene, a->opencl, &ctx)) != CLI_EXIT_OK)
+        return rc;
+    cell_result *res = calloc(a->n_cells, sizeof *res);
+    if (!res) {
+        lrr_context_destroy(ctx);
+        return bench_fail("out of memory");
+    }
+    double t_start = cli_now();
+    double bw = table_print_setup(a);
 
     rc = CLI_EXIT_OK;
     size_t done = 0;
-    for (size_t i = 0; i < a.n_cells; i++) {
-        int crc = run_cell(ctx, &a, &a.cells[i], i, bw, &res[done]);
+    for (size_t i = 0; i < a->n_cells; i++) {
+        int crc = run_cell(ctx, a, &a->cells[i], i, bw, &res[done]);
         if (crc && res[done].n == 0) { /* nothing measured: stop */
             rc = crc;
             break;
         }
         if (crc)
             rc = crc; /* a failed check: keep the row, report it, carry on */
-        print_table_row(&res[done], a.opencl);
+        print_table_row(&res[done], a->opencl);
         done++;
-        if (a.csv && write_table_csv(a.csv, res, done) != 0) {
+        if (a->csv && write_table_csv(a->csv, res, done) != 0) {
             rc = CLI_EXIT_FAIL;
             break;
         }
-        if (a.plot && write_table_plot(a.plot, &a, res, done) < 0) {
+        if (a->plot && write_table_plot(a->plot, a, res, done) < 0) {
             rc = CLI_EXIT_FAIL;
             break;
         }
     }
     printf("\ntotal_seconds: %.1f\n", cli_now() - t_start);
-    if (a.csv && done)
-        printf("csv: %s\n", a.csv);
-    if (a.plot && done) {
-        int prc = write_table_plot(a.plot, &a, res, done);
+    if (a->csv && done)
+        printf("csv: %s\n", a->csv);
+    if (a->plot && done) {
+        int prc = write_table_plot(a->plot, a, res, done);
         if (prc == 0)
-            printf("plot: %s\n", a.plot);
+            printf("plot: %s\n", a->plot);
         else if (prc == 1) {
             bench_fail("--plot %s: no cell has an error estimate (all n/a), nothing plotted",
-                       a.plot);
+                       a->plot);
             rc = CLI_EXIT_FAIL;
         } else
             rc = CLI_EXIT_FAIL;
     }
     free(res);
     lrr_context_destroy(ctx);
-out:
+    return rc;
+}
+
+int cmd_table(int argc, char *argv[])
+{
+    table_args a = {.scene = "cornell", .hemicube = DEFAULT_HEMICUBE, .seed = DEFAULT_SEED,
+                    .budget = (size_t)DEFAULT_BUDGET_MIB << 20};
+    int rc = table_parse(argc, argv, &a);
+    if (rc == BENCH_RUN)
+        rc = table_run(&a);
     free(a.cells);
     return rc;
 }
