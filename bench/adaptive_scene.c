@@ -96,12 +96,12 @@ static int scene_setup(lrr_context *ctx, const adaptive_args *a, const char *nam
     int rc = open_scene(ctx, name, &s->scene);
     if (rc)
         return rc;
-    lrr_subdivision sub = {0.0, a->subpatches, 0};
+    lrr_subdivision sub = {0, 0.0, a->subpatches, 0};
     lrr_status st = lrr_scene_subdivide(s->scene, &sub);
     if (st != LRR_OK)
         return lib_fail(ctx, st, "subdivision");
     lrr_scene_info si;
-    lrr_scene_get_info(s->scene, &si);
+    lrr_scene_get_info(s->scene, &si, sizeof si);
     s->n = si.subpatches;
     s->triangles = si.triangles;
     s->max_patch_area = si.max_patch_area;
@@ -149,7 +149,7 @@ static int scene_setup(lrr_context *ctx, const adaptive_args *a, const char *nam
         return lib_fail(ctx, st, "reference build");
     lrr_reference_stats rs = {0};
     st = lrr_reference_solve(ref, LRR_METHOD_GAUSS_SEIDEL, REFERENCE_TOL, 0,
-                             lrr_reference_emission(ref), s->bref, &rs);
+                             lrr_reference_emission(ref), s->bref, &rs, sizeof rs);
     s->reference_s = cli_now() - t0;
     s->reference_residual = rs.residual;
     memcpy(s->eref, lrr_reference_emission(ref), 3 * s->n * sizeof *s->eref);
@@ -200,7 +200,7 @@ static int measure(lrr_context *ctx, const adaptive_args *a, const scene_ref *s,
     if (st != LRR_OK)
         return lib_fail(ctx, st, "operator build");
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     r->k = oi.k;
     r->d_min = oi.d_min;
     r->d_max = oi.d_max;
@@ -277,7 +277,7 @@ done:
 static int same_subpatches(const scene_ref *s, const lrr_scene *other)
 {
     lrr_scene_info si;
-    lrr_scene_get_info(other, &si);
+    lrr_scene_get_info(other, &si, sizeof si);
     if (si.subpatches != s->n)
         return 0;
     float *c = cli_alloc_rgb(s->n), *nm = cli_alloc_rgb(s->n);
@@ -386,10 +386,10 @@ static int scene_levels(lrr_context *ctx, adaptive_scene *sc)
         if ((rc = open_scene(ctx, sc->name, &other)))
             break;
         double scale = (double)(1u << (2 * L));
-        lrr_subdivision sub = {s->max_patch_area * scale, 0, L};
+        lrr_subdivision sub = {0, s->max_patch_area * scale, 0, L};
         lrr_status st = lrr_scene_subdivide(other, &sub);
         lrr_scene_info oi;
-        lrr_scene_get_info(other, &oi);
+        lrr_scene_get_info(other, &oi, sizeof oi);
         if (st == LRR_OK && same_subpatches(s, other)) {
             sc->levels[sc->n_levels++] = L;
             printf("levels: %u (k %zu, d %zu): same subpatches, included\n", L, oi.patches,
@@ -471,7 +471,7 @@ static int levels_rows(lrr_context *ctx, const adaptive_args *a, const adaptive_
         lrr_scene *other = NULL;
         if ((rc = open_scene(ctx, sc->name, &other)))
             break;
-        lrr_subdivision sub = {s->max_patch_area * (double)(1u << (2 * L)), 0, L};
+        lrr_subdivision sub = {0, s->max_patch_area * (double)(1u << (2 * L)), 0, L};
         lrr_status st;
         if ((st = lrr_scene_subdivide(other, &sub)) != LRR_OK) {
             rc = lib_fail(ctx, st, "subdivision");

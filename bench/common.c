@@ -361,7 +361,7 @@ int opencl_probe(lrr_context *ctx)
     lrr_scene *scene = NULL;
     lrr_operator *op = NULL;
     lrr_solver *sv = NULL;
-    lrr_subdivision sd = {0, 0, 0};
+    lrr_subdivision sd = {0, 0, 0, 0};
     lrr_status s = lrr_scene_create(ctx, 1, v, rho, em, "opencl-probe", &scene);
     if (s == LRR_OK)
         s = lrr_scene_subdivide(scene, &sd);
@@ -491,7 +491,7 @@ float *alloc_floats(size_t a, size_t b)
 int paper_setup(const lrr_operator *op, const float *e, paper_frame *f)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     size_t n = oi.n, k = oi.k, d = oi.d;
     memset(f, 0, sizeof *f);
     f->n = (blasint)n;

@@ -120,7 +120,7 @@ static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned 
     lrr_operator *op = NULL;
     lrr_status s = lrr_scene_create(ctx, 4, v, rho, em, "squares", &scene);
     if (s == LRR_OK)
-        s = lrr_scene_subdivide(scene, &(lrr_subdivision){0.0, 0, levels});
+        s = lrr_scene_subdivide(scene, &(lrr_subdivision){0, 0.0, 0, levels});
     lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
     double t0 = cli_now();
     if (s == LRR_OK)
@@ -130,7 +130,7 @@ static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned 
     if (s != LRR_OK)
         return lib_fail(ctx, s, "squares");
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     const float *fbar = lrr_operator_fbar(op), *area = lrr_operator_area(op);
     const float *centre = lrr_operator_centre(op), *normal = lrr_operator_normal(op);
     /* the receiver square's subpatches face +z and lie on z = 0; a patch belongs to the other
@@ -164,7 +164,7 @@ static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, int no_rota
     lrr_scene *scene = NULL;
     lrr_status s = lrr_scene_builtin(ctx, "cornell", &scene);
     if (s == LRR_OK)
-        s = lrr_scene_subdivide(scene, &(lrr_subdivision){0.0, 216, 1});
+        s = lrr_scene_subdivide(scene, &(lrr_subdivision){0, 0.0, 216, 1});
     lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
     cli_progress bar;
     progress_begin(&bar, "hemicubes", &bo);
@@ -276,7 +276,7 @@ int cmd_hemicube(int argc, char *argv[])
         return CLI_EXIT_FAIL;
     }
     lrr_operator_info ri;
-    lrr_operator_get_info(ref, &ri);
+    lrr_operator_get_info(ref, &ri, sizeof ri);
     printf("cornell: n %zu, k %zu, d %zu; reference R = %u seed 1 built in %.2f s\n", ri.n, ri.k,
            ri.d, ref_res, ref_s);
 

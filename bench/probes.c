@@ -352,7 +352,7 @@ static int run_probe(lrr_context *ctx, const char *path, const size_t *sources,
                 lrr_fit_options fo = {0};
                 lrr_fit_stats fs = {0};
                 fo.max_iterations = max_iterations;
-                st = lrr_probe_fit_irradiance(probe, n, normals, &fo, lights, &fs);
+                st = lrr_probe_fit_irradiance(probe, n, normals, &fo, lights, &fs, sizeof fs);
                 r->iterations = fs.iterations;
                 r->converged = fs.converged;
             }

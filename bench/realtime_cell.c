@@ -269,14 +269,14 @@ static int rt_build(rt_work *wk, const cell *c, rt_cell *r)
     int rc = open_scene(wk->ctx, a->scene, &scene);
     if (rc)
         return rc;
-    lrr_subdivision sub = {0.0, c->k, (unsigned)levels_of(c->d)};
+    lrr_subdivision sub = {0, 0.0, c->k, (unsigned)levels_of(c->d)};
     lrr_status s = lrr_scene_subdivide(scene, &sub);
     if (s != LRR_OK) {
         lrr_scene_destroy(scene);
         return lib_fail(wk->ctx, s, "subdivision");
     }
     lrr_scene_info si;
-    lrr_scene_get_info(scene, &si);
+    lrr_scene_get_info(scene, &si, sizeof si);
     const size_t n = si.subpatches, k = si.patches, d = si.d;
     note("%s: %zu patches, %zu subpatches; building the operator (hemicube %u)", wk->label, k,
          n, a->hemicube);

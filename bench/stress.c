@@ -207,7 +207,7 @@ static int room_scene(lrr_context *ctx, const voxel_room *room, int quick, doubl
         rc = lib_fail(ctx, s, room->name);
         goto done;
     }
-    lrr_subdivision sub = {0.0, quick ? room->quick_patches : room->target_patches,
+    lrr_subdivision sub = {0, 0.0, quick ? room->quick_patches : room->target_patches,
                            quick ? room->quick_levels : room->levels};
     if ((s = lrr_scene_subdivide(*scene, &sub)) != LRR_OK)
         rc = lib_fail(ctx, s, "subdivision");
@@ -224,7 +224,7 @@ static int operator_row(lrr_context *ctx, const voxel_room *room, double rho,
                         const lrr_operator *op, const float *e, float *b, stress_row *r)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     size_t n = oi.n, k = oi.k, d = oi.d;
     *r = (stress_row){room->name, n, k, d, rho, "lrr", 0, 0, 0, 0, NAN, "", 0, 0, INFINITY,
                       -INFINITY};
@@ -271,7 +271,7 @@ static int reference_rows(lrr_context *ctx, const voxel_room *room, double rho,
                           size_t *count)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     size_t n = oi.n, k = oi.k, d = oi.d;
     const double exact = 1.0 / (1.0 - rho);
     const float *area = lrr_operator_area(op);
@@ -295,7 +295,7 @@ static int reference_rows(lrr_context *ctx, const voxel_room *room, double rho,
                         NAN, "", 0, NAN, fmin_, fmax_};
         lrr_reference_stats st = {0};
         memset(b, 0, 3 * n * sizeof *b);
-        s = lrr_reference_solve(ref, methods[m], 1e-6, 0, e, b, &st);
+        s = lrr_reference_solve(ref, methods[m], 1e-6, 0, e, b, &st, sizeof st);
         snprintf(q.status, sizeof q.status, "%s", status_word(s));
         q.iterations = st.iterations;
         q.seconds = st.seconds;
@@ -334,7 +334,7 @@ static int stress_case(lrr_context *ctx, const voxel_room *room, int quick, unsi
     }
     double build_s = cli_now() - t0;
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     size_t n = oi.n;
     e = cli_alloc_rgb(n);
     b = cli_alloc_rgb(n);

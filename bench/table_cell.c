@@ -48,7 +48,7 @@ static int reference_error(lrr_context *ctx, const lrr_scene *scene,
     }
     lrr_reference_stats st = {0};
     s = lrr_reference_solve(ref, LRR_METHOD_GAUSS_SEIDEL, REFERENCE_TOL, 0,
-                            lrr_reference_emission(ref), bref, &st);
+                            lrr_reference_emission(ref), bref, &st, sizeof st);
     r->reference_s = cli_now() - t0;
     r->reference_residual = st.residual;
     if (s != LRR_OK && s != LRR_NOT_CONVERGED) {
@@ -93,12 +93,12 @@ static int cell_build(lrr_context *ctx, const table_args *a, const cell *c, cons
                       lrr_scene *scene, lrr_build_options *bo, lrr_operator **op,
                       cell_result *r)
 {
-    lrr_subdivision sub = {0.0, c->k, (unsigned)levels_of(c->d)};
+    lrr_subdivision sub = {0, 0.0, c->k, (unsigned)levels_of(c->d)};
     lrr_status s = lrr_scene_subdivide(scene, &sub);
     if (s != LRR_OK)
         return lib_fail(ctx, s, "subdivision");
     lrr_scene_info si;
-    lrr_scene_get_info(scene, &si);
+    lrr_scene_get_info(scene, &si, sizeof si);
     r->n = si.subpatches;
     r->k = si.patches;
     r->d = si.d;
@@ -118,7 +118,7 @@ static int cell_build(lrr_context *ctx, const table_args *a, const cell *c, cons
     if (s != LRR_OK)
         return lib_fail(ctx, s, "operator build");
     lrr_operator_info oi;
-    lrr_operator_get_info(*op, &oi);
+    lrr_operator_get_info(*op, &oi, sizeof oi);
     memcpy(r->cond, oi.condition, sizeof r->cond);
     if (!lrr_operator_fbar(*op)) /* a fresh build is float; the baselines need that view */
         return bench_fail("%s: F̄ is not stored as float (storage %s)", label,

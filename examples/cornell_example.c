@@ -72,8 +72,10 @@ int main(int argc, char **argv)
     lrr_operator_info info;
     /* ~60 patches, each split once (d = 4); a 64×64 hemicube: small enough for a test. */
     lrr_subdivision sub = {.max_patch_area = 0.0, .target_patches = 60, .levels = 1};
-    lrr_build_options bo = {.hemicube_resolution = 64, .seed = 1, .threads = 0,
-                            .progress = NULL, .progress_user = NULL};
+    /* option structs carry their size: start from the defaults (or designated initialisers) */
+    lrr_build_options bo = lrr_build_options_defaults();
+    bo.hemicube_resolution = 64;
+    bo.seed = 1;
 
     if ((s = lrr_context_create(&ctx)) != LRR_OK) {
         fprintf(stderr, "cornell_example: %s\n", lrr_strerror(s));
@@ -105,7 +107,7 @@ int main(int argc, char **argv)
         rc = fail(ctx, "lrr_operator_load", s);
         goto done;
     }
-    lrr_operator_get_info(loaded, &info);
+    lrr_operator_get_info(loaded, &info, sizeof info);
     if (info.n == 0 || info.n > SIZE_MAX / (3 * sizeof *b) ||
         !(b = malloc(info.n * 3 * sizeof *b))) {
         fprintf(stderr, "cornell_example: cannot allocate %zu radiosities\n", info.n);

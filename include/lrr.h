@@ -14,12 +14,19 @@
  *   - Colour arrays are row-major n×3 (RGB interleaved, ld = 3) unless stated.
  *   - Radiosity and emission are in W/m² (any consistent unit); lengths in scene units.
  *   - The library never prints, never exits, keeps no mutable global state.
+ *   - Structs that may grow (ABI 1 on): an option struct given to lrr starts with
+ *     `size_t size`, set by its lrr_*_defaults() (inline below, so it is the caller's
+ *     sizeof): lrr reads the fields the size covers, refuses set bytes beyond what it knows
+ *     (LRR_ERR_UNSUPPORTED: the caller was built against a newer lrr) and takes size = 0 as
+ *     this first layout, so designated initialisers keep working. A struct lrr fills in is
+ *     passed with its size (sizeof info): lrr writes what fits and zeroes the rest.
  */
 #ifndef LRR_H
 #define LRR_H
 
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h> /* memset in the inline lrr_*_defaults() */
 #include "lrr_version.h"
 
 #ifdef __cplusplus
@@ -126,10 +133,18 @@ LRR_API void lrr_scene_destroy(lrr_scene *scene);
  * gives the patch count closest to it is chosen. Each patch is then split `levels` more times
  * into d = 4^levels subpatches, stored patch-major (subpatch s of patch p is p·d + s). */
 typedef struct lrr_subdivision {
+    size_t size;             /* sizeof(lrr_subdivision) (lrr_subdivision_defaults) or 0 */
     double max_patch_area;   /* scene units²; 0 = no limit (one patch per triangle) */
     size_t target_patches;   /* if > 0, overrides max_patch_area */
     unsigned levels;         /* 0..10; d = 4^levels */
 } lrr_subdivision;
+static inline lrr_subdivision lrr_subdivision_defaults(void)
+{
+    lrr_subdivision s;
+    memset(&s, 0, sizeof s);
+    s.size = sizeof s;
+    return s;
+}
 
 /* Thread safety: one thread per object. */
 LRR_API LRR_NODISCARD lrr_status lrr_scene_subdivide(lrr_scene *scene,
@@ -149,7 +164,9 @@ typedef struct lrr_scene_info {
 } lrr_scene_info;
 
 /* Thread safety: any thread (read only). */
-LRR_API void lrr_scene_get_info(const lrr_scene *scene, lrr_scene_info *info) LRR_NONNULL(1, 2);
+/* info_size = sizeof *info (see Conventions). */
+LRR_API void lrr_scene_get_info(const lrr_scene *scene, lrr_scene_info *info, size_t info_size)
+    LRR_NONNULL(1, 2);
 
 /* The scene doctor (`lrr check`), with exact predicates (CGAL). `name` is a scene file (read
  * raw: zero-area triangles included) or a built-in name. Face numbers are the file's
@@ -205,6 +222,8 @@ typedef struct lrr_operator lrr_operator;
 typedef int (*lrr_progress_fn)(void *user, size_t done, size_t total);
 
 typedef struct lrr_build_options {
+    size_t size;                  /* sizeof(lrr_build_options) (lrr_build_options_defaults)
+                                     or 0 */
     unsigned hemicube_resolution; /* R: top face R×R, sides R×R/2; even, 8..4096; 0 = 128 */
     uint64_t seed;                /* random rotation about the normal per receiver */
     int threads;                  /* OpenMP threads; 0 = OpenMP's default */
@@ -235,6 +254,15 @@ typedef struct lrr_build_options {
     int adaptive_split;           /* which patch the adaptive selection splits next:
                                      LRR_SPLIT_VARIANCE (0) or LRR_SPLIT_AREA */
 } lrr_build_options;
+static inline lrr_build_options lrr_build_options_defaults(void)
+{
+    lrr_build_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    o.hemicube_resolution = 128;
+    o.adaptive_samples = 2048;
+    return o;
+}
 
 /* LRR_SPLIT_VARIANCE: the patch whose subpatches' form-factor columns vary most (sampled).
  * LRR_SPLIT_AREA: the largest patch, i.e. uniform subdivision over the same subpatches and
@@ -309,8 +337,9 @@ typedef struct lrr_operator_info {
     int no_rotation;        /* built without the random rotation */
     size_t bytes;           /* memory held by F̄, M_c and per-subpatch data */
 } lrr_operator_info;
-LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)
-    LRR_NONNULL(1, 2);
+/* info_size = sizeof *info (see Conventions). */
+LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info,
+                                   size_t info_size) LRR_NONNULL(1, 2);
 
 /* Read-only views valid for the operator's life: F̄ (n×k row-major, ld = k; NULL unless the
  * storage is LRR_STORAGE_F32: use lrr_operator_fbar_row then), M (3 k×k row-major matrices,
@@ -448,21 +477,33 @@ typedef struct lrr_reference_stats {
  * rounding cannot promise less) or after max_iterations (0 = a default
  * large enough for rho up to 0.999), then return LRR_NOT_CONVERGED with B holding the last
  * iterate. emission and radiosity are n×3 (no aliasing); emission finite and >= 0.
- * stats may be NULL. Thread safety: any thread; many solves may share one reference. */
+ * stats may be NULL, else stats_size = sizeof *stats. Thread safety: any thread; many solves
+ * may share one reference. */
 LRR_API LRR_NODISCARD lrr_status lrr_reference_solve(const lrr_reference *ref,
                                                      lrr_method method, double tol,
                                                      size_t max_iterations,
                                                      const float *emission, float *radiosity,
-                                                     lrr_reference_stats *stats)
+                                                     lrr_reference_stats *stats,
+                                                     size_t stats_size)
     LRR_NONNULL(1, 5, 6);
 
 /* ---------------------------------------------------------------- pictures */
 typedef struct lrr_render_options {
+    size_t size;             /* sizeof(lrr_render_options) (lrr_render_options_defaults) or 0 */
     unsigned width, height;  /* pixels; 0 = 512 */
     double exposure;         /* multiplier before tone mapping; 0 = automatic */
     int use_cornell_camera;  /* 1: the Cornell camera; 0: a camera framing the scene;
                                 -1: automatic (the Cornell camera for the built-in boxes) */
 } lrr_render_options;
+static inline lrr_render_options lrr_render_options_defaults(void)
+{
+    lrr_render_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    o.width = o.height = 512;
+    o.use_cornell_camera = -1;
+    return o;
+}
 
 /* Draws the operator's geometry with Gouraud-interpolated subpatch radiosity (n×3), tone
  * mapped to sRGB, and writes a PNG atomically. opts may be NULL. Thread safety: any thread. */
@@ -531,6 +572,7 @@ LRR_API LRR_NODISCARD lrr_status lrr_probe_median_cut(const lrr_probe *probe, si
  * (JᵀJ + λ diag JᵀJ) δ = −Jᵀr (analytic J, LAPACKE dposv), clamps radiances at 0 and keeps the
  * step only if the objective decreases, so the objective is monotone and rgb >= 0. */
 typedef struct lrr_fit_options {
+    size_t size;           /* sizeof(lrr_fit_options) (lrr_fit_options_defaults) or 0 */
     size_t max_iterations; /* accepted steps at most; 0 = 300 */
     double tolerance;      /* stop when a step lowers the objective by less than this fraction;
                               0 = 1e-6 */
@@ -540,6 +582,15 @@ typedef struct lrr_fit_options {
                               after iteration k, for k < history_len */
     size_t history_len;
 } lrr_fit_options;
+static inline lrr_fit_options lrr_fit_options_defaults(void)
+{
+    lrr_fit_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    o.max_iterations = 300;
+    o.tolerance = 1e-6;
+    return o;
+}
 
 typedef struct lrr_fit_stats {
     size_t iterations;        /* accepted LM steps */
@@ -549,12 +600,13 @@ typedef struct lrr_fit_stats {
     double seconds;           /* wall clock, ground truth included */
 } lrr_fit_stats;
 
-/* opts and stats may be NULL. 1 <= count <= W·H, m >= 1; LRR_ERR_INVALID_ARG otherwise (and for
+/* opts and stats may be NULL (stats_size = sizeof *stats). 1 <= count <= W·H, m >= 1; LRR_ERR_INVALID_ARG otherwise (and for
  * a bad option or a warm-start light with a zero or non-finite direction). Memory: about
  * 8 · (15 m · count + 50 count²) bytes. Thread safety: distinct probes from any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe, size_t count,
                                                           size_t m, const lrr_fit_options *opts,
-                                                          lrr_light *out, lrr_fit_stats *stats)
+                                                          lrr_light *out, lrr_fit_stats *stats,
+                                                          size_t stats_size)
     LRR_NONNULL(1, 5);
 
 /* The projection of the probe onto the real spherical harmonics of order 2 (9 basis

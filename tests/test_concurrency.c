@@ -167,7 +167,7 @@ static int setup(void **state)
         return -1;
     lrr_scene_destroy(scene);
     lrr_operator_info info;
-    lrr_operator_get_info(S.op[0], &info);
+    lrr_operator_get_info(S.op[0], &info, sizeof info);
     S.n = info.n;
     S.k = info.k;
     S.d = info.d;
@@ -303,11 +303,11 @@ static void test_shared_scene(void **state)
     for (int t = 0; t < BUILDERS; t++)
         assert_int_equal(pthread_join(th[t], NULL), 0);
     lrr_operator_info a, b;
-    lrr_operator_get_info(serial.op, &a);
+    lrr_operator_get_info(serial.op, &a, sizeof a);
     for (int t = 0; t < BUILDERS; t++) {
         if (jobs[t].status)
             fail_msg("builder %d: %s", t, lrr_strerror((lrr_status)jobs[t].status));
-        lrr_operator_get_info(jobs[t].op, &b);
+        lrr_operator_get_info(jobs[t].op, &b, sizeof b);
         assert_int_equal(a.n, b.n);
         assert_memory_equal(lrr_operator_fbar(serial.op), lrr_operator_fbar(jobs[t].op),
                             a.n * a.k * sizeof(float));

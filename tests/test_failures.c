@@ -92,7 +92,7 @@ static run_result run_sequence(unsigned long fail_at, int adaptive)
     STEP("lrr_operator_save", lrr_operator_save(op, path));
     STEP("lrr_operator_load", lrr_operator_load(ctx, path, &loaded));
     lrr_operator_info info;
-    lrr_operator_get_info(loaded, &info);
+    lrr_operator_get_info(loaded, &info, sizeof info);
     if (adaptive) /* variable patch sizes: d = 0, d_min < d_max */
         assert_true(info.d == 0 && info.d_min < info.d_max && info.k <= 90 && info.k > 87);
     B = malloc(info.n * 3 * sizeof *B);
@@ -112,7 +112,7 @@ static run_result run_sequence(unsigned long fail_at, int adaptive)
     B = malloc(n * 3 * sizeof *B);
     assert_true(E && B);
     memcpy(E, lrr_reference_emission(ref), n * 3 * sizeof *E);
-    STEP("lrr_reference_solve", lrr_reference_solve(ref, LRR_METHOD_DIRECT, 0, 0, E, B, NULL));
+    STEP("lrr_reference_solve", lrr_reference_solve(ref, LRR_METHOD_DIRECT, 0, 0, E, B, NULL, 0));
     res.ref_sum = sum(B, n * 3);
 #undef STEP
 

@@ -50,7 +50,7 @@ int open_subdivided_scene(lrr_context *ctx, const char *name, const subdiv_args 
 void print_scene_info(const char *name, const lrr_scene *scene)
 {
     lrr_scene_info si;
-    lrr_scene_get_info(scene, &si);
+    lrr_scene_get_info(scene, &si, sizeof si);
     printf("scene: %s\n", name);
     printf("triangles: %zu\n", si.triangles);
     printf("skipped: %zu\n", si.skipped);
@@ -76,7 +76,7 @@ void budget_hint(const char *prog, size_t budget)
 void print_operator_info(const lrr_operator *op)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     printf("n: %zu\n", oi.n);
     printf("k: %zu\n", oi.k);
     printf("d: %zu\n", oi.d);
@@ -119,7 +119,7 @@ int load_operator(lrr_context *ctx, const char *path, lrr_operator **op)
 int scaled_emission(const lrr_operator *op, double scale, float **out)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     const float *e0 = lrr_operator_emission(op);
     if (!e0)
         return cli_fail(LRR_ERR_INVALID_ARG, "the operator has no stored emission");
@@ -143,7 +143,7 @@ int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *
                     double *seconds)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     lrr_probe *probe = NULL;
     lrr_light *lights = calloc(p->sources, sizeof *lights);
     float *direct = cli_alloc_rgb(oi.n);
@@ -155,7 +155,7 @@ int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *
         } else {
             lrr_fit_stats fs;
             st = lrr_probe_fit_irradiance(probe, p->sources, PROBE_DEFAULT_NORMALS, NULL, lights,
-                                          &fs);
+                                          &fs, sizeof fs);
         }
     }
     if (st == LRR_OK) {
@@ -233,7 +233,7 @@ int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend, c
     *median_ms = repeat ? cli_median(t, repeat) : 0.0;
     free(t);
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     return check_finite(b, oi.n);
 }
 
@@ -259,6 +259,6 @@ void print_radiosity_summary(size_t n, const float *area, const float *b)
 void print_solution_summary(const lrr_operator *op, const float *b)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     print_radiosity_summary(oi.n, lrr_operator_area(op), b);
 }

@@ -267,7 +267,7 @@ int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const size_t *f
 int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const float *radiosity)
 {
     lrr_operator_info info;
-    lrr_operator_get_info(op, &info);
+    lrr_operator_get_info(op, &info, sizeof info);
     const float *area = lrr_operator_area(op);
     const float *centre = lrr_operator_centre(op);
     const float *normal = lrr_operator_normal(op);

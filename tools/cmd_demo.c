@@ -133,7 +133,7 @@ static int classify(const float *c, const float *nr, const float *em, const doub
 static void print_wall_table(const lrr_operator *op, const float *b)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     const float *centre = lrr_operator_centre(op), *normal = lrr_operator_normal(op);
     const float *area = lrr_operator_area(op), *em = lrr_operator_emission(op);
     if (!centre || !normal || !area || !em || oi.n == 0)
@@ -225,7 +225,7 @@ static int demo_preprocess(demo_run *d)
 static int demo_solve(demo_run *d)
 {
     /* Solve from the saved file, as `lrr solve` would: the demo checks the round trip too. */
-    lrr_operator_get_info(d->op, &d->built);
+    lrr_operator_get_info(d->op, &d->built, sizeof d->built);
     lrr_operator_destroy(d->op);
     d->op = NULL;
     printf("\n== 3. solve (CPU)\n");

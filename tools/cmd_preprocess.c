@@ -177,7 +177,7 @@ static void warn_condition(const lrr_operator *op)
 {
     static const char ch[3] = {'r', 'g', 'b'};
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     for (int c = 0; c < 3; c++) {
         double cond = oi.condition[c];
         if (!(cond * FLT_EPSILON > COND_WARN_ERROR))
@@ -193,7 +193,7 @@ static void warn_condition(const lrr_operator *op)
 static void note_skipped(const preprocess_args *a, const lrr_scene *scene)
 {
     lrr_scene_info si;
-    lrr_scene_get_info(scene, &si);
+    lrr_scene_get_info(scene, &si, sizeof si);
     if (si.skipped)
         fprintf(stderr, "lrr preprocess: note: %zu zero-area triangle(s) skipped; "
                         "'lrr check %s' reports them and more\n", si.skipped, a->scene);

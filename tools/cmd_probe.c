@@ -162,7 +162,7 @@ static lrr_status fit_lights(const lrr_probe *probe, const probe_cmd_args *a, co
         lrr_fit_options fo = {0};
         lrr_fit_stats fs = {0};
         fo.max_iterations = a->max_iterations;
-        st = lrr_probe_fit_irradiance(probe, sources, a->normals, &fo, r->lights, &fs);
+        st = lrr_probe_fit_irradiance(probe, sources, a->normals, &fo, r->lights, &fs, sizeof fs);
         r->iterations = fs.iterations;
     } else {
         st = lrr_probe_median_cut(probe, sources, r->lights);

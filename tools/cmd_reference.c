@@ -160,7 +160,7 @@ static int check_direct_budget(const reference_args *a, reference_run *r)
 {
     size_t budget = a->budget_mb << 20;
     lrr_scene_info si;
-    lrr_scene_get_info(r->scene, &si);
+    lrr_scene_get_info(r->scene, &si, sizeof si);
     r->n = si.subpatches;
     r->d = si.d ? si.d : 1;
     /* The library checks F against the budget; the LU of the direct method comes on top
@@ -219,7 +219,7 @@ static int solve_reference(lrr_context *ctx, const reference_args *a, reference_
 {
     const float *e = lrr_reference_emission(r->ref);
     r->solved = e ? lrr_reference_solve(r->ref, a->method, a->tol, a->max_iterations, e, r->b,
-                                        &r->st)
+                                        &r->st, sizeof r->st)
                   : LRR_ERR_INVALID_ARG;
     if (!e)
         return cli_fail(LRR_ERR_INVALID_ARG, "the reference has no emission");

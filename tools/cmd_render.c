@@ -134,7 +134,7 @@ static int run_render(const render_args *a)
         rc = add_probe_light(ctx, op, &a->pa, e, &direct_s);
     if (rc == CLI_EXIT_OK) {
         lrr_operator_info oi;
-        lrr_operator_get_info(op, &oi);
+        lrr_operator_get_info(op, &oi, sizeof oi);
         b = cli_alloc_rgb(oi.n);
         rc = b ? timed_solve(ctx, op, LRR_BACKEND_CPU, e, b, 0, LRR_PATH_AUTO, &ms, NULL, NULL)
                : CLI_EXIT_FAIL;

@@ -142,7 +142,7 @@ static void print_solve(const solve_args *a, const lrr_operator *op, const float
                         const solve_result *r)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     printf("n: %zu\n", oi.n);
     printf("k: %zu\n", oi.k);
     printf("d: %zu\n", oi.d);
@@ -179,7 +179,7 @@ static int run_solve(const solve_args *a)
         rc = add_probe_light(ctx, op, &a->pa, e, &r.direct_s);
     if (rc == CLI_EXIT_OK) {
         lrr_operator_info oi;
-        lrr_operator_get_info(op, &oi);
+        lrr_operator_get_info(op, &oi, sizeof oi);
         b = cli_alloc_rgb(oi.n);
         rc = b ? timed_solve(ctx, op, a->backend, e, b, a->repeat, a->path, &r.ms, &r.used,
                              r.kernel)

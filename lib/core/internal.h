@@ -79,6 +79,15 @@ void lrr__context_atomic_io(lrr_context *ctx, lrr__atomic_io *io);
 /* The error of a failed atomic write, recorded on ctx: LRR_ERR_IO naming the file, the step,
  * the temporary file and the errno (LRR_ERR_NOMEM when the temporary name was not had). */
 lrr_status lrr__atomic_error(lrr_context *ctx, const lrr__atomic_file *w);
+/* Growable structs (lrr.h "Conventions"). lrr__options_read copies the caller's option
+ * struct `in` (starting with its size_t size) into out, `known` = sizeof the struct in this
+ * lrr: size 0 is read as this layout; a smaller or misaligned size is LRR_ERR_INVALID_ARG;
+ * bytes beyond `known` must be zero (LRR_ERR_UNSUPPORTED otherwise). out->size = known.
+ * Errors name `what` (the struct's type name). lrr__info_write copies info (info_size
+ * bytes) into the caller's out (out_size bytes), zeroing what this lrr does not fill. */
+lrr_status lrr__options_read(lrr_context *ctx, const void *in, size_t known, void *out,
+                             const char *what);
+void lrr__info_write(void *out, size_t out_size, const void *info, size_t info_size);
 /* Thread-safe strerror: the text of errno err, in buf or a static string. */
 const char *lrr__errno_text(int err, char *buf, size_t len);
 /* ------------------------------------------------------------ misc */

@@ -431,8 +431,10 @@ lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_op
         return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG,
                           "the scene is not subdivided: call lrr_scene_subdivide first");
     memset(o, 0, sizeof *o);
-    if (opts)
-        *o = *opts;
+    o->size = sizeof *o;
+    lrr_status st;
+    if (opts && (st = lrr__options_read(scene->ctx, opts, sizeof *o, o, "lrr_build_options")))
+        return st;
     if (o->hemicube_resolution == 0)
         o->hemicube_resolution = 128;
     if (o->threads < 0)

@@ -165,8 +165,9 @@ lrr_status lrr_operator_set_reflectance(lrr_operator *op, const float *rho)
     return st;
 }
 
-void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)
+void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_t out_size)
 {
+    lrr_operator_info all, *info = &all;
     memset(info, 0, sizeof *info);
     info->n = op->n;
     info->k = op->k;
@@ -190,6 +191,7 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info)
     info->bytes = op->n * op->k * (op->storage == LRR_STORAGE_F32 ? sizeof(float) : 2) +
                   (op->row_scale ? op->n * sizeof(float) : 0) +
                   3 * op->k * op->k * sizeof(float) + op->n * 13 * sizeof(float);
+    lrr__info_write(out, out_size, info, sizeof *info);
 }
 
 const float *lrr_operator_fbar(const lrr_operator *op) { return op->fbar; }

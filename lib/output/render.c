@@ -654,9 +654,10 @@ lrr_status lrr_render_png(const lrr_operator *op, const float *radiosity,
                           const lrr_render_options *opts, const char *path)
 {
     lrr_context *ctx = op->ctx;
-    lrr_render_options o = {0, 0, 0.0, -1};
-    if (opts)
-        o = *opts;
+    lrr_render_options o = lrr_render_options_defaults();
+    lrr_status st0;
+    if (opts && (st0 = lrr__options_read(ctx, opts, sizeof o, &o, "lrr_render_options")))
+        return st0;
     unsigned width = o.width ? o.width : RENDER_DEFAULT_SIZE;
     unsigned height = o.height ? o.height : RENDER_DEFAULT_SIZE;
     if (width > RENDER_MAX_SIZE || height > RENDER_MAX_SIZE)

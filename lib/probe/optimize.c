@@ -128,7 +128,12 @@ static lrr_status check_args(lrr_context *ctx, const lrr_probe *probe, size_t co
     if (count > ((size_t)1 << 16) || m > ((size_t)1 << 24))
         return lrr__error(ctx, LRR_ERR_OVERFLOW,
                           "irradiance fit: %zu lights × %zu normals is too large", count, m);
+    lrr_fit_options o;
+    lrr_status st;
+    if (opts && (st = lrr__options_read(ctx, opts, sizeof o, &o, "lrr_fit_options")))
+        return st;
     if (opts) {
+        opts = &o;
         if (opts->max_iterations)
             set->max_iter = opts->max_iterations;
         if (opts->tolerance != 0) {
@@ -348,7 +353,7 @@ static void write_lights(const double *x, size_t n, lrr_light *out)
 
 lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe, size_t count, size_t m,
                                     const lrr_fit_options *opts, lrr_light *out,
-                                    lrr_fit_stats *stats)
+                                    lrr_fit_stats *stats, size_t stats_size)
 {
     lrr_context *ctx = probe->ctx;
     double t_start = lrr__now();
@@ -362,15 +367,12 @@ lrr_status lrr_probe_fit_irradiance(const lrr_probe *probe, size_t count, size_t
         (st = targets(probe, m, set.absolute, &ws)) == LRR_OK &&
         (st = start(ctx, probe, n, set.warm, out, ws.x)) == LRR_OK) {
         struct problem pb = {n, m, ws.nrm, ws.E, ws.w};
-        lrr_fit_stats res;
+        lrr_fit_stats res = {0};
         levenberg_marquardt(&pb, &ws, &set, &res);
         write_lights(ws.x, n, out);
         if (stats) {
-            stats->iterations = res.iterations;
-            stats->converged = res.converged;
-            stats->initial_objective = res.initial_objective;
-            stats->final_objective = res.final_objective;
-            stats->seconds = lrr__now() - t_start;
+            res.seconds = lrr__now() - t_start;
+            lrr__info_write(stats, stats_size, &res, sizeof res);
         }
     }
     workspace_free(&ws);

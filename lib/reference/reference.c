@@ -366,12 +366,12 @@ static lrr_status direct(const lrr_reference *ref, const double *E, double *B, d
 
 lrr_status lrr_reference_solve(const lrr_reference *ref, lrr_method method, double tol,
                                size_t max_iterations, const float *emission, float *radiosity,
-                               lrr_reference_stats *stats)
+                               lrr_reference_stats *stats, size_t stats_size)
 {
     lrr_context *ctx = ref->ctx;
     const size_t n = ref->n;
     if (stats)
-        memset(stats, 0, sizeof *stats);
+        memset(stats, 0, stats_size);
     if (!lrr_method_name(method))
         return lrr__error(ctx, LRR_ERR_INVALID_ARG, "unknown reference method %d", (int)method);
     if (!(tol == 0 || (tol >= 1e-13 && tol < 1)))
@@ -428,9 +428,8 @@ lrr_status lrr_reference_solve(const lrr_reference *ref, lrr_method method, doub
         for (size_t j = 0; j < 3 * n; j++)
             radiosity[j] = (float)B[j];
         if (stats) {
-            stats->iterations = iters;
-            stats->residual = res;
-            stats->seconds = lrr__now() - t0;
+            lrr_reference_stats s = {iters, res, lrr__now() - t0};
+            lrr__info_write(stats, stats_size, &s, sizeof s);
         }
         if (st == LRR_NOT_CONVERGED)
             lrr__error(ctx, LRR_NOT_CONVERGED,

@@ -322,15 +322,19 @@ static lrr_status choose_threshold(lrr_scene *s, size_t target, double *best_are
     return LRR_OK;
 }
 
-lrr_status lrr_scene_subdivide(lrr_scene *s, const lrr_subdivision *opts)
+lrr_status lrr_scene_subdivide(lrr_scene *s, const lrr_subdivision *user)
 {
+    lrr_subdivision o;
+    const lrr_subdivision *opts = &o;
+    lrr_status st = lrr__options_read(s->ctx, user, sizeof o, &o, "lrr_subdivision");
+    if (st)
+        return st;
     if (opts->levels > 10)
         return lrr__error(s->ctx, LRR_ERR_INVALID_ARG, "levels = %u: at most 10", opts->levels);
     if (!(opts->max_patch_area >= 0) || !isfinite(opts->max_patch_area))
         return lrr__error(s->ctx, LRR_ERR_INVALID_ARG,
                           "max_patch_area = %g: must be finite and >= 0", opts->max_patch_area);
     double max_area = opts->max_patch_area;
-    lrr_status st;
     if (opts->target_patches > 0 && (st = choose_threshold(s, opts->target_patches, &max_area)))
         return st;
     lrr__geometry g = s->geom;
@@ -361,8 +365,9 @@ lrr_status lrr_scene_subdivide(lrr_scene *s, const lrr_subdivision *opts)
     return LRR_OK;
 }
 
-void lrr_scene_get_info(const lrr_scene *s, lrr_scene_info *info)
+void lrr_scene_get_info(const lrr_scene *s, lrr_scene_info *out, size_t out_size)
 {
+    lrr_scene_info all, *info = &all;
     memset(info, 0, sizeof *info);
     info->triangles = s->geom.n_tri;
     info->skipped = s->skipped;
@@ -387,6 +392,7 @@ void lrr_scene_get_info(const lrr_scene *s, lrr_scene_info *info)
                 if (x > info->bounds_max[j]) info->bounds_max[j] = x;
             }
     }
+    lrr__info_write(out, out_size, info, sizeof *info);
 }
 
 size_t lrr_scene_subpatch_at(const lrr_scene *s, size_t triangle, double b1, double b2)

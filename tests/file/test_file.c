@@ -297,8 +297,8 @@ static void test_roundtrip_cornell(void **state)
     lrr_operator *back;
     LRR_CHECK(fx->ctx, lrr_operator_load(fx->ctx, p, &back));
     lrr_operator_info a, b;
-    lrr_operator_get_info(op, &a);
-    lrr_operator_get_info(back, &b);
+    lrr_operator_get_info(op, &a, sizeof a);
+    lrr_operator_get_info(back, &b, sizeof b);
     assert_int_equal(a.n, b.n);
     assert_int_equal(a.k, b.k);
     assert_int_equal(a.triangles, b.triangles);

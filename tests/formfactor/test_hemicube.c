@@ -43,9 +43,9 @@ static lrr_operator *build(lrr_context *ctx, size_t ntri, const float *v, double
         rho[i] = 0.5f;
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_create(ctx, ntri, v, rho, em, "test", &s));
-    lrr_subdivision sd = {max_area, 0, levels};
+    lrr_subdivision sd = {0, max_area, 0, levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {R, seed, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {0, R, seed, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);
@@ -187,11 +187,11 @@ static void test_reproducible(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {0, 30, 1};
+    lrr_subdivision sd = {0, 0, 30, 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     lrr_operator *a, *b, *c;
-    lrr_build_options o1 = {32, 5, 1, NULL, NULL, 0, 0}, o2 = {32, 5, 2, NULL, NULL, 0, 0},
-                      o3 = {32, 6, 2, NULL, NULL, 0, 0};
+    lrr_build_options o1 = {0, 32, 5, 1, NULL, NULL, 0, 0}, o2 = {0, 32, 5, 2, NULL, NULL, 0, 0},
+                      o3 = {0, 32, 6, 2, NULL, NULL, 0, 0};
     LRR_CHECK(ctx, lrr_operator_build(s, &o1, &a));
     LRR_CHECK(ctx, lrr_operator_build(s, &o2, &b));
     LRR_CHECK(ctx, lrr_operator_build(s, &o3, &c));
@@ -199,7 +199,7 @@ static void test_reproducible(void **state)
     assert_true(memcmp(a->fbar, c->fbar, a->n * a->k * sizeof(float)) != 0);
     /* without the rotation the seed changes nothing, and the flag survives a file */
     lrr_operator *d, *e;
-    lrr_build_options o4 = {32, 5, 2, NULL, NULL, 1, 0}, o5 = {32, 6, 2, NULL, NULL, 1, 0};
+    lrr_build_options o4 = {0, 32, 5, 2, NULL, NULL, 1, 0}, o5 = {0, 32, 6, 2, NULL, NULL, 1, 0};
     LRR_CHECK(ctx, lrr_operator_build(s, &o4, &d));
     LRR_CHECK(ctx, lrr_operator_build(s, &o5, &e));
     assert_memory_equal(d->fbar, e->fbar, d->n * d->k * sizeof(float));
@@ -210,9 +210,9 @@ static void test_reproducible(void **state)
     lrr_operator *back;
     LRR_CHECK(ctx, lrr_operator_load(ctx, path, &back));
     lrr_operator_info info;
-    lrr_operator_get_info(back, &info);
+    lrr_operator_get_info(back, &info, sizeof info);
     assert_int_equal(info.no_rotation, 1);
-    lrr_operator_get_info(a, &info);
+    lrr_operator_get_info(a, &info, sizeof info);
     assert_int_equal(info.no_rotation, 0);
     unlink(path);
     lrr_operator_destroy(back);

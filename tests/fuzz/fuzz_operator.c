@@ -99,7 +99,7 @@ static double max_abs(const float *v, size_t count)
 static void solve(lrr_operator *op)
 {
     lrr_operator_info info;
-    lrr_operator_get_info(op, &info);
+    lrr_operator_get_info(op, &info, sizeof info);
     size_t n = info.n, k = info.k;
     float *row = malloc(k * sizeof *row);
     float *b = malloc(n * 3 * sizeof *b);

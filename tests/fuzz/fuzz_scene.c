@@ -49,7 +49,7 @@ static const uint8_t *find_mark(const uint8_t *data, size_t size)
 static void subdivide(lrr_scene *scene)
 {
     lrr_scene_info info;
-    lrr_scene_get_info(scene, &info);
+    lrr_scene_get_info(scene, &info, sizeof info);
     if (info.triangles == 0)
         fuzz_fail("a loaded scene with %zu triangles", info.triangles);
     if (!isfinite(info.area) || info.area <= 0)
@@ -58,7 +58,7 @@ static void subdivide(lrr_scene *scene)
     lrr_status st = lrr_scene_subdivide(scene, &sub);
     if (st != LRR_OK)
         return; /* an error with a message is fine (e.g. subpatches too small for float) */
-    lrr_scene_get_info(scene, &info);
+    lrr_scene_get_info(scene, &info, sizeof info);
     size_t n = info.subpatches;
     if (n == 0 || n != info.patches * info.d || info.d != 4)
         fuzz_fail("subdivision gave n = %zu, k = %zu, d = %zu", n, info.patches, info.d);

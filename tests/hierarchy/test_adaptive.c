@@ -14,7 +14,7 @@ static lrr_scene *cornell(lrr_context *ctx, size_t patches)
 {
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
-    lrr_subdivision sd = {0, patches, 0};
+    lrr_subdivision sd = {0, 0, patches, 0};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
 }
@@ -22,7 +22,7 @@ static lrr_scene *cornell(lrr_context *ctx, size_t patches)
 static float *solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend)
 {
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     float *b = malloc(oi.n * 3 * sizeof(float));
     lrr_solver *sv;
     LRR_CHECK(ctx, lrr_solver_create(op, backend, &sv));
@@ -51,13 +51,13 @@ static void test_k_equals_n_is_exact(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 150);
     lrr_scene_info si;
-    lrr_scene_get_info(s, &si);
+    lrr_scene_get_info(s, &si, sizeof si);
     lrr_build_options bo = {.hemicube_resolution = HEMI, .seed = 3,
                             .adaptive_patches = si.subpatches};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &bo, &op));
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     assert_int_equal(oi.k, si.subpatches);
     assert_int_equal(oi.d, 0);
     assert_int_equal(oi.d_min, 1);
@@ -67,7 +67,7 @@ static void test_k_equals_n_is_exact(void **state)
     LRR_CHECK(ctx, lrr_reference_build(s, &bo, 0, &ref));
     float *r = malloc(si.subpatches * 3 * sizeof(float));
     LRR_CHECK(ctx, lrr_reference_solve(ref, LRR_METHOD_DIRECT, 0, 0, lrr_operator_emission(op),
-                                       r, NULL));
+                                       r, NULL, 0));
     double e = rel_max(b, r, 3 * si.subpatches);
     printf("K = N = %zu: max |B − B_direct| / max B = %.3g\n", oi.k, e);
     assert_true(e < 2e-6);
@@ -88,11 +88,11 @@ static void test_area_split_is_uniform(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *fine = cornell(ctx, 864), *coarse;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &coarse));
-    lrr_subdivision sd = {0, 216, 1};
+    lrr_subdivision sd = {0, 0, 216, 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(coarse, &sd));
     lrr_scene_info fi, ci;
-    lrr_scene_get_info(fine, &fi);
-    lrr_scene_get_info(coarse, &ci);
+    lrr_scene_get_info(fine, &fi, sizeof fi);
+    lrr_scene_get_info(coarse, &ci, sizeof ci);
     assert_int_equal(fi.subpatches, ci.subpatches);
     lrr_build_options bo = {.hemicube_resolution = HEMI, .seed = 5,
                             .adaptive_patches = ci.patches, .adaptive_split = LRR_SPLIT_AREA};
@@ -101,7 +101,7 @@ static void test_area_split_is_uniform(void **state)
     bo.adaptive_patches = 0;
     LRR_CHECK(ctx, lrr_operator_build(coarse, &bo, &u));
     lrr_operator_info ai;
-    lrr_operator_get_info(a, &ai);
+    lrr_operator_get_info(a, &ai, sizeof ai);
     assert_int_equal(ai.k, ci.patches);
     assert_int_equal(ai.d_min, 4);
     assert_int_equal(ai.d_max, 4);
@@ -291,7 +291,7 @@ static void test_file_round_trip(void **state)
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &bo, &op));
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     assert_true(oi.d_min < oi.d_max); /* really adaptive */
     char path[] = "/tmp/lrr-adaptive-XXXXXX";
     int fd = mkstemp(path);
@@ -303,7 +303,7 @@ static void test_file_round_trip(void **state)
         lrr_operator *back;
         LRR_CHECK(ctx, lrr_operator_load(ctx, path, &back));
         lrr_operator_info bi;
-        lrr_operator_get_info(back, &bi);
+        lrr_operator_get_info(back, &bi, sizeof bi);
         assert_int_equal(bi.k, oi.k);
         assert_int_equal(bi.n, oi.n);
         assert_int_equal(bi.d, 0);
@@ -362,7 +362,7 @@ static void test_opencl_agrees(void **state)
             fail_msg("LRR_REQUIRE_OPENCL is set but OpenCL is unavailable");
     } else {
         lrr_operator_info oi;
-        lrr_operator_get_info(op, &oi);
+        lrr_operator_get_info(op, &oi, sizeof oi);
         float *cpu = solve(ctx, op, LRR_BACKEND_CPU), *cl = solve(ctx, op, LRR_BACKEND_OPENCL);
         double e = rel_max(cl, cpu, 3 * oi.n);
         printf("OpenCL vs CPU on an adaptive operator (k = %zu, d %zu..%zu): %.3g\n", oi.k,
@@ -397,7 +397,7 @@ static void test_errors(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 100);
     lrr_scene_info si;
-    lrr_scene_get_info(s, &si);
+    lrr_scene_get_info(s, &si, sizeof si);
     lrr_operator *op = NULL;
     char msg[512];
     lrr_build_options bo = {.hemicube_resolution = HEMI, .adaptive_patches = si.triangles - 1};
@@ -417,7 +417,7 @@ static void test_errors(void **state)
     {
         lrr_scene *big = cornell(ctx, 600);
         lrr_scene_info bi;
-        lrr_scene_get_info(big, &bi);
+        lrr_scene_get_info(big, &bi, sizeof bi);
         lrr_build_options b2 = {.hemicube_resolution = HEMI, .adaptive_patches = bi.triangles,
                                 .adaptive_samples = bi.subpatches,
                                 .memory_budget = bi.subpatches * bi.subpatches * sizeof(float)};
@@ -430,7 +430,7 @@ static void test_errors(void **state)
         op = NULL;
         lrr_scene_destroy(big);
     }
-    lrr_subdivision sd = {0, 40, 1};
+    lrr_subdivision sd = {0, 0, 40, 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     bo.adaptive_split = LRR_SPLIT_VARIANCE;
     assert_int_equal(lrr_operator_build(s, &bo, &op), LRR_ERR_INVALID_ARG);

@@ -33,7 +33,7 @@ static void test_budget_boundary(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *scene = cornell(ctx, 60, 1);
     lrr_scene_info si;
-    lrr_scene_get_info(scene, &si);
+    lrr_scene_get_info(scene, &si, sizeof si);
     lrr_build_options bo = {.hemicube_resolution = 16, .seed = 3, .threads = 2};
     lrr__operator_bytes_t b = need_of(ctx, scene, &bo);
     const size_t n = si.subpatches, k = si.patches;
@@ -68,7 +68,7 @@ static void test_budget_boundary(void **state)
         bo.memory_budget = b.total + extra;
         LRR_CHECK(ctx, lrr_operator_build(scene, &bo, &op));
         lrr_operator_info info;
-        lrr_operator_get_info(op, &info);
+        lrr_operator_get_info(op, &info, sizeof info);
         assert_true(info.bytes <= b.fbar + b.m + b.per_subpatch);
         assert_true(info.bytes >= b.fbar + b.m);
         lrr_operator_destroy(op);
@@ -121,7 +121,7 @@ static void test_overflow(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *scene = cornell(ctx, 2400000, 10);
     lrr_scene_info si;
-    lrr_scene_get_info(scene, &si);
+    lrr_scene_get_info(scene, &si, sizeof si);
     size_t bytes;
     assert_false(lrr__mul_size(si.subpatches, si.patches, &bytes) &&
                  lrr__mul_size(bytes, sizeof(float), &bytes));

@@ -79,9 +79,9 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 {
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {0, K, levels};
+    lrr_subdivision sd = {0, 0, K, levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {32, 4, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {0, 32, 4, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);
@@ -115,7 +115,7 @@ static void test_solve_16bit(void **state)
     LRR_CHECK(ctx, lrr_solve(sv, op->emission, b32));
     lrr_solver_destroy(sv);
     lrr_operator_info i32;
-    lrr_operator_get_info(op, &i32);
+    lrr_operator_get_info(op, &i32, sizeof i32);
     const lrr_storage kinds[2] = {LRR_STORAGE_F16, LRR_STORAGE_BF16};
     const double bound[2] = {1e-4, 1e-3}; /* quantisation only: measured 6e-6 and 6e-5 */
     for (int t = 0; t < 2; t++) {
@@ -124,7 +124,7 @@ static void test_solve_16bit(void **state)
         LRR_CHECK(ctx, lrr_operator_set_storage(op, LRR_STORAGE_F32));
         LRR_CHECK(ctx, lrr_operator_set_storage(op, kinds[t]));
         lrr_operator_info info;
-        lrr_operator_get_info(op, &info);
+        lrr_operator_get_info(op, &info, sizeof info);
         assert_int_equal(info.storage, kinds[t]);
         assert_true(info.bytes < i32.bytes);
         assert_null(lrr_operator_fbar(op));

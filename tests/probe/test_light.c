@@ -38,7 +38,7 @@ static void test_cosine_law(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_operator *op = make_operator(ctx, 0);
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     assert_true(oi.n >= 100);
     const float *nr = lrr_operator_normal(op);
     float *E = calloc(3 * oi.n, sizeof(float));
@@ -71,7 +71,7 @@ static void test_shadow(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_operator *op = make_operator(ctx, 1);
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     const float *ce = lrr_operator_centre(op);
     float *E = calloc(3 * oi.n, sizeof(float));
     lrr_light L = {{0.0f, 1.0f, 0.0f}, {RGB[0], RGB[1], RGB[2]}};
@@ -126,7 +126,7 @@ static void test_errors(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_operator *op = make_operator(ctx, 0);
     lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi);
+    lrr_operator_get_info(op, &oi, sizeof oi);
     float *E = malloc(3 * oi.n * sizeof(float));
     for (size_t i = 0; i < 3 * oi.n; i++)
         E[i] = 7.0f;

@@ -466,7 +466,7 @@ static void test_fit_irradiance(void **state)
         o.history = hist;
         o.history_len = 101;
         lrr_fit_stats fs;
-        LRR_CHECK(ctx, lrr_probe_fit_irradiance(p, n, m, &o, fit, &fs));
+        LRR_CHECK(ctx, lrr_probe_fit_irradiance(p, n, m, &o, fit, &fs, sizeof fs));
         assert_true(fs.iterations >= 1 && fs.iterations <= caps[k]);
         assert_true(isfinite(fs.final_objective));
         assert_true(fs.final_objective < fs.initial_objective);
@@ -491,8 +491,8 @@ static void test_fit_irradiance(void **state)
     }
     /* bad arguments name themselves */
     lrr_light L;
-    assert_int_equal(lrr_probe_fit_irradiance(p, 0, m, NULL, &L, NULL), LRR_ERR_INVALID_ARG);
-    assert_int_equal(lrr_probe_fit_irradiance(p, 1, 0, NULL, &L, NULL), LRR_ERR_INVALID_ARG);
+    assert_int_equal(lrr_probe_fit_irradiance(p, 0, m, NULL, &L, NULL, 0), LRR_ERR_INVALID_ARG);
+    assert_int_equal(lrr_probe_fit_irradiance(p, 1, 0, NULL, &L, NULL, 0), LRR_ERR_INVALID_ARG);
     free(dirs);
     free(truth);
     lrr_probe_destroy(p);
@@ -514,7 +514,7 @@ static void test_fit_single_pixel(void **state)
     LRR_CHECK(ctx, lrr_probe_create(ctx, w, h, pix, &p));
     lrr_light L;
     lrr_fit_stats fs;
-    LRR_CHECK(ctx, lrr_probe_fit_irradiance(p, 1, m, NULL, &L, &fs));
+    LRR_CHECK(ctx, lrr_probe_fit_irradiance(p, 1, m, NULL, &L, &fs, sizeof fs));
     float *dirs = calloc(3 * m, sizeof(float)), *truth = calloc(3 * m, sizeof(float)),
           *approx = calloc(3 * m, sizeof(float));
     assert_non_null(approx);

@@ -7,7 +7,7 @@ static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned level
 {
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, closed, &s));
-    lrr_subdivision sd = {0, K, levels};
+    lrr_subdivision sd = {0, 0, K, levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
 }
@@ -35,7 +35,7 @@ static void test_fbar_is_f_v_over_d(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 1, 24, 1);
-    lrr_build_options o = {32, 9, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {0, 32, 9, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
@@ -77,7 +77,7 @@ static void test_methods_agree(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 0, 40, 1);
-    lrr_build_options o = {32, 3, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {0, 32, 3, 0, NULL, NULL, 0, 0};
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_reference_build(s, &o, 0, &ref));
     const size_t n = lrr_reference_size(ref);
@@ -90,7 +90,7 @@ static void test_methods_agree(void **state)
         B[m] = malloc(3 * n * sizeof(float));
         lrr_reference_stats st;
         lrr_method method = (lrr_method)(LRR_METHOD_JACOBI + m);
-        LRR_CHECK(ctx, lrr_reference_solve(ref, method, tol, 0, E, B[m], &st));
+        LRR_CHECK(ctx, lrr_reference_solve(ref, method, tol, 0, E, B[m], &st, sizeof st));
         print_message("%-13s n = %zu: %zu iterations, residual %.2e, %.3f s\n",
                       lrr_method_name(method), n, st.iterations, st.residual, st.seconds);
         assert_true(st.residual <= (method == LRR_METHOD_DIRECT ? 1e-12 : tol));
@@ -118,7 +118,7 @@ static void test_direct_equals_operator_at_d1(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 0, 150, 0);
-    lrr_build_options o = {64, 5, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {0, 64, 5, 0, NULL, NULL, 0, 0};
     lrr_operator *op;
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
@@ -128,7 +128,7 @@ static void test_direct_equals_operator_at_d1(void **state)
     lrr_solver *sv;
     LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &sv));
     LRR_CHECK(ctx, lrr_solve(sv, op->emission, a));
-    LRR_CHECK(ctx, lrr_reference_solve(ref, LRR_METHOD_DIRECT, 0, 0, op->emission, b, NULL));
+    LRR_CHECK(ctx, lrr_reference_solve(ref, LRR_METHOD_DIRECT, 0, 0, op->emission, b, NULL, 0));
     double e = rel_l2(n, a, b);
     print_message("d = 1, n = %zu: operator vs direct relative L2 %.2e\n", n, e);
     assert_true(e <= 1e-5);
@@ -157,9 +157,9 @@ static void test_furnace(void **state)
         }
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_create(ctx, 12, v, rho, em, "furnace", &s));
-    lrr_subdivision sd = {0, 48, 1};
+    lrr_subdivision sd = {0, 0, 48, 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {64, 1, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {0, 64, 1, 0, NULL, NULL, 0, 0};
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_reference_build(s, &o, 0, &ref));
     const size_t n = lrr_reference_size(ref);
@@ -168,7 +168,7 @@ static void test_furnace(void **state)
         lrr_method method = (lrr_method)(LRR_METHOD_JACOBI + m);
         lrr_reference_stats st;
         LRR_CHECK(ctx, lrr_reference_solve(ref, method, 1e-8, 0, lrr_reference_emission(ref),
-                                           B, &st));
+                                           B, &st, sizeof st));
         double worst = 0;
         for (size_t i = 0; i < n; i++)
             for (int c = 0; c < 3; c++)
@@ -190,7 +190,7 @@ static void test_errors(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 0, 24, 1);
     lrr_scene_info info;
-    lrr_scene_get_info(s, &info);
+    lrr_scene_get_info(s, &info, sizeof info);
     /* a budget below n² floats is refused before anything is allocated, naming the need */
     lrr_reference *ref = (lrr_reference *)0x1;
     assert_int_equal(lrr_reference_build(s, NULL, 1000, &ref), LRR_ERR_BUDGET);
@@ -203,43 +203,43 @@ static void test_errors(void **state)
         fail_msg("message does not name the memory needed (%s): %s", need, msg);
     assert_int_equal(lrr_reference_bytes(SIZE_MAX / 2), SIZE_MAX);
     /* the direct solve needs 8n² more: a budget that fits F only refuses it */
-    lrr_build_options o = {16, 1, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {0, 16, 1, 0, NULL, NULL, 0, 0};
     LRR_CHECK(ctx, lrr_reference_build(s, &o, lrr_reference_bytes(info.subpatches), &ref));
     const size_t n = lrr_reference_size(ref);
     float *E = malloc(3 * n * sizeof *E), *B = malloc(3 * n * sizeof *B);
     memcpy(E, lrr_reference_emission(ref), 3 * n * sizeof *E);
-    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_DIRECT, 0, 0, E, B, NULL),
+    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_DIRECT, 0, 0, E, B, NULL, 0),
                      LRR_ERR_BUDGET);
     /* an iteration cap reports LRR_NOT_CONVERGED with the last iterate in B */
     lrr_reference_stats st;
-    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 1e-10, 2, E, B, &st),
+    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 1e-10, 2, E, B, &st, sizeof st),
                      LRR_NOT_CONVERGED);
     assert_int_equal(st.iterations, 2);
     assert_true(st.residual > 1e-10 && isfinite(st.residual));
     for (size_t j = 0; j < 3 * n; j++)
         assert_true(isfinite(B[j]) && B[j] >= E[j]);
-    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_SOUTHWELL, 1e-10, 3, E, B, &st),
+    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_SOUTHWELL, 1e-10, 3, E, B, &st, sizeof st),
                      LRR_NOT_CONVERGED);
     assert_int_equal(st.iterations, 3);
     assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_ERR_BUDGET);
     assert_non_null(strstr(msg, "direct"));
     /* bad emission, tolerance, method */
     E[3 * 5 + 1] = NAN;
-    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 0, 0, E, B, NULL),
+    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 0, 0, E, B, NULL, 0),
                      LRR_ERR_INVALID_ARG);
     lrr_context_last_error(ctx, msg, sizeof msg);
     assert_non_null(strstr(msg, "subpatch 5"));
     E[3 * 5 + 1] = -1;
-    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 0, 0, E, B, NULL),
+    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 0, 0, E, B, NULL, 0),
                      LRR_ERR_INVALID_ARG);
     E[3 * 5 + 1] = 0;
-    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 1.5, 0, E, B, NULL),
+    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 1.5, 0, E, B, NULL, 0),
                      LRR_ERR_INVALID_ARG);
-    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 1e-20, 0, E, B, NULL),
+    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 1e-20, 0, E, B, NULL, 0),
                      LRR_ERR_INVALID_ARG);
-    assert_int_equal(lrr_reference_solve(ref, (lrr_method)7, 0, 0, E, B, NULL),
+    assert_int_equal(lrr_reference_solve(ref, (lrr_method)7, 0, 0, E, B, NULL, 0),
                      LRR_ERR_INVALID_ARG);
-    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 0, 0, E, E, NULL),
+    assert_int_equal(lrr_reference_solve(ref, LRR_METHOD_JACOBI, 0, 0, E, E, NULL, 0),
                      LRR_ERR_INVALID_ARG);
     /* names round trip */
     for (int m = LRR_METHOD_JACOBI; m <= LRR_METHOD_DIRECT; m++) {

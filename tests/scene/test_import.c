@@ -36,7 +36,7 @@ static void load_path(lrr_context *ctx, const char *path, loaded *l)
     LRR_CHECK(ctx, lrr_scene_load(ctx, path, &l->scene));
     lrr_subdivision opts = {.max_patch_area = 0, .target_patches = 0, .levels = 0};
     LRR_CHECK(ctx, lrr_scene_subdivide(l->scene, &opts));
-    lrr_scene_get_info(l->scene, &l->info);
+    lrr_scene_get_info(l->scene, &l->info, sizeof l->info);
     assert_int_equal(l->info.subpatches, l->info.triangles);
     assert_true(l->info.subpatches <= MAX_SUB);
     l->n = l->info.subpatches;
@@ -51,7 +51,7 @@ static void read_scene(lrr_context *ctx, lrr_scene *scene, loaded *l)
     l->scene = scene;
     lrr_subdivision opts = {.max_patch_area = 0, .target_patches = 0, .levels = 0};
     LRR_CHECK(ctx, lrr_scene_subdivide(l->scene, &opts));
-    lrr_scene_get_info(l->scene, &l->info);
+    lrr_scene_get_info(l->scene, &l->info, sizeof l->info);
     assert_true(l->info.subpatches <= MAX_SUB);
     l->n = l->info.subpatches;
     LRR_CHECK(ctx, lrr_scene_subpatches(l->scene, l->centre, l->normal, l->area, l->rho,

@@ -78,7 +78,7 @@ static void test_bad_input(void **state)
         v[9 * 2 + 6 + j] = 0.5f * (v[9 * 2 + j] + v[9 * 2 + 3 + j]);
     LRR_CHECK(ctx, lrr_scene_create(ctx, N, v, rho, em, "deg", &s));
     lrr_scene_info info;
-    lrr_scene_get_info(s, &info);
+    lrr_scene_get_info(s, &info, sizeof info);
     assert_int_equal(info.triangles, 3);
     assert_int_equal(info.skipped, 2);
     lrr_scene_destroy(s);
@@ -102,13 +102,13 @@ static void test_cornell_box(void **state)
         lrr_scene *s;
         LRR_CHECK(ctx, lrr_scene_builtin(ctx, closed ? "cornell-closed" : "cornell", &s));
         lrr_scene_info info;
-        lrr_scene_get_info(s, &info);
+        lrr_scene_get_info(s, &info, sizeof info);
         assert_int_equal(info.triangles, closed ? 38 : 36);
         assert_int_equal(info.skipped, 0);
         assert_int_equal(info.emitters, 2);
         ASSERT_NEAR(info.bounds_max[1], 548.8, 1e-4, "height\n");
         ASSERT_NEAR(info.bounds_max[2], 559.2, 1e-4, "depth\n");
-        lrr_subdivision sd = {0, 0, 0};
+        lrr_subdivision sd = {0, 0, 0, 0};
         LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
         float c[38 * 3], nrm[38 * 3], area[38], em[38 * 3];
         LRR_CHECK(ctx, lrr_scene_subpatches(s, c, nrm, area, NULL, em));

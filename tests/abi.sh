@@ -1,0 +1,37 @@
+#!/bin/sh
+# The exported ABI: the LRR_API functions of include/lrr.h, the names lib/liblrr.map exports
+# and the dynamic symbols liblrr.so defines (nm -D) must be the same set, so nothing is
+# exported by accident (a helper, a C++ template instance) and nothing declared is missing.
+# Each difference is printed with the side it is on.
+set -u
+top=${LRR_SRCDIR:-$(cd "$(dirname "$0")/.." && pwd)}
+libdir=${LRR_LIBDIR:-$top/.libs}
+so=$libdir/liblrr.so
+if [ ! -f "$so" ]; then
+    echo "abi: no $so (built without shared libraries): skipped"
+    exit 77
+fi
+command -v nm >/dev/null 2>&1 || { echo "abi: nm not found: skipped"; exit 77; }
+tmp=$(mktemp -d) || exit 1
+trap 'rm -rf "$tmp"' EXIT
+# function names after LRR_API (declarations may wrap after the name's parenthesis)
+sed -n 's/^LRR_API[^(]*[^a-z0-9_]\(lrr_[a-z0-9_]*\)(.*/\1/p' "$top/include/lrr.h" | sort -u > "$tmp/header"
+sed -n '/global:/,/local:/s/^[[:space:]]*\(lrr_[a-z0-9_]*\);.*/\1/p' "$top/lib/liblrr.map" | sort -u > "$tmp/map"
+nm -D --defined-only "$so" | awk '{print $3}' | sed 's/@.*//' | grep -v '^LRR_' | sort -u > "$tmp/so"
+fail=0
+n=$(wc -l < "$tmp/header")
+[ "$n" -ge 50 ] || { echo "abi: only $n LRR_API functions found in include/lrr.h"; fail=1; }
+report() { # report A B what
+    comm -23 "$tmp/$1" "$tmp/$2" | while read -r name; do echo "abi: $3: $name"; done
+    [ -z "$(comm -23 "$tmp/$1" "$tmp/$2")" ]
+}
+report header map "declared LRR_API in lrr.h but not in lib/liblrr.map" || fail=1
+report map header "in lib/liblrr.map but not declared LRR_API in lrr.h" || fail=1
+report map so "in lib/liblrr.map but not defined by liblrr.so" || fail=1
+report so map "exported by liblrr.so but not in lib/liblrr.map" || fail=1
+if ! nm -D --defined-only "$so" | grep -q ' lrr_solve@@LRR_1$'; then
+    echo "abi: lrr_solve is not versioned LRR_1 (is the version script applied?)"
+    fail=1
+fi
+[ "$fail" -eq 0 ] && echo "abi: $n functions, header = lib/liblrr.map = nm -D $so"
+exit "$fail"
