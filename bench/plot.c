@@ -6,6 +6,7 @@
  * in plot_font.c (one byte per row, bit 4 = leftmost column), written for these plots; g, p,
  * q and y are stored from their x-height down and drawn DESCENT rows lower. */
 #include "plot.h"
+#include "core/atomic_file.h"
 
 #include <errno.h>
 #include <math.h>
@@ -13,8 +14,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 /* stb_image_write with every function static: no symbol can clash with another copy (Debian's
  * libstb, which liblrr links for its own PNGs). */
@@ -581,16 +580,11 @@ int plot_render(const plot_spec *spec, unsigned char **rgb_out, unsigned *w_out,
 }
 
 /* ------------------------------------------------------------------ PNG output */
-typedef struct png_sink {
-    FILE *f;
-    int failed;
-} png_sink;
-
+/* stb_image_write's callback: into the atomic writer (its first error sticks) */
 static void sink_write(void *ctx, void *data, int size)
 {
-    png_sink *s = ctx;
-    if (size > 0 && fwrite(data, 1, (size_t)size, s->f) != (size_t)size)
-        s->failed = 1;
+    if (size > 0)
+        lrr__atomic_write(ctx, data, (size_t)size);
 }
 
 int plot_write_png(const plot_spec *spec, const char *path)
@@ -608,45 +602,18 @@ int plot_write_png(const plot_spec *spec, const char *path)
 
 int plot_write_rgb_png(const unsigned char *rgb, unsigned W, unsigned H, const char *path)
 {
-    static const char suffix[] = ".tmpXXXXXX";
-    size_t len = strlen(path);
-    char *tmp = malloc(len + sizeof suffix);
-    if (!tmp) {
-        errno = ENOMEM;
-        return -1;
-    }
-    memcpy(tmp, path, len);
-    memcpy(tmp + len, suffix, sizeof suffix);
-    int fd = mkstemp(tmp); /* next to the target, so rename() stays on one file system */
-    if (fd < 0) {
-        int e = errno;
-        free(tmp);
-        errno = e;
-        return -1;
-    }
-    mode_t mask = umask(0);
-    umask(mask);
-    (void)fchmod(fd, 0666 & ~mask);
-    int e = 0;
-    png_sink sink = {fdopen(fd, "wb"), 0};
-    if (!sink.f) {
-        e = errno;
-        close(fd);
-    } else {
-        if (!stbi_write_png_to_func(sink_write, &sink, (int)W, (int)H, 3, rgb, (int)(3 * W)))
+    /* the library's atomic writer (lib/core/atomic_file.c), as for every other output */
+    lrr__atomic_file w;
+    int e = lrr__atomic_open(&w, path, NULL);
+    if (!e) {
+        if (!stbi_write_png_to_func(sink_write, &w, (int)W, (int)H, 3, rgb, (int)(3 * W))) {
+            lrr__atomic_abort(&w);
             e = ENOMEM;
-        else if (sink.failed || fflush(sink.f) != 0)
-            e = errno ? errno : EIO;
-        else if (fsync(fileno(sink.f)) != 0)
-            e = errno;
-        if (fclose(sink.f) != 0 && !e)
-            e = errno ? errno : EIO;
-        if (!e && rename(tmp, path) != 0)
-            e = errno;
+        } else {
+            e = lrr__atomic_commit(&w);
+        }
     }
-    if (e)
-        unlink(tmp);
-    free(tmp);
+    lrr__atomic_free(&w);
     if (e) {
         errno = e;
         return -1;
