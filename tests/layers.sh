@@ -52,6 +52,20 @@ for dir in "$top"/lib/*/; do
         esac
     done
 done
+# Everything the code cites is in the repository: docs/NAME.md files that exist, no notes
+# kept outside it.
+for f in $(find "$top/lib" "$top/include" "$top/tools" "$top/bench" "$top/tests" \
+               \( -name '*.[ch]' -o -name '*.cpp' -o -name '*.cl' -o -name '*.sh' \) -print); do
+    rel=${f#"$top"/}
+    [ "$rel" = tests/layers.sh ] && continue
+    if grep -n 'DESIGN\.md\|STYLE\.md\|shared/reference\|\.\./shared' "$f"; then
+        echo "$rel cites a file outside the repository (the formulas live in docs/METHOD.md)"
+        fail=1
+    fi
+    for doc in $(grep -o 'docs/[A-Za-z_]*\.md' "$f" | sort -u); do
+        [ -f "$top/$doc" ] || { echo "$rel cites $doc, which does not exist"; fail=1; }
+    done
+done
 [ "$stages" -ge 10 ] || { echo "found only $stages stage folders under $top/lib"; fail=1; }
-[ "$fail" -eq 0 ] && echo "layers: $stages stages, every include allowed"
+[ "$fail" -eq 0 ] && echo "layers: $stages stages, every include allowed, every citation in the repository"
 exit "$fail"

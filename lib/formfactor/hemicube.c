@@ -1,5 +1,5 @@
 /* Hemicube form factors: one software z-buffer hemicube at each subpatch centre gives one
- * row of F̄ (F̄_ip = F_{i→p}/d), DESIGN.md "Form factors".
+ * row of F̄ (F̄_ip = F_{i→p}/d_p), docs/METHOD.md "Form factors".
  *
  * Per receiver i with centre x and unit normal N:
  *   - a frame (U, V, N), rotated about N by a pseudo-random angle drawn from (seed, i), so

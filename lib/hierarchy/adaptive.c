@@ -1,5 +1,5 @@
-/* The adaptive patch hierarchy: which quadtree nodes become patches (DESIGN.md "Low-rank
- * model"; issue 7).
+/* The adaptive patch hierarchy: which quadtree nodes become patches (docs/METHOD.md
+ * "Adaptive patches" and "Adaptive selection"; issue 7).
  *
  * The low-rank model replaces the columns F_ij of the subpatches j of patch p by their mean
  * F_{i→p}/d_p, so the light row i gathers from p is off by

@@ -1,5 +1,5 @@
-/* The low-rank operator: F̄ from hemicubes and, per colour channel c, the
- * Sherman–Morrison–Woodbury matrices (DESIGN.md "Low-rank model")
+/* The low-rank operator's factorisation: per colour channel c, the Sherman–Morrison–Woodbury
+ * matrices of F̄ (docs/METHOD.md "Low-rank model" and "Condition")
  *
  *     G_c = I_k - Vᵀ diag(rho_c) F̄        G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq
  *     M_c = G_c^{-1}

@@ -1,5 +1,5 @@
 /* Scenes: validation of input triangles and materials, the built-in Cornell box, and the
- * choice of patch depths (DESIGN.md "Patches", "Subpatches"). */
+ * choice of patch depths (docs/METHOD.md "Triangles" and "Patches"). */
 #include "config.h"
 #include "scene/scene.h"
 
@@ -116,7 +116,8 @@ void lrr_scene_destroy(lrr_scene *s)
 }
 
 /* ------------------------------------------------------------------ Cornell box */
-/* reference/cornell-box.md: millimetres, y up; each quad's vertices as published. */
+/* The Cornell box as published by the Cornell Program of Computer Graphics (data/README.md
+ * says where): millimetres, y up; each quad's vertices as published. */
 static const double cb_room[5][4][3] = {
     {{552.8, 0, 0}, {0, 0, 0}, {0, 0, 559.2}, {549.6, 0, 559.2}},                 /* floor */
     {{556, 548.8, 0}, {556, 548.8, 559.2}, {0, 548.8, 559.2}, {0, 548.8, 0}},     /* ceiling */

@@ -1,5 +1,6 @@
 /* The patch/subpatch hierarchy: 4-way midpoint subdivision, patch-major indices and the
- * barycentric → index map (DESIGN.md "Patches" and "Subpatches"). */
+ * barycentric → index map (docs/METHOD.md "Patches", "Subpatches" and
+ * "Barycentric map"). */
 #include "config.h"
 #include "scene/scene.h"
 

@@ -1,4 +1,4 @@
-/* The real-time step on the CPU (DESIGN.md "Low-rank model"), per frame and channel c:
+/* The real-time step on the CPU (docs/METHOD.md "Real-time step"), per frame and channel c:
  *     w_c = Vᵀ E_c             O(n) segmented sum over each patch's d subpatches
  *     z_c = M_c w_c            k×k products, all channels in one pass
  *     B_c = E_c + rho_c ∘ (F̄ z_c)   F̄ read once for all channels, epilogue fused

@@ -1,5 +1,5 @@
 /* The two dense products of the real-time step, written for one pass over each matrix with
- * all three colour channels at once (DESIGN.md "Low-rank model"):
+ * all three colour channels at once (docs/METHOD.md "Real-time step"):
  *     z_c = M_c w_c                 (three k×k matrices)
  *     B_c = E_c + rho_c ∘ (F̄ z_c)   (n×k, read once for r, g and b; epilogue fused)
  *

@@ -1,4 +1,5 @@
-/* Hemicube form factors against closed forms (shared/reference/view-factors.md). */
+/* Hemicube form factors against closed forms (Howell's catalogue of configuration factors;
+ * Incropera, Table 13.2; docs/METHOD.md "Form factors"). */
 #include "testutil.h"
 #include "formfactor/formfactor.h"
 #include "operator/operator.h"
