@@ -96,7 +96,7 @@ static int scene_setup(lrr_context *ctx, const adaptive_args *a, const char *nam
     int rc = open_scene(ctx, name, &s->scene);
     if (rc)
         return rc;
-    lrr_subdivision sub = {0, 0.0, a->subpatches, 0};
+    lrr_subdivision sub = {.target_patches = a->subpatches};
     lrr_status st = lrr_scene_subdivide(s->scene, &sub);
     if (st != LRR_OK)
         return lib_fail(ctx, st, "subdivision");
@@ -386,7 +386,7 @@ static int scene_levels(lrr_context *ctx, adaptive_scene *sc)
         if ((rc = open_scene(ctx, sc->name, &other)))
             break;
         double scale = (double)(1u << (2 * L));
-        lrr_subdivision sub = {0, s->max_patch_area * scale, 0, L};
+        lrr_subdivision sub = {.max_patch_area = s->max_patch_area * scale, .levels = L};
         lrr_status st = lrr_scene_subdivide(other, &sub);
         lrr_scene_info oi;
         lrr_scene_get_info(other, &oi, sizeof oi);
@@ -471,7 +471,8 @@ static int levels_rows(lrr_context *ctx, const adaptive_args *a, const adaptive_
         lrr_scene *other = NULL;
         if ((rc = open_scene(ctx, sc->name, &other)))
             break;
-        lrr_subdivision sub = {0, s->max_patch_area * (double)(1u << (2 * L)), 0, L};
+        lrr_subdivision sub = {.max_patch_area = s->max_patch_area * (double)(1u << (2 * L)),
+                               .levels = L};
         lrr_status st;
         if ((st = lrr_scene_subdivide(other, &sub)) != LRR_OK) {
             rc = lib_fail(ctx, st, "subdivision");

@@ -361,7 +361,7 @@ int opencl_probe(lrr_context *ctx)
     lrr_scene *scene = NULL;
     lrr_operator *op = NULL;
     lrr_solver *sv = NULL;
-    lrr_subdivision sd = {0, 0, 0, 0};
+    lrr_subdivision sd = {0};
     lrr_status s = lrr_scene_create(ctx, 1, v, rho, em, "opencl-probe", &scene);
     if (s == LRR_OK)
         s = lrr_scene_subdivide(scene, &sd);

@@ -120,7 +120,7 @@ static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned 
     lrr_operator *op = NULL;
     lrr_status s = lrr_scene_create(ctx, 4, v, rho, em, "squares", &scene);
     if (s == LRR_OK)
-        s = lrr_scene_subdivide(scene, &(lrr_subdivision){0, 0.0, 0, levels});
+        s = lrr_scene_subdivide(scene, &(lrr_subdivision){.levels = levels});
     lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
     double t0 = cli_now();
     if (s == LRR_OK)
@@ -164,7 +164,7 @@ static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, int no_rota
     lrr_scene *scene = NULL;
     lrr_status s = lrr_scene_builtin(ctx, "cornell", &scene);
     if (s == LRR_OK)
-        s = lrr_scene_subdivide(scene, &(lrr_subdivision){0, 0.0, 216, 1});
+        s = lrr_scene_subdivide(scene, &(lrr_subdivision){.target_patches = 216, .levels = 1});
     lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
     cli_progress bar;
     progress_begin(&bar, "hemicubes", &bo);

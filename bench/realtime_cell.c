@@ -269,7 +269,7 @@ static int rt_build(rt_work *wk, const cell *c, rt_cell *r)
     int rc = open_scene(wk->ctx, a->scene, &scene);
     if (rc)
         return rc;
-    lrr_subdivision sub = {0, 0.0, c->k, (unsigned)levels_of(c->d)};
+    lrr_subdivision sub = {.target_patches = c->k, .levels = (unsigned)levels_of(c->d)};
     lrr_status s = lrr_scene_subdivide(scene, &sub);
     if (s != LRR_OK) {
         lrr_scene_destroy(scene);

@@ -207,8 +207,8 @@ static int room_scene(lrr_context *ctx, const voxel_room *room, int quick, doubl
         rc = lib_fail(ctx, s, room->name);
         goto done;
     }
-    lrr_subdivision sub = {0, 0.0, quick ? room->quick_patches : room->target_patches,
-                           quick ? room->quick_levels : room->levels};
+    lrr_subdivision sub = {.target_patches = quick ? room->quick_patches : room->target_patches,
+                           .levels = quick ? room->quick_levels : room->levels};
     if ((s = lrr_scene_subdivide(*scene, &sub)) != LRR_OK)
         rc = lib_fail(ctx, s, "subdivision");
 done:

@@ -93,7 +93,7 @@ static int cell_build(lrr_context *ctx, const table_args *a, const cell *c, cons
                       lrr_scene *scene, lrr_build_options *bo, lrr_operator **op,
                       cell_result *r)
 {
-    lrr_subdivision sub = {0, 0.0, c->k, (unsigned)levels_of(c->d)};
+    lrr_subdivision sub = {.target_patches = c->k, .levels = (unsigned)levels_of(c->d)};
     lrr_status s = lrr_scene_subdivide(scene, &sub);
     if (s != LRR_OK)
         return lib_fail(ctx, s, "subdivision");

@@ -75,7 +75,7 @@ static void test_reference_counting(void **state)
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
     lrr_context_destroy(ctx);
-    lrr_subdivision bad = {0, 0, 0, 42};
+    lrr_subdivision bad = {.levels = 42};
     assert_int_equal(lrr_scene_subdivide(s, &bad), LRR_ERR_INVALID_ARG);
     lrr_scene_destroy(s);
 }

@@ -44,9 +44,9 @@ static lrr_operator *build(lrr_context *ctx, size_t ntri, const float *v, double
         rho[i] = 0.5f;
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_create(ctx, ntri, v, rho, em, "test", &s));
-    lrr_subdivision sd = {0, max_area, 0, levels};
+    lrr_subdivision sd = {.max_patch_area = max_area, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {0, R, seed, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = R, .seed = seed};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);
@@ -188,11 +188,12 @@ static void test_reproducible(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {0, 0, 30, 1};
+    lrr_subdivision sd = {.target_patches = 30, .levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     lrr_operator *a, *b, *c;
-    lrr_build_options o1 = {0, 32, 5, 1, NULL, NULL, 0, 0}, o2 = {0, 32, 5, 2, NULL, NULL, 0, 0},
-                      o3 = {0, 32, 6, 2, NULL, NULL, 0, 0};
+    lrr_build_options o1 = {.hemicube_resolution = 32, .seed = 5, .threads = 1},
+                      o2 = {.hemicube_resolution = 32, .seed = 5, .threads = 2},
+                      o3 = {.hemicube_resolution = 32, .seed = 6, .threads = 2};
     LRR_CHECK(ctx, lrr_operator_build(s, &o1, &a));
     LRR_CHECK(ctx, lrr_operator_build(s, &o2, &b));
     LRR_CHECK(ctx, lrr_operator_build(s, &o3, &c));
@@ -200,7 +201,8 @@ static void test_reproducible(void **state)
     assert_true(memcmp(a->fbar, c->fbar, a->n * a->k * sizeof(float)) != 0);
     /* without the rotation the seed changes nothing, and the flag survives a file */
     lrr_operator *d, *e;
-    lrr_build_options o4 = {0, 32, 5, 2, NULL, NULL, 1, 0}, o5 = {0, 32, 6, 2, NULL, NULL, 1, 0};
+    lrr_build_options o4 = {.hemicube_resolution = 32, .seed = 5, .threads = 2, .no_rotation = 1},
+                      o5 = {.hemicube_resolution = 32, .seed = 6, .threads = 2, .no_rotation = 1};
     LRR_CHECK(ctx, lrr_operator_build(s, &o4, &d));
     LRR_CHECK(ctx, lrr_operator_build(s, &o5, &e));
     assert_memory_equal(d->fbar, e->fbar, d->n * d->k * sizeof(float));

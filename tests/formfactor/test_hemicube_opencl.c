@@ -10,7 +10,7 @@ static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned level
 {
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, closed, &s));
-    lrr_subdivision sd = {0, 0, K, levels};
+    lrr_subdivision sd = {.target_patches = K, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
 }
@@ -20,7 +20,7 @@ static void compare(int closed)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, closed, 37, 1);
-    lrr_build_options o = {0, 32, 2, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 32, .seed = 2};
     lrr_operator *cpu, *dev;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &cpu));
     o.backend = LRR_BACKEND_OPENCL;
@@ -71,7 +71,7 @@ static void test_errors(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 0, 37, 0);
-    lrr_build_options o = {0, 16, 1, 0, NULL, NULL, 0, LRR_BACKEND_OPENCL};
+    lrr_build_options o = {.hemicube_resolution = 16, .seed = 1, .backend = LRR_BACKEND_OPENCL};
     lrr_reference *ref = NULL;
     assert_int_equal(lrr_reference_build(s, &o, 0, &ref), LRR_ERR_UNSUPPORTED);
     assert_null(ref);
@@ -95,11 +95,11 @@ int main(void)
                 em[3] = {1, 1, 1};
     lrr_scene *s;
     lrr_operator *op = NULL;
-    lrr_subdivision sd = {0, 0, 0, 0};
+    lrr_subdivision sd = {0};
     if (lrr_scene_create(ctx, 1, v, rho, em, "probe", &s) != LRR_OK ||
         lrr_scene_subdivide(s, &sd) != LRR_OK)
         return 1;
-    lrr_build_options o = {0, 16, 0, 0, NULL, NULL, 0, LRR_BACKEND_OPENCL};
+    lrr_build_options o = {.hemicube_resolution = 16, .backend = LRR_BACKEND_OPENCL};
     lrr_status st = lrr_operator_build(s, &o, &op);
     char msg[512];
     lrr_context_last_error(ctx, msg, sizeof msg);

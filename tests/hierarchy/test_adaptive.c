@@ -14,7 +14,7 @@ static lrr_scene *cornell(lrr_context *ctx, size_t patches)
 {
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
-    lrr_subdivision sd = {0, 0, patches, 0};
+    lrr_subdivision sd = {.target_patches = patches};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
 }
@@ -88,7 +88,7 @@ static void test_area_split_is_uniform(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *fine = cornell(ctx, 864), *coarse;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &coarse));
-    lrr_subdivision sd = {0, 0, 216, 1};
+    lrr_subdivision sd = {.target_patches = 216, .levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(coarse, &sd));
     lrr_scene_info fi, ci;
     lrr_scene_get_info(fine, &fi, sizeof fi);
@@ -430,7 +430,7 @@ static void test_errors(void **state)
         op = NULL;
         lrr_scene_destroy(big);
     }
-    lrr_subdivision sd = {0, 0, 40, 1};
+    lrr_subdivision sd = {.target_patches = 40, .levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     bo.adaptive_split = LRR_SPLIT_VARIANCE;
     assert_int_equal(lrr_operator_build(s, &bo, &op), LRR_ERR_INVALID_ARG);

@@ -7,9 +7,9 @@
 static lrr_operator *build_scene(lrr_context *ctx, lrr_scene *s, size_t K, unsigned levels,
                                  unsigned R)
 {
-    lrr_subdivision sd = {0, 0, K, levels};
+    lrr_subdivision sd = {.target_patches = K, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {0, R, 3, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = R, .seed = 3};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     return op;
@@ -254,12 +254,12 @@ static void test_errors(void **state)
     assert_int_equal(lrr_operator_build(s, NULL, &op), LRR_ERR_INVALID_ARG);
     assert_null(op);
     lrr_context_last_error(ctx, NULL, 0);
-    lrr_subdivision sd = {0, 0, 36, 0};
+    lrr_subdivision sd = {.target_patches = 36};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options odd = {0, 33, 0, 0, NULL, NULL, 0, 0};
+    lrr_build_options odd = {.hemicube_resolution = 33};
     assert_int_equal(lrr_operator_build(s, &odd, &op), LRR_ERR_INVALID_ARG);
     lrr_context_last_error(ctx, NULL, 0);
-    lrr_build_options o = {0, 16, 0, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 16};
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_solver *sv;
     assert_int_equal(lrr_solver_create(op, (lrr_backend)12345, &sv), LRR_ERR_INVALID_ARG);
@@ -301,10 +301,11 @@ static void test_progress_cancel(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {0, 0, 200, 2};
+    lrr_subdivision sd = {.target_patches = 200, .levels = 2};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     int calls = 0;
-    lrr_build_options o = {0, 32, 0, 1, cancel_half, &calls, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 32, .threads = 1, .progress = cancel_half,
+                           .progress_user = &calls};
     lrr_operator *op = (lrr_operator *)1;
     assert_int_equal(lrr_operator_build(s, &o, &op), LRR_ERR_CANCELLED);
     assert_null(op);

@@ -163,7 +163,7 @@ static void test_gouraud_ramp(void **state)
     for (size_t i = 0; i < op->n; i++)
         for (int j = 0; j < 3; j++)
             B[3 * i + j] = 0.3f + 1.5f * op->centre[3 * i];
-    lrr_render_options o = {0, 400, 300, 1.0, 0};
+    lrr_render_options o = {.width = 400, .height = 300, .exposure = 1.0, .use_cornell_camera = 0};
     int w, h;
     unsigned char *img = render_decode(ctx, op, B, &o, "render-ramp.png", &w, &h);
     assert_int_equal(w, 400);
@@ -226,7 +226,7 @@ static void test_sharp_corners(void **state)
         size_t face = (i / op->d) / 2; /* one patch per triangle, two triangles per face */
         memcpy(B + 3 * i, face_col[face], sizeof face_col[face]);
     }
-    lrr_render_options o = {0, 256, 256, 2.0, 0};
+    lrr_render_options o = {.width = 256, .height = 256, .exposure = 2.0, .use_cornell_camera = 0};
     int w, h;
     unsigned char *img = render_decode(ctx, op, B, &o, "render-corners.png", &w, &h);
     int seen[6] = {0};
@@ -278,7 +278,7 @@ static void test_disjoint_triangles(void **state)
     float *B = uniform_radiosity(op->n, 0, 0, 0);
     for (size_t i = 0; i < op->n; i++)
         B[3 * i] = B[3 * i + 1] = B[3 * i + 2] = 0.1f + 0.9f * (float)i / (T - 1);
-    lrr_render_options o = {0, 512, 512, 1.0, 0};
+    lrr_render_options o = {.width = 512, .height = 512, .exposure = 1.0, .use_cornell_camera = 0};
     int w, h;
     unsigned char *img = render_decode(ctx, op, B, &o, "render-disjoint.png", &w, &h);
     size_t hist[256] = {0};
@@ -311,7 +311,7 @@ static void test_back_face(void **state)
     /* a 400 mm square in front of the Cornell camera (eye z = -800, looking along +z) */
     double p0[3] = {78, 73, 100}, p1[3] = {478, 73, 100}, p2[3] = {478, 473, 100},
            p3[3] = {78, 473, 100};
-    lrr_render_options o = {0, 128, 128, 1.0, 1};
+    lrr_render_options o = {.width = 128, .height = 128, .exposure = 1.0, .use_cornell_camera = 1};
     int w, h;
     for (int towards = 0; towards < 2; towards++) {
         if (towards)
@@ -349,7 +349,7 @@ static void test_near_clipping(void **state)
     tu_quad(v, p0, p1, p2, p3); /* normal +y */
     lrr_operator *op = make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
     float *B = uniform_radiosity(op->n, 1, 1, 1);
-    lrr_render_options o = {0, 64, 64, 1.0, 1};
+    lrr_render_options o = {.width = 64, .height = 64, .exposure = 1.0, .use_cornell_camera = 1};
     int w, h;
     unsigned char *img = render_decode(ctx, op, B, &o, "render-clip.png", &w, &h);
     /* the floor is 273 below the eye; its far edge (z = 1e5) projects 0.24 pixels below the
@@ -372,7 +372,7 @@ static void test_near_clipping(void **state)
         room[i] = room[i] * 3000 - 1500 + (i % 3 == 0 ? 278 : i % 3 == 1 ? 273 : -800);
     op = make_op(ctx, 12, room, 3, LRR__SCENE_FILE);
     B = uniform_radiosity(op->n, 1, 1, 1);
-    lrr_render_options o2 = {0, 97, 61, 1.0, 1};
+    lrr_render_options o2 = {.width = 97, .height = 61, .exposure = 1.0, .use_cornell_camera = 1};
     img = render_decode(ctx, op, B, &o2, "render-room.png", &w, &h);
     assert_int_equal(count_lit(img, w, h), (size_t)w * h);
     stbi_image_free(img);
@@ -449,7 +449,7 @@ static void test_cornell_camera(void **state)
         lrr_operator *op = cornell_op(ctx, closed);
         float *B = uniform_radiosity(op->n, 0, 0, 0);
         crude_radiosity(op, B);
-        lrr_render_options o = {0, 200, 200, 0, -1};
+        lrr_render_options o = {.width = 200, .height = 200, .use_cornell_camera = -1};
         int w, h;
         unsigned char *img = render_decode(ctx, op, B, &o, "render-cornell.png", &w, &h);
         assert_int_equal(w, 200);
@@ -486,7 +486,7 @@ static void test_cornell_camera(void **state)
     lrr_operator *op = cornell_op(ctx, 0);
     float *B = uniform_radiosity(op->n, 0, 0, 0);
     crude_radiosity(op, B);
-    lrr_render_options o = {0, 200, 200, 0, 0};
+    lrr_render_options o = {.width = 200, .height = 200, .use_cornell_camera = 0};
     int w, h;
     unsigned char *img = render_decode(ctx, op, B, &o, "render-cornell-framed.png", &w, &h);
     size_t lit = count_lit(img, w, h);
@@ -521,7 +521,7 @@ static void test_cornell_solved(void **state)
     float *B = uniform_radiosity(op->n, 0, 0, 0);
     LRR_CHECK(ctx, lrr_solve(solver, lrr_operator_emission(op), B));
     int w, h;
-    lrr_render_options o = {0, 256, 256, 0, -1};
+    lrr_render_options o = {.width = 256, .height = 256, .use_cornell_camera = -1};
     unsigned char *img = render_decode(ctx, op, B, &o, "render-cornell-solved.png", &w, &h);
     double rl, gl, rr, gr;
     channel_sums(img, w, h, 0, w / 2, &rl, &gl);
@@ -583,7 +583,7 @@ static void test_invalid(void **state)
     }
     B[3 * 5 + 1] = 0.5f;
     /* the largest legal size per side is accepted */
-    lrr_render_options thin = {0, 16384, 1, 0, 0};
+    lrr_render_options thin = {.width = 16384, .height = 1, .use_cornell_camera = 0};
     LRR_CHECK(ctx, lrr_render_png(op, B, &thin, path));
     assert_true(file_exists(path));
     remove(path);
@@ -602,7 +602,7 @@ static void test_io_errors(void **state)
     unit_quad(v, 0, 1);
     lrr_operator *op = make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
     float *B = uniform_radiosity(op->n, 0.5f, 0.5f, 0.5f);
-    lrr_render_options o = {0, 32, 32, 0, 0};
+    lrr_render_options o = {.width = 32, .height = 32, .use_cornell_camera = 0};
     char path[640], msg[512], dir[512];
 
     /* a directory that does not exist */
@@ -674,7 +674,7 @@ static void test_write_faults(void **state)
     unit_quad(v, 0, 1);
     lrr_operator *op = make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
     float *B = uniform_radiosity(op->n, 0.5f, 0.5f, 0.5f);
-    lrr_render_options o = {0, 32, 32, 0, 0};
+    lrr_render_options o = {.width = 32, .height = 32, .use_cornell_camera = 0};
     char path[640], msg[512], prefix[256];
     tu_tmp_path(path, sizeof path, "render-faults.png");
     remove(path);
@@ -723,7 +723,7 @@ static void test_exposure(void **state)
     unit_quad(v, 0, 1);
     lrr_operator *op = make_op(ctx, 2, v, 1, LRR__SCENE_FILE);
     int w, h, centre = 3 * (32 * 16 + 16);
-    lrr_render_options o = {0, 32, 32, 0, 0};
+    lrr_render_options o = {.width = 32, .height = 32, .use_cornell_camera = 0};
     float *B = uniform_radiosity(op->n, 0.01f, 0.01f, 0.01f);
     unsigned char *a = render_decode(ctx, op, B, &o, "render-exp.png", &w, &h);
     for (size_t i = 0; i < 3 * op->n; i++)

@@ -7,7 +7,7 @@ static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned level
 {
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, closed, &s));
-    lrr_subdivision sd = {0, 0, K, levels};
+    lrr_subdivision sd = {.target_patches = K, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
 }
@@ -35,7 +35,7 @@ static void test_fbar_is_f_v_over_d(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 1, 24, 1);
-    lrr_build_options o = {0, 32, 9, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 32, .seed = 9};
     lrr_operator *op;
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
@@ -77,7 +77,7 @@ static void test_methods_agree(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 0, 40, 1);
-    lrr_build_options o = {0, 32, 3, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 32, .seed = 3};
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_reference_build(s, &o, 0, &ref));
     const size_t n = lrr_reference_size(ref);
@@ -118,7 +118,7 @@ static void test_direct_equals_operator_at_d1(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = cornell(ctx, 0, 150, 0);
-    lrr_build_options o = {0, 64, 5, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 64, .seed = 5};
     lrr_operator *op;
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
@@ -157,9 +157,9 @@ static void test_furnace(void **state)
         }
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_create(ctx, 12, v, rho, em, "furnace", &s));
-    lrr_subdivision sd = {0, 0, 48, 1};
+    lrr_subdivision sd = {.target_patches = 48, .levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {0, 64, 1, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 64, .seed = 1};
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_reference_build(s, &o, 0, &ref));
     const size_t n = lrr_reference_size(ref);
@@ -203,7 +203,7 @@ static void test_errors(void **state)
         fail_msg("message does not name the memory needed (%s): %s", need, msg);
     assert_int_equal(lrr_reference_bytes(SIZE_MAX / 2), SIZE_MAX);
     /* the direct solve needs 8n² more: a budget that fits F only refuses it */
-    lrr_build_options o = {0, 16, 1, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 16, .seed = 1};
     LRR_CHECK(ctx, lrr_reference_build(s, &o, lrr_reference_bytes(info.subpatches), &ref));
     const size_t n = lrr_reference_size(ref);
     float *E = malloc(3 * n * sizeof *E), *B = malloc(3 * n * sizeof *B);

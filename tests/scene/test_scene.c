@@ -108,7 +108,7 @@ static void test_cornell_box(void **state)
         assert_int_equal(info.emitters, 2);
         ASSERT_NEAR(info.bounds_max[1], 548.8, 1e-4, "height\n");
         ASSERT_NEAR(info.bounds_max[2], 559.2, 1e-4, "depth\n");
-        lrr_subdivision sd = {0, 0, 0, 0};
+        lrr_subdivision sd = {0};
         LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
         float c[38 * 3], nrm[38 * 3], area[38], em[38 * 3];
         LRR_CHECK(ctx, lrr_scene_subpatches(s, c, nrm, area, NULL, em));

@@ -30,7 +30,7 @@ static void test_counts_and_areas(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = two_triangles(ctx);
     for (unsigned levels = 0; levels <= 3; levels++) {
-        lrr_subdivision sd = {0, 0.1, 0, levels};
+        lrr_subdivision sd = {.max_patch_area = 0.1, .levels = levels};
         LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
         lrr_scene_info info;
         lrr_scene_get_info(s, &info, sizeof info);
@@ -51,14 +51,14 @@ static void test_counts_and_areas(void **state)
         free(area);
     }
     /* no limit: one patch per triangle */
-    lrr_subdivision none = {0, 0, 0, 1};
+    lrr_subdivision none = {.levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &none));
     lrr_scene_info info;
     lrr_scene_get_info(s, &info, sizeof info);
     assert_int_equal(info.patches, 2);
     assert_int_equal(info.subpatches, 8);
     /* invalid options */
-    lrr_subdivision bad = {0, 0, 0, 11};
+    lrr_subdivision bad = {.levels = 11};
     assert_int_equal(lrr_scene_subdivide(s, &bad), LRR_ERR_INVALID_ARG);
     bad.levels = 1;
     bad.max_patch_area = NAN;
@@ -116,7 +116,7 @@ static void test_barycentric_round_trip(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s = two_triangles(ctx);
-    lrr_subdivision sd = {0, 0.1, 0, 2};
+    lrr_subdivision sd = {.max_patch_area = 0.1, .levels = 2};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     const lrr__geometry *g = &s->geom;
     uint64_t rng = 12345;
@@ -171,7 +171,7 @@ static void test_target_patches(void **state)
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
     const size_t targets[] = {1, 36, 100, 216, 864, 3456};
     for (size_t i = 0; i < sizeof targets / sizeof targets[0]; i++) {
-        lrr_subdivision sd = {0, 0, targets[i], 0};
+        lrr_subdivision sd = {.target_patches = targets[i]};
         LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
         lrr_scene_info info;
         lrr_scene_get_info(s, &info, sizeof info);
@@ -179,7 +179,7 @@ static void test_target_patches(void **state)
         assert_true(k >= 36);
         /* no other threshold is closer: scan thresholds a bit above and below */
         for (double f = 0.25; f <= 4.0; f *= 1.0905) {
-            lrr_subdivision other = {0, info.max_patch_area * f, 0, 0};
+            lrr_subdivision other = {.max_patch_area = info.max_patch_area * f};
             LRR_CHECK(ctx, lrr_scene_subdivide(s, &other));
             lrr_scene_info oi;
             lrr_scene_get_info(s, &oi, sizeof oi);

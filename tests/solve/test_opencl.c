@@ -7,9 +7,9 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 {
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {0, 0, K, levels};
+    lrr_subdivision sd = {.target_patches = K, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {0, 32, 2, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 32, .seed = 2};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);
@@ -23,7 +23,7 @@ static lrr_operator *triangle_op(lrr_context *ctx, unsigned levels)
                 e[3] = {1, 2, 3};
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_create(ctx, 1, v, rho, e, "triangle", &s));
-    lrr_subdivision sd = {0, 0, 0, levels};
+    lrr_subdivision sd = {.levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, NULL, &op));
@@ -226,7 +226,7 @@ int main(void)
     const float v[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, rho[3] = {0.5f, 0.5f, 0.5f},
                 em[3] = {1, 1, 1};
     lrr_operator *op = NULL;
-    lrr_subdivision sd = {0, 0, 0, 0};
+    lrr_subdivision sd = {0};
     if (lrr_scene_create(ctx, 1, v, rho, em, "probe", &s) != LRR_OK ||
         lrr_scene_subdivide(s, &sd) != LRR_OK || lrr_operator_build(s, NULL, &op) != LRR_OK)
         return 1;

@@ -6,9 +6,9 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 {
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {0, 0, K, levels};
+    lrr_subdivision sd = {.target_patches = K, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {0, 32, 2, 0, NULL, NULL, 0, 0};
+    lrr_build_options o = {.hemicube_resolution = 32, .seed = 2};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
     lrr_scene_destroy(s);
@@ -259,9 +259,9 @@ static void test_tiny(void **state)
         for (unsigned levels = 0; levels <= 1; levels++) {
             lrr_scene *s;
             LRR_CHECK(ctx, lrr_scene_create(ctx, tris, v, rho, em, "tiny", &s));
-            lrr_subdivision sd = {0, 1e9, 0, levels};
+            lrr_subdivision sd = {.max_patch_area = 1e9, .levels = levels};
             LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-            lrr_build_options o = {0, 16, 1, 0, NULL, NULL, 0, 0};
+            lrr_build_options o = {.hemicube_resolution = 16, .seed = 1};
             lrr_operator *op;
             LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
             lrr_scene_destroy(s);
