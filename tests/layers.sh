@@ -17,7 +17,7 @@ allowed() {
         file) echo "core scene operator" ;;
         reference) echo "core scene formfactor" ;;
         probe) echo "core scene operator probe" ;;
-        output) echo "core scene operator" ;;
+        output) echo "core scene operator output" ;;
         *) echo "" ;;
     esac
 }

@@ -81,16 +81,6 @@ void lrr__multiplier_map_free(lrr__multiplier_map *m)
 }
 
 /* ------------------------------------------------------------------ small vector helpers */
-static inline double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-static inline void cross3(const double *a, const double *b, double *o)
-{
-    o[0] = a[1] * b[2] - a[2] * b[1];
-    o[1] = a[2] * b[0] - a[0] * b[2];
-    o[2] = a[0] * b[1] - a[1] * b[0];
-}
 
 /* ------------------------------------------------------------------ per-triangle data */
 typedef struct {
@@ -233,9 +223,9 @@ static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t,
     cvert poly[MAX_POLY], tmp[MAX_POLY];
     for (int i = 0; i < 3; i++) {
         double d[3] = {tv[3 * i] - x[0], tv[3 * i + 1] - x[1], tv[3 * i + 2] - x[2]};
-        poly[i].x = dot3(d, f->right);
-        poly[i].y = dot3(d, f->up);
-        poly[i].z = dot3(d, f->fwd);
+        poly[i].x = lrr__dot3(d, f->right);
+        poly[i].y = lrr__dot3(d, f->up);
+        poly[i].z = lrr__dot3(d, f->fwd);
     }
     int n = 3;
     /* trivial rejects before clipping */
@@ -281,11 +271,11 @@ static inline size_t pixel_target(const hemi_ctx *h, const double x[3], const fa
         dir[j] = sx * f->right[j] + sy * f->up[j] + f->fwd[j];
     const tri_info *ti = &h->tri[id];
     double w0[3] = {ti->v0[0] - x[0], ti->v0[1] - x[1], ti->v0[2] - x[2]};
-    double tt = dot3(ti->n, w0) / dot3(ti->n, dir);
+    double tt = lrr__dot3(ti->n, w0) / lrr__dot3(ti->n, dir);
     double r[3];
     for (int j = 0; j < 3; j++)
         r[j] = x[j] + tt * dir[j] - ti->v0[j];
-    double d1 = dot3(r, ti->e1), d2 = dot3(r, ti->e2);
+    double d1 = lrr__dot3(r, ti->e1), d2 = lrr__dot3(r, ti->e2);
     double b1 = (ti->g22 * d1 - ti->g12 * d2) * ti->inv;
     double b2 = (ti->g11 * d2 - ti->g12 * d1) * ti->inv;
     return h->by_subpatch ? lrr__subpatch_at(h->g, (size_t)id, b1, b2)
@@ -336,15 +326,15 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         e1[j] = v[3 + j] - v[j];
         e2[j] = v[6 + j] - v[j];
     }
-    cross3(e1, e2, N);
+    lrr__cross3(e1, e2, N);
     lrr__normalize3(N);
     /* tangent frame, then the per-receiver random rotation about N */
     double helper[3] = {1, 0, 0};
     if (fabs(N[0]) > 0.6) { helper[0] = 0; helper[1] = 1; }
     double U0[3], V0[3], U[3], Vv[3];
-    cross3(helper, N, U0);
+    lrr__cross3(helper, N, U0);
     lrr__normalize3(U0);
-    cross3(N, U0, V0);
+    lrr__cross3(N, U0, V0);
     double theta =
         rotate ? 2 * M_PI * (double)(lrr__splitmix64(seed ^ lrr__splitmix64(i)) >> 11) *
                      0x1.0p-53
@@ -352,7 +342,7 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
     double ct = cos(theta), st = sin(theta);
     for (int j = 0; j < 3; j++)
         U[j] = ct * U0[j] + st * V0[j];
-    cross3(N, U, Vv);
+    lrr__cross3(N, U, Vv);
 
     size_t rr = (size_t)R * R;
     face faces[5];
@@ -374,7 +364,7 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
             for (int j = 0; j < 3; j++)
                 f->fwd[j] = sgn * ax[j];
             memcpy(f->up, N, sizeof N);
-            cross3(f->up, f->fwd, f->right);
+            lrr__cross3(f->up, f->fwd, f->right);
         }
     }
     size_t total = rr * 3;
@@ -389,13 +379,13 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         int any_above = 0;
         for (int c = 0; c < 3; c++) {
             double d[3] = {tv[3 * c] - x[0], tv[3 * c + 1] - x[1], tv[3 * c + 2] - x[2]};
-            if (dot3(d, N) > h->eps)
+            if (lrr__dot3(d, N) > h->eps)
                 any_above = 1;
         }
         if (!any_above)
             continue;
         double w0[3] = {x[0] - ti->v0[0], x[1] - ti->v0[1], x[2] - ti->v0[2]};
-        double side = dot3(w0, ti->n) / sqrt(dot3(ti->n, ti->n));
+        double side = lrr__dot3(w0, ti->n) / sqrt(lrr__dot3(ti->n, ti->n));
         if (fabs(side) <= h->eps)
             continue; /* x lies in the triangle's plane: seen edge-on */
         int32_t id = side > 0 ? (int32_t)t : -1;
@@ -577,10 +567,10 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
                 hi[j] = fmax(hi[j], v[3 * c + j]);
             }
         }
-        cross3(ti->e1, ti->e2, ti->n);
-        ti->g11 = dot3(ti->e1, ti->e1);
-        ti->g12 = dot3(ti->e1, ti->e2);
-        ti->g22 = dot3(ti->e2, ti->e2);
+        lrr__cross3(ti->e1, ti->e2, ti->n);
+        ti->g11 = lrr__dot3(ti->e1, ti->e1);
+        ti->g12 = lrr__dot3(ti->e1, ti->e2);
+        ti->g22 = lrr__dot3(ti->e2, ti->e2);
         ti->inv = 1.0 / (ti->g11 * ti->g22 - ti->g12 * ti->g12);
     }
     double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +

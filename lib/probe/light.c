@@ -66,14 +66,11 @@ static RTCScene build_scene(RTCDevice dev, const lrr__geometry *g, embree_error 
     return scene;
 }
 
-lrr_status lrr_probe_direct_light(const lrr_operator *op, const lrr_light *lights, size_t count,
-                                  float *emission)
+/* L (6 floats per light: its unit direction, then its rgb) from the lights, checked: an
+ * error names the light. */
+static lrr_status light_table(lrr_context *ctx, const lrr_light *lights, size_t count,
+                              float **out)
 {
-    lrr_context *ctx = op->ctx;
-    const size_t n = op->n;
-    if (count > 0 && !lights)
-        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
-                          "lrr_probe_direct_light: lights is NULL with count %zu", count);
     float *L = NULL;
     lrr_status st = lrr__calloc(ctx, &L, count, 6 * sizeof(float), "direct light sources");
     if (st != LRR_OK)
@@ -99,19 +96,12 @@ lrr_status lrr_probe_direct_light(const lrr_operator *op, const lrr_light *light
             L[6 * l + 3 + c] = s->rgb[c];
         }
     }
-    memset(emission, 0, 3 * n * sizeof(float));
-    if (count == 0 || n == 0) {
-        lrr_aligned_free(L);
-        return LRR_OK;
-    }
-    const lrr__geometry *g = &op->geom;
-    if (g->n_tri > UINT32_MAX / 3) {
-        lrr_aligned_free(L);
-        return lrr__error(ctx, LRR_ERR_OVERFLOW,
-                          "lrr_probe_direct_light: %zu triangles exceed Embree's 32-bit indices",
-                          g->n_tri);
-    }
+    *out = L;
+    return LRR_OK;
+}
 
+static float ray_offset(const lrr__geometry *g)
+{
     /* the ray origins move off the surface by 1e-5 × the scene's bounding-box diagonal */
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t i = 0; i < 3 * g->n_tri; i++)
@@ -121,24 +111,35 @@ lrr_status lrr_probe_direct_light(const lrr_operator *op, const lrr_light *light
         }
     double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                        (hi[2] - lo[2]) * (hi[2] - lo[2]));
-    const float eps = (float)(1e-5 * diag);
+    return (float)(1e-5 * diag);
+}
 
-    embree_error err = {RTC_ERROR_NONE, ""};
-    RTCDevice dev = rtcNewDevice(NULL);
-    if (!dev) {
-        lrr_aligned_free(L);
-        err.code = rtcGetDeviceError(NULL);
-        return embree_fail(ctx, &err, "device creation");
+/* *dev, *scene: an Embree device reporting its errors to err, and the scene of g's
+ * triangles; on failure nothing is left to release and the error is recorded. */
+static lrr_status embree_open(lrr_context *ctx, const lrr__geometry *g, embree_error *err,
+                              RTCDevice *dev, RTCScene *scene)
+{
+    *dev = rtcNewDevice(NULL);
+    if (!*dev) {
+        err->code = rtcGetDeviceError(NULL);
+        return embree_fail(ctx, err, "device creation");
     }
-    rtcSetDeviceErrorFunction(dev, embree_error_cb, &err);
-    RTCScene scene = build_scene(dev, g, &err);
-    if (!scene) {
-        st = embree_fail(ctx, &err, "scene build");
-        rtcReleaseDevice(dev);
-        lrr_aligned_free(L);
+    rtcSetDeviceErrorFunction(*dev, embree_error_cb, err);
+    *scene = build_scene(*dev, g, err);
+    if (!*scene) {
+        lrr_status st = embree_fail(ctx, err, "scene build");
+        rtcReleaseDevice(*dev);
         return st;
     }
+    return LRR_OK;
+}
 
+/* emission (n×3) = rho × Σ over the lights L that subpatch i's centre sees (an occlusion ray
+ * from eps off its surface) of rgb × cosine; returns whether any value is not finite. */
+static int gather_direct(const lrr_operator *op, RTCScene scene, const float *L, size_t count,
+                         float eps, float *emission)
+{
+    const size_t n = op->n;
     const float *ce = op->centre, *nr = op->normal, *rho = op->rho;
     int bad = 0;
 #pragma omp parallel for schedule(dynamic, 64) reduction(| : bad)
@@ -176,6 +177,43 @@ lrr_status lrr_probe_direct_light(const lrr_operator *op, const lrr_light *light
             bad |= !isfinite(emission[3 * i + c]);
         }
     }
+    return bad;
+}
+
+lrr_status lrr_probe_direct_light(const lrr_operator *op, const lrr_light *lights, size_t count,
+                                  float *emission)
+{
+    lrr_context *ctx = op->ctx;
+    const size_t n = op->n;
+    if (count > 0 && !lights)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "lrr_probe_direct_light: lights is NULL with count %zu", count);
+    float *L = NULL;
+    lrr_status st = light_table(ctx, lights, count, &L);
+    if (st != LRR_OK)
+        return st;
+    memset(emission, 0, 3 * n * sizeof(float));
+    if (count == 0 || n == 0) {
+        lrr_aligned_free(L);
+        return LRR_OK;
+    }
+    const lrr__geometry *g = &op->geom;
+    if (g->n_tri > UINT32_MAX / 3) {
+        lrr_aligned_free(L);
+        return lrr__error(ctx, LRR_ERR_OVERFLOW,
+                          "lrr_probe_direct_light: %zu triangles exceed Embree's 32-bit indices",
+                          g->n_tri);
+    }
+    const float eps = ray_offset(g);
+
+    embree_error err = {RTC_ERROR_NONE, ""};
+    RTCDevice dev;
+    RTCScene scene;
+    if ((st = embree_open(ctx, g, &err, &dev, &scene)) != LRR_OK) {
+        lrr_aligned_free(L);
+        return st;
+    }
+    int bad = gather_direct(op, scene, L, count, eps, emission);
     rtcReleaseScene(scene);
     int failed = err.code != RTC_ERROR_NONE;
     if (failed)

@@ -88,6 +88,16 @@ static inline double lrr__tri_area(const float *v)
            c2 = e1[0] * e2[1] - e1[1] * e2[0];
     return 0.5 * sqrt(c0 * c0 + c1 * c1 + c2 * c2);
 }
+static inline double lrr__dot3(const double a[3], const double b[3])
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+static inline void lrr__cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
 /* v /= |v| (unchanged when |v| = 0). */
 static inline void lrr__normalize3(double v[3])
 {
