@@ -14,7 +14,7 @@ allowed() {
         formfactor) echo "core scene formfactor" ;;
         operator) echo "core scene hierarchy formfactor operator" ;;
         solve) echo "core scene operator solve" ;;
-        file) echo "core scene operator" ;;
+        file) echo "core scene operator file" ;;
         reference) echo "core scene formfactor" ;;
         probe) echo "core scene operator probe" ;;
         output) echo "core scene operator output" ;;

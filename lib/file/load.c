@@ -1,0 +1,523 @@
+/* Loading .lrr operator files: lrr_operator_load. The format is documented at the top of
+ * lrr_file.c. Every size is checked against the real file size before anything is allocated,
+ * so a corrupted header cannot make the load allocate (or read) more than the file holds. */
+#include "config.h"
+#include "file/format.h"
+#include "operator/operator.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static const char *section_name(uint32_t id)
+{
+    static const char *const names[] = {"?",    "GEOMETRY", "RHO",      "EMISSION", "FBAR",
+                                        "M",    "INFO",     "ROWSCALE", "PATCHES"};
+    return id >= 1 && id <= SEC_KNOWN ? names[id] : "unknown";
+}
+
+/* ------------------------------------------------------------ loading */
+struct reader {
+    lrr_context *ctx;
+    const char *path;
+    int fd;
+    uint64_t file_size;
+};
+
+/* Reads len bytes at offset. The ranges were checked against the size fstat reported, so a
+ * short read means the file shrank underneath us: report it as truncation. */
+static lrr_status read_at(struct reader *r, uint64_t offset, void *buf, size_t len,
+                          const char *what)
+{
+    unsigned char *p = buf;
+    while (len > 0) {
+        size_t chunk = len < ((size_t)1 << 30) ? len : ((size_t)1 << 30);
+        ssize_t got = pread(r->fd, p, chunk, (off_t)offset);
+        if (got < 0) {
+            if (errno == EINTR)
+                continue;
+            char eb[128];
+            return lrr__error(r->ctx, LRR_ERR_IO, "file %s: cannot read %s: %s", r->path, what,
+                              lrr__errno_text(errno, eb, sizeof eb));
+        }
+        if (got == 0)
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: truncated while reading %s (file changed size?)",
+                              r->path, what);
+        p += got;
+        len -= (size_t)got;
+        offset += (uint64_t)got;
+    }
+    return LRR_OK;
+}
+
+/* Reads a section into buf and verifies its checksum. */
+static lrr_status read_section(struct reader *r, const struct section *s, void *buf)
+{
+    lrr_status st = read_at(r, s->offset, buf, (size_t)s->size, section_name(s->id));
+    if (st)
+        return st;
+    uint64_t h = lrr__file_checksum(buf, (size_t)s->size);
+    if (h != s->checksum)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section %s (bytes %" PRIu64 "..%" PRIu64
+                          ") fails its checksum (stored %016" PRIx64 ", computed %016" PRIx64 ")",
+                          r->path, section_name(s->id), s->offset, s->offset + s->size,
+                          s->checksum, h);
+    return LRR_OK;
+}
+
+static lrr_status expect_size(struct reader *r, const struct section *s, uint64_t count,
+                              uint64_t elem, const char *formula)
+{
+    uint64_t want;
+    if (!bytes_of(count, elem, &want))
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section %s: %s = %" PRIu64 "×%" PRIu64
+                          " bytes overflows (absurd header sizes)",
+                          r->path, section_name(s->id), formula, count, elem);
+    if (want != s->size)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section %s has %" PRIu64 " bytes, expected %s = %" PRIu64,
+                          r->path, section_name(s->id), s->size, formula, want);
+    return LRR_OK;
+}
+
+/* The header fields the rest of the load uses. */
+struct header {
+    uint32_t version, count, dtype;
+    uint64_t n, k, d;
+    bool adaptive;
+};
+
+/* Reads the header into h and checks that it is one this library reads: magic, version and
+ * byte order (the first 16 bytes, which keep their meaning in every version), then its
+ * length and checksum. */
+static lrr_status read_header(struct reader *r, unsigned char h[HEADER_SIZE])
+{
+    size_t have = r->file_size < HEADER_SIZE ? (size_t)r->file_size : HEADER_SIZE;
+    lrr_status st = read_at(r, 0, h, have, "header");
+    if (st)
+        return st;
+    if (memcmp(h, MAGIC, have < 8 ? have : 8) != 0)
+        return lrr__error(r->ctx, LRR_ERR_VERSION,
+                          "file %s: not an lrr operator file (no \"LRROPER\" magic)", r->path);
+    if (have < 16)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: truncated: the header needs bytes 0..%u, file has %" PRIu64,
+                          r->path, HEADER_SIZE, r->file_size);
+    uint32_t version = get32(h + 8), mark = get32(h + 12);
+    if (version != FILE_VERSION && version != FILE_VERSION_ADAPTIVE)
+        return lrr__error(r->ctx, LRR_ERR_VERSION,
+                          "file %s: format version %" PRIu32 ", this library reads versions "
+                          "%u and %u",
+                          r->path, version, FILE_VERSION, FILE_VERSION_ADAPTIVE);
+    if (mark == 0x04030201u)
+        return lrr__error(r->ctx, LRR_ERR_VERSION,
+                          "file %s: written with the other byte order (big-endian)", r->path);
+    if (mark != ENDIAN_MARK)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: endianness marker %08" PRIx32 " is not %08x", r->path, mark,
+                          ENDIAN_MARK);
+    if (have < HEADER_SIZE)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: truncated: the header needs bytes 0..%u, file has %" PRIu64,
+                          r->path, HEADER_SIZE, r->file_size);
+    if (lrr__file_checksum(h, 56) != get64(h + 56))
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: header fails its checksum",
+                          r->path);
+    return LRR_OK;
+}
+
+/* Decodes the checked header h into hd and checks its fields: header size, element type,
+ * version against d, the section count and the sizes n, k, d. */
+static lrr_status check_header(struct reader *r, const unsigned char h[HEADER_SIZE],
+                               struct header *hd)
+{
+    uint32_t hsize = get32(h + 16);
+    hd->version = get32(h + 8);
+    hd->count = get32(h + 20);
+    hd->dtype = get32(h + 48);
+    hd->n = get64(h + 24);
+    hd->k = get64(h + 32);
+    hd->d = get64(h + 40);
+    if (hsize != HEADER_SIZE)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: header size %" PRIu32 ", not %u",
+                          r->path, hsize, HEADER_SIZE);
+    if (hd->dtype > LRR_STORAGE_BF16)
+        return lrr__error(r->ctx, LRR_ERR_VERSION,
+                          "file %s: element type %" PRIu32 " (this library reads 0 = float32, "
+                          "1 = binary16, 2 = bfloat16)",
+                          r->path, hd->dtype);
+    /* version 2: the adaptive hierarchy, d = 0 and patch sizes from PATCHES */
+    hd->adaptive = hd->version == FILE_VERSION_ADAPTIVE;
+    if (hd->adaptive != (hd->d == 0))
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: version %" PRIu32 " with d = %" PRIu64 " (version 1 has "
+                          "d > 0, version 2 d = 0)", r->path, hd->version, hd->d);
+    if (hd->count < SEC_COUNT || hd->count > MAX_SECTIONS)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: %" PRIu32 " sections (expected %d..%u)", r->path, hd->count,
+                          SEC_COUNT, MAX_SECTIONS);
+    uint64_t nk;
+    if (hd->adaptive ? hd->k == 0 || hd->k > hd->n || hd->n > SIZE_MAX
+                     : hd->k == 0 || hd->d == 0 || __builtin_mul_overflow(hd->k, hd->d, &nk) ||
+                           nk != hd->n || hd->n > SIZE_MAX)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: implausible sizes n = %" PRIu64 ", k = %" PRIu64
+                          ", d = %" PRIu64 " (need n = k·d > 0, or 0 < k <= n with d = 0 in "
+                          "version 2)",
+                          r->path, hd->n, hd->k, hd->d);
+    return LRR_OK;
+}
+
+/* Reads the table of count sections (and its checksum) into table; *tsize is its size. */
+static lrr_status read_table(struct reader *r, uint32_t count,
+                             unsigned char table[MAX_SECTIONS * ENTRY_SIZE + 8], size_t *tsize)
+{
+    *tsize = count * ENTRY_SIZE + 8;
+    if (HEADER_SIZE + *tsize > r->file_size)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: truncated: the section table needs bytes %u..%zu, file has "
+                          "%" PRIu64,
+                          r->path, HEADER_SIZE, HEADER_SIZE + *tsize, r->file_size);
+    lrr_status st = read_at(r, HEADER_SIZE, table, *tsize, "section table");
+    if (st)
+        return st;
+    if (lrr__file_checksum(table, *tsize - 8) != get64(table + *tsize - 8))
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section table fails its checksum",
+                          r->path);
+    return LRR_OK;
+}
+
+/* Collects the known sections of the table into sec (indexed by id-1), each once, inside the
+ * file and after the table, and checks that none this file's kind needs is missing. */
+static lrr_status find_sections(struct reader *r, const struct header *hd,
+                                const unsigned char *table, size_t tsize,
+                                struct section sec[SEC_KNOWN])
+{
+    bool seen[SEC_KNOWN] = {false};
+    for (uint32_t i = 0; i < hd->count; i++) {
+        const unsigned char *e = table + i * ENTRY_SIZE;
+        struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24)};
+        if (s.id < 1 || s.id > SEC_KNOWN || (s.id == SEC_ROWSCALE && hd->dtype == DTYPE_F32) ||
+            (s.id == SEC_PATCHES && !hd->adaptive))
+            continue; /* a later minor addition, or a section this file's kind ignores */
+        if (seen[s.id - 1])
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s appears twice",
+                              r->path, section_name(s.id));
+        uint64_t end;
+        if (__builtin_add_overflow(s.offset, s.size, &end) || end > r->file_size)
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: truncated: section %s needs bytes %" PRIu64 "..%" PRIu64
+                              ", file has %" PRIu64,
+                              r->path, section_name(s.id), s.offset,
+                              end < s.offset ? UINT64_MAX : end, r->file_size);
+        if (s.offset % ALIGN != 0 || s.offset < HEADER_SIZE + tsize || s.size > SIZE_MAX)
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section %s at offset %" PRIu64
+                              " is misplaced (must be 64-byte aligned, after the table)",
+                              r->path, section_name(s.id), s.offset);
+        seen[s.id - 1] = true;
+        sec[s.id - 1] = s;
+    }
+    for (int i = 0; i < SEC_KNOWN; i++)
+        if (!seen[i] && (i < SEC_COUNT || (i == SEC_ROWSCALE - 1 && hd->dtype != DTYPE_F32) ||
+                         (i == SEC_PATCHES - 1 && hd->adaptive)))
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s is missing",
+                              r->path, section_name((uint32_t)i + 1));
+    return LRR_OK;
+}
+
+/* Checks each section's size against n and k (GEOMETRY's against its triangle count comes
+ * with parse_geometry). */
+static lrr_status check_section_sizes(struct reader *r, const struct header *hd,
+                                      const struct section sec[SEC_KNOWN])
+{
+    const uint64_t n = hd->n, k = hd->k;
+    const uint32_t dtype = hd->dtype;
+    lrr_status st;
+    /* Every size below is bounded by the file size (checked by find_sections), so once these
+     * agree with n and k, allocating them cannot exceed what the file holds. */
+    if ((st = expect_size(r, &sec[SEC_RHO - 1], n, 3 * sizeof(float), "n×3 floats")) ||
+        (st = expect_size(r, &sec[SEC_EMISSION - 1], n, 3 * sizeof(float), "n×3 floats")) ||
+        (st = expect_size(r, &sec[SEC_INFO - 1], 1, INFO_SIZE, "the INFO record")))
+        return st;
+    uint64_t nk_elems, kk_elems;
+    if (__builtin_mul_overflow(n, k, &nk_elems) || __builtin_mul_overflow(k, k, &kk_elems))
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: implausible sizes n = %" PRIu64 ", k = %" PRIu64
+                          " (n·k overflows)",
+                          r->path, n, k);
+    if ((st = expect_size(r, &sec[SEC_FBAR - 1], nk_elems,
+                          dtype == DTYPE_F32 ? sizeof(float) : sizeof(uint16_t),
+                          dtype == DTYPE_F32 ? "n·k floats" : "n·k 16-bit values")) ||
+        (dtype != DTYPE_F32 &&
+         (st = expect_size(r, &sec[SEC_ROWSCALE - 1], n, sizeof(float), "n floats"))) ||
+        (st = expect_size(r, &sec[SEC_M - 1], kk_elems, 3 * sizeof(float), "3·k·k floats")) ||
+        (hd->adaptive && (st = expect_size(r, &sec[SEC_PATCHES - 1], k + PATCHES_PREFIX, 1,
+                                           "8 + k bytes"))))
+        return st;
+    if (sec[SEC_GEOMETRY - 1].size < GEOM_PREFIX)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section GEOMETRY has %" PRIu64 " bytes (at least %u)",
+                          r->path, sec[SEC_GEOMETRY - 1].size, GEOM_PREFIX);
+    return LRR_OK;
+}
+
+/* Reads and validates header and section table into sec[SEC_KNOWN] (indexed by id-1). */
+static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64_t *d,
+                              uint32_t *dtype_out, struct section sec[SEC_KNOWN])
+{
+    unsigned char h[HEADER_SIZE];
+    unsigned char table[MAX_SECTIONS * ENTRY_SIZE + 8];
+    struct header hd = {0};
+    size_t tsize;
+    lrr_status st;
+    if ((st = read_header(r, h)) || (st = check_header(r, h, &hd)) ||
+        (st = read_table(r, hd.count, table, &tsize)) ||
+        (st = find_sections(r, &hd, table, tsize, sec)) ||
+        (st = check_section_sizes(r, &hd, sec)))
+        return st;
+    *n = hd.n;
+    *k = hd.k;
+    *d = hd.d;
+    *dtype_out = hd.dtype;
+    return LRR_OK;
+}
+
+/* Parses the GEOMETRY payload into g (allocated; freed by the caller) and checks that the
+ * hierarchy it implies has the header's n, k and d. */
+static lrr_status parse_geometry(struct reader *r, const unsigned char *buf, uint64_t size,
+                                 uint64_t n, uint64_t k, uint64_t d, lrr__geometry *g,
+                                 int *builtin)
+{
+    uint64_t n_tri = get64(buf), want;
+    uint32_t levels = get32(buf + 8);
+    int32_t b;
+    memcpy(&b, buf + 12, 4);
+    if (n_tri == 0 || __builtin_mul_overflow(n_tri, 37, &want) ||
+        __builtin_add_overflow(want, GEOM_PREFIX, &want) || want != size)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section GEOMETRY has %" PRIu64
+                          " bytes, inconsistent with %" PRIu64 " triangles",
+                          r->path, size, n_tri);
+    if (b != LRR__SCENE_FILE && b != LRR__SCENE_CORNELL && b != LRR__SCENE_CORNELL_CLOSED)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: unknown scene kind %" PRId32,
+                          r->path, b);
+    *builtin = b;
+    lrr_status st;
+    size_t nt = (size_t)n_tri; /* <= file size / 37: fits */
+    if ((st = lrr__calloc(r->ctx, &g->vert, nt, 9 * sizeof(float), "triangle vertices")) ||
+        (st = lrr__calloc(r->ctx, &g->depth, nt, 1, "patch depths")) ||
+        (st = lrr__calloc(r->ctx, &g->patch0, nt + 1, sizeof(size_t), "patch index")))
+        return st;
+    g->n_tri = nt;
+    g->levels = levels;
+    memcpy(g->vert, buf + GEOM_PREFIX, nt * 9 * sizeof(float));
+    memcpy(g->depth, buf + GEOM_PREFIX + nt * 9 * sizeof(float), nt);
+    for (size_t i = 0; i < nt * 9; i++)
+        if (!isfinite(g->vert[i]))
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section GEOMETRY: triangle %zu has a non-finite "
+                              "coordinate",
+                              r->path, i / 9);
+    /* NULL context: an out-of-range level or depth here is corruption, reported below. */
+    if (lrr__geometry_index(NULL, g, (size_t)n) != LRR_OK || g->n != n ||
+        (d ? g->k != k || g->d != d : levels != 0))
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section GEOMETRY (levels %u, %zu triangles) does not give "
+                          "the header's n = %" PRIu64 ", k = %" PRIu64 ", d = %" PRIu64,
+                          r->path, levels, nt, n, k, d);
+    return LRR_OK;
+}
+
+/* Version 2: replaces the uniform g by the adaptive hierarchy the PATCHES payload gives. */
+static lrr_status parse_patches(struct reader *r, const struct section *ps, uint64_t k,
+                                lrr__geometry *g, double *selection_seconds)
+{
+    unsigned char *buf;
+    lrr_status st = lrr__calloc(r->ctx, &buf, (size_t)ps->size, 1, "PATCHES section");
+    if (st)
+        return st;
+    if ((st = read_section(r, ps, buf))) {
+        lrr_aligned_free(buf);
+        return st;
+    }
+    memcpy(selection_seconds, buf, 8);
+    if (!(*selection_seconds >= 0) || isinf(*selection_seconds)) {
+        lrr_aligned_free(buf);
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section PATCHES: selection time %g s", r->path,
+                          *selection_seconds);
+    }
+    char where[64 + 4096];
+    snprintf(where, sizeof where, "file %s: section PATCHES", r->path);
+    lrr__geometry a;
+    st = lrr__geometry_adaptive(r->ctx, g, buf + PATCHES_PREFIX, (size_t)k, where,
+                                LRR_ERR_CORRUPT, &a);
+    lrr_aligned_free(buf);
+    if (st)
+        return st;
+    lrr__geometry_free(g);
+    *g = a;
+    return LRR_OK;
+}
+
+static lrr_status check_values(struct reader *r, const lrr_operator *op)
+{
+    size_t n3 = op->n * 3;
+    for (size_t i = 0; i < n3; i++) {
+        float v = op->rho[i];
+        if (!(v >= 0.0f && v < 1.0f))
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section RHO: subpatch %zu channel %zu has reflectance "
+                              "%g outside [0,1)",
+                              r->path, i / 3, i % 3, (double)v);
+        float e = op->emission[i];
+        if (!(e >= 0.0f) || isinf(e))
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section EMISSION: subpatch %zu channel %zu has emission "
+                              "%g (must be finite and >= 0)",
+                              r->path, i / 3, i % 3, (double)e);
+    }
+    /* A non-finite F̄ or M would turn every solve into silent NaN. */
+    size_t nk = op->n * op->k;
+    /* binary16 and bfloat16 mark Inf/NaN by an all-ones exponent */
+    const uint16_t expmask = op->storage == LRR_STORAGE_F16 ? 0x7c00u : 0x7f80u;
+    for (size_t i = 0; i < nk; i++)
+        if (op->fbar ? !isfinite(op->fbar[i]) : (op->fbar16[i] & expmask) == expmask)
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section FBAR: entry (%zu, %zu) is not finite", r->path,
+                              i / op->k, i % op->k);
+    for (size_t i = 0; op->row_scale && i < op->n; i++) {
+        int e;
+        if (!(op->row_scale[i] > 0) || !isfinite(op->row_scale[i]) ||
+            frexpf(op->row_scale[i], &e) != 0.5f)
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section ROWSCALE: row %zu has scale %g (must be a "
+                              "positive power of two)",
+                              r->path, i, (double)op->row_scale[i]);
+        /* bfloat16 has float's range and is stored unscaled (storage.c). The kernels fold
+         * the scale in after the dot product, so huge stored values under a tiny scale
+         * would overflow there although the decoded F̄ is small. */
+        if (op->storage == LRR_STORAGE_BF16 && op->row_scale[i] != 1.0f)
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section ROWSCALE: row %zu has scale %g (bfloat16 rows "
+                              "are stored unscaled: 1)",
+                              r->path, i, (double)op->row_scale[i]);
+    }
+    /* F̄ holds form factors divided by d: each in [0, 1] (FBAR_MAX allows for the rounding
+     * of 16-bit storage). Anything else is corruption, and could make a solve overflow. */
+    float *row = NULL;
+    lrr_status st = lrr__calloc(r->ctx, &row, op->k, sizeof(float), "F̄ row");
+    if (st)
+        return st;
+    for (size_t i = 0; i < op->n && st == LRR_OK; i++) {
+        lrr_operator_fbar_row(op, i, row);
+        for (size_t j = 0; j < op->k; j++)
+            if (!(row[j] >= 0.0f && row[j] <= FBAR_MAX)) {
+                st = lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                                "file %s: section FBAR: entry (%zu, %zu) is %g (form factors "
+                                "divided by d lie in [0, 1])",
+                                r->path, i, j, (double)row[j]);
+                break;
+            }
+    }
+    lrr_aligned_free(row);
+    if (st)
+        return st;
+    size_t kk = op->k * op->k;
+    for (size_t i = 0; i < 3 * kk; i++)
+        if (!isfinite(op->m[i]))
+            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                              "file %s: section M: channel %zu entry (%zu, %zu) is not finite",
+                              r->path, i / kk, i % kk / op->k, i % op->k);
+    return LRR_OK;
+}
+
+lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **out)
+{
+    *out = NULL;
+    if (!LRR__FILE_LITTLE_ENDIAN)
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "file %s: .lrr files are little-endian; this host is not", path);
+    struct reader r = {ctx, path, -1, 0};
+    /* O_NONBLOCK: opening a FIFO without a writer would otherwise hang; it changes nothing
+     * for the regular files accepted below. */
+    r.fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    if (r.fd < 0) {
+        char eb[128];
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
+                          lrr__errno_text(errno, eb, sizeof eb));
+    }
+    struct stat sb;
+    if (fstat(r.fd, &sb) != 0) {
+        int err = errno;
+        close(r.fd);
+        char eb[128];
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot stat: %s", path,
+                          lrr__errno_text(err, eb, sizeof eb));
+    }
+    if (!S_ISREG(sb.st_mode)) {
+        close(r.fd);
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: not a regular file", path);
+    }
+    r.file_size = (uint64_t)sb.st_size;
+
+    uint64_t n = 0, k = 0, d = 0;
+    struct section sec[SEC_KNOWN];
+    uint32_t dtype = 0;
+    unsigned char *geom_buf = NULL;
+    lrr__geometry g;
+    memset(&g, 0, sizeof g);
+    lrr_operator *op = NULL;
+    unsigned char info[INFO_SIZE];
+    int builtin = 0;
+    double selection_seconds = 0;
+
+    lrr_status st = read_layout(&r, &n, &k, &d, &dtype, sec);
+    if (st)
+        goto done;
+    const struct section *gs = &sec[SEC_GEOMETRY - 1];
+    if ((st = lrr__calloc(ctx, &geom_buf, (size_t)gs->size, 1, "GEOMETRY section")) ||
+        (st = read_section(&r, gs, geom_buf)) ||
+        (st = parse_geometry(&r, geom_buf, gs->size, n, k, d, &g, &builtin)) ||
+        (d == 0 && (st = parse_patches(&r, &sec[SEC_PATCHES - 1], k, &g, &selection_seconds))) ||
+        (st = read_section(&r, &sec[SEC_INFO - 1], info)))
+        goto done;
+    if ((st = lrr__operator_new(ctx, &g, (lrr_storage)dtype, &op)))
+        goto done;
+    if ((st = read_section(&r, &sec[SEC_RHO - 1], op->rho)) ||
+        (st = read_section(&r, &sec[SEC_EMISSION - 1], op->emission)) ||
+        (st = read_section(&r, &sec[SEC_FBAR - 1],
+                           dtype == DTYPE_F32 ? (void *)op->fbar : (void *)op->fbar16)) ||
+        (dtype != DTYPE_F32 && (st = read_section(&r, &sec[SEC_ROWSCALE - 1], op->row_scale))) ||
+        (st = read_section(&r, &sec[SEC_M - 1], op->m)) || (st = check_values(&r, op)))
+        goto done;
+    for (int c = 0; c < 3; c++)
+        memcpy(&op->cond[c], info + 8 * c, 8);
+    memcpy(&op->build_seconds, info + 24, 8);
+    op->hemicube_resolution = get32(info + 32);
+    op->no_rotation = (get32(info + 36) & 1u) != 0;
+    op->seed = get64(info + 40);
+    op->builtin = builtin;
+    op->selection_seconds = selection_seconds;
+
+done:
+    close(r.fd);
+    lrr_aligned_free(geom_buf);
+    lrr__geometry_free(&g);
+    if (st) {
+        lrr_operator_destroy(op);
+        return st;
+    }
+    *out = op;
+    return LRR_OK;
+}
