@@ -10,6 +10,7 @@
 #include "core/atomic_file.h"
 #include <pthread.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -80,13 +81,20 @@ void lrr__context_atomic_io(lrr_context *ctx, lrr__atomic_io *io);
  * the temporary file and the errno (LRR_ERR_NOMEM when the temporary name was not had). */
 lrr_status lrr__atomic_error(lrr_context *ctx, const lrr__atomic_file *w);
 /* Growable structs (lrr.h "Conventions"). lrr__options_read copies the caller's option
- * struct `in` (starting with its size_t size) into out, `known` = sizeof the struct in this
- * lrr: size 0 is read as this layout; a smaller or misaligned size is LRR_ERR_INVALID_ARG;
- * bytes beyond `known` must be zero (LRR_ERR_UNSUPPORTED otherwise). out->size = known.
- * Errors name `what` (the struct's type name). lrr__info_write copies info (info_size
- * bytes) into the caller's out (out_size bytes), zeroing what this lrr does not fill. */
-lrr_status lrr__options_read(lrr_context *ctx, const void *in, size_t known, void *out,
-                             const char *what);
+ * struct `in` (starting with its size_t size) over out (holding the defaults), `known` =
+ * sizeof the struct in this lrr, `first` = its size in ABI 1 (LRR__FIRST_SIZE): size 0 is
+ * read as the first layout; a size below it or misaligned is LRR_ERR_INVALID_ARG; bytes
+ * beyond `known` must be zero (LRR_ERR_UNSUPPORTED otherwise); fields an older caller lacks
+ * keep out's defaults. out->size = known. Errors name `what` (the struct's type name).
+ * lrr__info_write copies info (info_size bytes) into the caller's out (out_size bytes),
+ * zeroing what this lrr does not fill. */
+lrr_status lrr__options_read(lrr_context *ctx, const void *in, size_t known, size_t first,
+                             void *out, const char *what);
+/* The size a growable struct T had in ABI 1, whose last field was `last`: new fields are
+ * only ever appended, so this stays what size = 0 means. */
+#define LRR__FIRST_SIZE(T, last)                                                             \
+    ((offsetof(T, last) + sizeof(((T *)0)->last) + _Alignof(T) - 1) / _Alignof(T) *           \
+     _Alignof(T))
 void lrr__info_write(void *out, size_t out_size, const void *info, size_t info_size);
 /* Thread-safe strerror: the text of errno err, in buf or a static string. */
 const char *lrr__errno_text(int err, char *buf, size_t len);

@@ -423,7 +423,9 @@ lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_op
     memset(o, 0, sizeof *o);
     o->size = sizeof *o;
     lrr_status st;
-    if (opts && (st = lrr__options_read(scene->ctx, opts, sizeof *o, o, "lrr_build_options")))
+    if (opts && (st = lrr__options_read(scene->ctx, opts, sizeof *o,
+                                        LRR__FIRST_SIZE(lrr_build_options, adaptive_split), o,
+                                        "lrr_build_options")))
         return st;
     if (o->hemicube_resolution == 0)
         o->hemicube_resolution = 128;

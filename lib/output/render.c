@@ -156,7 +156,9 @@ static lrr_status check_request(const lrr_operator *op, const float *radiosity,
     lrr_context *ctx = op->ctx;
     *o = lrr_render_options_defaults();
     lrr_status st;
-    if (opts && (st = lrr__options_read(ctx, opts, sizeof *o, o, "lrr_render_options")))
+    if (opts && (st = lrr__options_read(ctx, opts, sizeof *o,
+                                        LRR__FIRST_SIZE(lrr_render_options, use_cornell_camera),
+                                        o, "lrr_render_options")))
         return st;
     *width = o->width ? o->width : RENDER_DEFAULT_SIZE;
     *height = o->height ? o->height : RENDER_DEFAULT_SIZE;

@@ -128,9 +128,11 @@ static lrr_status check_args(lrr_context *ctx, const lrr_probe *probe, size_t co
     if (count > ((size_t)1 << 16) || m > ((size_t)1 << 24))
         return lrr__error(ctx, LRR_ERR_OVERFLOW,
                           "irradiance fit: %zu lights × %zu normals is too large", count, m);
-    lrr_fit_options o;
+    lrr_fit_options o = lrr_fit_options_defaults();
     lrr_status st;
-    if (opts && (st = lrr__options_read(ctx, opts, sizeof o, &o, "lrr_fit_options")))
+    if (opts && (st = lrr__options_read(ctx, opts, sizeof o,
+                                        LRR__FIRST_SIZE(lrr_fit_options, history_len), &o,
+                                        "lrr_fit_options")))
         return st;
     if (opts) {
         opts = &o;

@@ -325,9 +325,11 @@ static lrr_status choose_threshold(lrr_scene *s, size_t target, double *best_are
 
 lrr_status lrr_scene_subdivide(lrr_scene *s, const lrr_subdivision *user)
 {
-    lrr_subdivision o;
+    lrr_subdivision o = lrr_subdivision_defaults();
     const lrr_subdivision *opts = &o;
-    lrr_status st = lrr__options_read(s->ctx, user, sizeof o, &o, "lrr_subdivision");
+    lrr_status st = lrr__options_read(s->ctx, user, sizeof o,
+                                      LRR__FIRST_SIZE(lrr_subdivision, levels), &o,
+                                      "lrr_subdivision");
     if (st)
         return st;
     if (opts->levels > 10)

@@ -3,6 +3,8 @@
  * fields refused), info structs written up to the caller's size. */
 #include "testutil.h"
 
+#include "core/internal.h"
+
 
 static lrr_scene *cornell(lrr_context *ctx)
 {
@@ -127,6 +129,23 @@ static void test_defaults_equal_null(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* ABI 1's layouts: what size = 0 means is the whole of today's structs (a field inserted
+ * before the last one, instead of appended, changes a first size and fails here). */
+static void test_first_sizes(void **state)
+{
+    (void)state;
+    assert_int_equal(LRR__FIRST_SIZE(lrr_subdivision, levels), sizeof(lrr_subdivision));
+    assert_int_equal(LRR__FIRST_SIZE(lrr_build_options, adaptive_split),
+                     sizeof(lrr_build_options));
+    assert_int_equal(LRR__FIRST_SIZE(lrr_render_options, use_cornell_camera),
+                     sizeof(lrr_render_options));
+    assert_int_equal(LRR__FIRST_SIZE(lrr_fit_options, history_len), sizeof(lrr_fit_options));
+    assert_int_equal(offsetof(lrr_subdivision, size), 0);
+    assert_int_equal(offsetof(lrr_build_options, size), 0);
+    assert_int_equal(offsetof(lrr_render_options, size), 0);
+    assert_int_equal(offsetof(lrr_fit_options, size), 0);
+}
+
 /* Info structs: an older caller's shorter struct gets what fits and nothing beyond it; a
  * newer caller's longer one gets zeros where this lrr has no field. */
 static void test_info_sizes(void **state)
@@ -181,6 +200,7 @@ int main(void)
         cmocka_unit_test(test_option_sizes),
         cmocka_unit_test(test_defaults_equal_null),
         cmocka_unit_test(test_info_sizes),
+        cmocka_unit_test(test_first_sizes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
