@@ -492,8 +492,21 @@ typedef struct lrr_render_options {
     size_t size;             /* sizeof(lrr_render_options) (lrr_render_options_defaults) or 0 */
     unsigned width, height;  /* pixels; 0 = 512 */
     double exposure;         /* multiplier before tone mapping; 0 = automatic */
-    int use_cornell_camera;  /* 1: the Cornell camera; 0: a camera framing the scene;
-                                -1: automatic (the Cornell camera for the built-in boxes) */
+    int use_cornell_camera;  /* 1: the Cornell camera; 0: a camera framing the scene from
+                                outside; -1: automatic (the Cornell camera for the built-in
+                                boxes; inside a closed scene with light sources, see below;
+                                else framing) */
+    /* Appended after ABI 1's layout: read only when size covers them, so set size with
+     * lrr_render_options_defaults() (size = 0 reads the first layout: these keep their
+     * defaults). */
+    double eye[3], target[3]; /* use_eye = 1: a pinhole camera at eye looking at target */
+    double up[3];            /* the picture's up direction (0, 0, 0 = +y); not parallel to
+                                target − eye */
+    double fov_degrees;      /* vertical field of view, 0 < fov < 180; 0 = the camera's own
+                                (60 for eye and the inside camera, 40 framing, 2·atan(12.5/35)
+                                ≈ 39.3 Cornell) */
+    int use_eye;             /* 1: the eye/target camera (use_cornell_camera is ignored);
+                                0: use_cornell_camera decides */
 } lrr_render_options;
 static inline lrr_render_options lrr_render_options_defaults(void)
 {
@@ -502,12 +515,28 @@ static inline lrr_render_options lrr_render_options_defaults(void)
     o.size = sizeof o;
     o.width = o.height = 512;
     o.use_cornell_camera = -1;
+    o.up[1] = 1;
     return o;
 }
 
 /* Draws the operator's geometry with Gouraud-interpolated subpatch radiosity (n×3), tone
- * mapped to sRGB, and writes a PNG atomically. opts may be NULL. Thread safety: any thread. */
+ * mapped to sRGB, and writes a PNG atomically. opts may be NULL. Triangles are one-sided
+ * (back faces are not drawn) and clipped at a near plane just in front of the eye, so a
+ * camera inside a room sees its walls.
+ * The automatic camera (use_cornell_camera = -1, use_eye = 0) stands inside a closed scene
+ * that emits light: when 98% of 128 rays from a candidate eye (at 60% of the height, 10% of
+ * the longest horizontal side from one end, or at the centre) first meet a triangle facing
+ * it, it looks from there along that side, towards the end that shows more lit area. A
+ * camera framing such a room from outside would see through its near walls and miss a
+ * ceiling light. Thread safety: any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_render_png(const lrr_operator *op, const float *radiosity,
+                                                const lrr_render_options *opts,
+                                                const char *path) LRR_NONNULL(1, 2, 4);
+/* The same picture as lrr_render_png (same options, camera and rasteriser), written as
+ * OpenEXR: linear radiosity (W/m², what the PNG tone maps; no exposure, no curve) in float
+ * R, G, B channels (ZIP compression), 0 where no surface is seen. Written atomically: path
+ * is never a partial file. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_render_exr(const lrr_operator *op, const float *radiosity,
                                                 const lrr_render_options *opts,
                                                 const char *path) LRR_NONNULL(1, 2, 4);
 

@@ -1,6 +1,9 @@
 /* lrr render: solve a saved operator for its stored emission (optionally lit by a probe) and
- * draw the scene with its radiosity to a PNG. */
+ * draw the scene with its radiosity to a PNG (tone mapped) or an OpenEXR file (linear). */
+#include <errno.h>
 #include <getopt.h>
+#include <math.h>
+#include <strings.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,17 +13,27 @@
 static const char prog[] = "lrr render";
 
 static const char render_help[] =
-    "Usage: lrr render FILE.lrr -o OUT.png [OPTIONS]\n"
-    "Solves for the stored emission and draws the scene with its radiosity to a PNG.\n"
+    "Usage: lrr render FILE.lrr -o OUT.png|OUT.exr [OPTIONS]\n"
+    "Solves for the stored emission and draws the scene with its radiosity: a PNG (tone\n"
+    "mapped sRGB) or an OpenEXR file (linear radiosity, float RGB, 0 = background).\n"
     "\n"
     "Options:\n"
-    "  -o, --output OUT.png where to write the picture (required)\n"
+    "  -o, --output OUT     where to write the picture (required); the format follows the\n"
+    "                       extension, .png or .exr (any case)\n"
+    "  --format F           png or exr: wins over the extension (needed for any other one)\n"
     "  --width W            picture width in pixels (1..16384, default 512)\n"
     "  --height H           picture height in pixels (1..16384, default 512)\n"
-    "  --exposure X         multiplier before tone mapping (> 0; default automatic)\n"
+    "  --exposure X         PNG: multiplier before tone mapping (> 0; default automatic)\n"
     "  --emission-scale S   multiply the stored emission by S (finite, >= 0; default 1)\n"
-    "  --camera C           'cornell', 'fit' (frame the scene) or 'auto' (default: the\n"
-    "                       Cornell camera for the built-in boxes)\n"
+    "  --camera C           'cornell', 'fit' (frame the scene from outside) or 'auto'\n"
+    "                       (default: the Cornell camera for the built-in boxes, a view\n"
+    "                       from inside for a closed scene with lights, else 'fit')\n"
+    "  --eye X,Y,Z          a pinhole camera at this point (scene units) ...\n"
+    "  --target X,Y,Z       ... looking at this one (required with --eye)\n"
+    "  --up X,Y,Z           --eye: the picture's up direction (default 0,1,0; not parallel\n"
+    "                       to target - eye)\n"
+    "  --fov DEGREES        vertical field of view, 0 < fov < 180 (default 60 for --eye and\n"
+    "                       the inside view, 40 for 'fit', 39.3 for 'cornell')\n"
     "  --probe PROBE        light the scene with a latitude-longitude probe (.hdr, +y up,\n"
     "                       at infinity): its fitted directional lights give the reflected\n"
     "                       direct light E_i = rho_i sum_l I_l max(0, n_i.w_l) visible(x_i, w_l)\n"
@@ -32,14 +45,35 @@ static const char render_help[] =
     "  --no-scene-emission  --probe: leave out the stored emission (probe light only)\n"
     "  -h, --help           show this help\n";
 
+enum { FORMAT_NONE, FORMAT_PNG, FORMAT_EXR };
+
 typedef struct render_args {
     const char *file, *output;
     probe_args pa;
     lrr_render_options ro;
     double scale;
+    int format;                  /* --format, else FORMAT_NONE */
+    int have_eye, have_target, have_up, have_camera;
 } render_args;
 
 /* ------------------------------------------------------------------ parsing */
+/* "X,Y,Z": three finite numbers; 0 or -1 (reported, naming opt). */
+static int parse_vec3(const char *opt, const char *arg, double v[3])
+{
+    const char *p = arg;
+    for (int j = 0; j < 3; j++) {
+        char *end = NULL;
+        errno = 0;
+        v[j] = strtod(p, &end);
+        if (end == p || errno == ERANGE || !isfinite(v[j]) || *end != (j < 2 ? ',' : '\0')) {
+            cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
+            return -1;
+        }
+        p = end + 1;
+    }
+    return 0;
+}
+
 /* The options of render alone: 1 handled, 0 not one of them, -1 usage error (reported). */
 static int render_option(render_args *a, int c, const char *arg)
 {
@@ -57,7 +91,35 @@ static int render_option(render_args *a, int c, const char *arg)
     case OPT_EMISSION_SCALE:
         return cli_parse_double(prog, "--emission-scale", arg, 0.0, 0, 1e300, &a->scale) != 0
                    ? -1 : 1;
+    case OPT_EYE:
+        a->have_eye = 1;
+        return parse_vec3("--eye", arg, a->ro.eye) != 0 ? -1 : 1;
+    case OPT_TARGET:
+        a->have_target = 1;
+        return parse_vec3("--target", arg, a->ro.target) != 0 ? -1 : 1;
+    case OPT_UP:
+        a->have_up = 1;
+        return parse_vec3("--up", arg, a->ro.up) != 0 ? -1 : 1;
+    case OPT_FOV:
+        if (cli_parse_double(prog, "--fov", arg, 0.0, 1, 180.0, &a->ro.fov_degrees) != 0)
+            return -1;
+        if (a->ro.fov_degrees >= 180) {
+            cli_usage_error(prog, "--fov: '%s' is out of range (it must be less than 180)", arg);
+            return -1;
+        }
+        return 1;
+    case OPT_FORMAT:
+        if (strcmp(arg, "png") == 0)
+            a->format = FORMAT_PNG;
+        else if (strcmp(arg, "exr") == 0)
+            a->format = FORMAT_EXR;
+        else {
+            cli_usage_error(prog, "--format: '%s' is not one of png, exr", arg);
+            return -1;
+        }
+        return 1;
     case OPT_CAMERA:
+        a->have_camera = 1;
         if (strcmp(arg, "cornell") == 0)
             a->ro.use_cornell_camera = 1;
         else if (strcmp(arg, "fit") == 0)
@@ -74,6 +136,68 @@ static int render_option(render_args *a, int c, const char *arg)
     }
 }
 
+/* --eye needs --target (and they exclude --camera); --up only with --eye; the library's
+ * checks repeated here, so that a bad camera is a usage error naming the option. */
+static int camera_finish(render_args *a)
+{
+    if (!a->have_eye && (a->have_target || a->have_up)) {
+        cli_usage_error(prog, "%s needs --eye", a->have_target ? "--target" : "--up");
+        return -1;
+    }
+    if (!a->have_eye)
+        return 0;
+    if (!a->have_target) {
+        cli_usage_error(prog, "--eye needs --target");
+        return -1;
+    }
+    if (a->have_camera) {
+        cli_usage_error(prog, "--eye and --camera exclude each other");
+        return -1;
+    }
+    double f[3], s[3];
+    const double *u = a->ro.up;
+    for (int j = 0; j < 3; j++)
+        f[j] = a->ro.target[j] - a->ro.eye[j];
+    if (f[0] == 0 && f[1] == 0 && f[2] == 0) {
+        cli_usage_error(prog, "--target: equals --eye (no view direction)");
+        return -1;
+    }
+    s[0] = f[1] * u[2] - f[2] * u[1];
+    s[1] = f[2] * u[0] - f[0] * u[2];
+    s[2] = f[0] * u[1] - f[1] * u[0];
+    double lf = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
+    double lu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    if (!(sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]) > 1e-6 * lf * lu)) {
+        cli_usage_error(prog, "--up: (%g,%g,%g) is zero or parallel to the view direction "
+                        "target - eye",
+                        u[0], u[1], u[2]);
+        return -1;
+    }
+    a->ro.use_eye = 1;
+    return 0;
+}
+
+/* The output format: --format, else the extension (.png, .exr, any case). */
+static int format_finish(render_args *a)
+{
+    if (a->format != FORMAT_NONE)
+        return 0;
+    const char *dot = strrchr(a->output, '.');
+    if (dot && strchr(dot, '/') == NULL) {
+        if (strcasecmp(dot, ".png") == 0)
+            a->format = FORMAT_PNG;
+        else if (strcasecmp(dot, ".exr") == 0)
+            a->format = FORMAT_EXR;
+    }
+    if (a->format == FORMAT_NONE) {
+        cli_usage_error(prog, "-o %s: unknown picture format (name it .png or .exr, or give "
+                        "--format png|exr)",
+                        a->output);
+        return -1;
+    }
+    return 0;
+}
+
 /* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
 static int parse_render(render_args *a, int argc, char *argv[])
 {
@@ -84,12 +208,16 @@ static int parse_render(render_args *a, int argc, char *argv[])
         {"exposure", required_argument, NULL, OPT_EXPOSURE},
         {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
         {"camera", required_argument, NULL, OPT_CAMERA},
+        {"eye", required_argument, NULL, OPT_EYE},
+        {"target", required_argument, NULL, OPT_TARGET},
+        {"up", required_argument, NULL, OPT_UP},
+        {"fov", required_argument, NULL, OPT_FOV},
+        {"format", required_argument, NULL, OPT_FORMAT},
         PROBE_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
-    *a = (render_args){
-        .ro = {.width = 0, .height = 0, .exposure = 0.0, .use_cornell_camera = -1},
-        .scale = 1.0};
+    *a = (render_args){.ro = lrr_render_options_defaults(), .scale = 1.0};
+    a->ro.width = a->ro.height = 0;
     probe_args_init(&a->pa);
     start_getopt();
     int c;
@@ -108,11 +236,11 @@ static int parse_render(render_args *a, int argc, char *argv[])
     if (!a->file)
         return CLI_EXIT_USAGE;
     if (!a->output || !a->output[0]) {
-        cli_usage_error(prog, "-o OUT.png is required");
+        cli_usage_error(prog, "-o OUT.png (or OUT.exr) is required");
         fprintf(stderr, "Try '%s --help'.\n", prog);
         return CLI_EXIT_USAGE;
     }
-    if (probe_finish(&a->pa, prog) != 0)
+    if (probe_finish(&a->pa, prog) != 0 || camera_finish(a) != 0 || format_finish(a) != 0)
         return CLI_EXIT_USAGE;
     return CLI_RUN;
 }
@@ -140,7 +268,8 @@ static int run_render(const render_args *a)
                : CLI_EXIT_FAIL;
     }
     if (rc == CLI_EXIT_OK) {
-        s = lrr_render_png(op, b, &a->ro, a->output);
+        s = a->format == FORMAT_EXR ? lrr_render_exr(op, b, &a->ro, a->output)
+                                    : lrr_render_png(op, b, &a->ro, a->output);
         if (s != LRR_OK)
             rc = cli_lib_error(ctx, s);
     }

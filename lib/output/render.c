@@ -1,6 +1,7 @@
 /* Pictures: a software z-buffer rasteriser that draws the subpatch mesh with Gouraud-
- * interpolated radiosity, tone maps it and writes a PNG atomically. Here the entry point,
- * tone mapping and PNG output; the camera (camera.c), the vertex welding (weld.c) and the
+ * interpolated radiosity, tone maps it and writes a PNG atomically, or writes the linear
+ * radiosity as OpenEXR (exr.cpp encodes it). Here the entry points, tone mapping and PNG
+ * output; the camera (camera.c), the vertex welding (weld.c) and the
  * rasteriser (raster.c) beside it, render_internal.h what they share. */
 #include "config.h"
 #include "output/render_internal.h"
@@ -147,6 +148,48 @@ static lrr_status write_atomic(lrr_context *ctx, const char *path, const unsigne
 
 /* ------------------------------------------------------------------ the entry point */
 
+static int finite3(const double v[3])
+{
+    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
+}
+
+/* The field of view and the eye/target camera's vectors: finite, eye != target, up not
+ * parallel to the view direction (the picture's orientation would be undefined). */
+static lrr_status check_camera(lrr_context *ctx, const lrr_render_options *o, const char *path)
+{
+    if (!isfinite(o->fov_degrees) || o->fov_degrees < 0 || o->fov_degrees >= 180)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "render %s: fov_degrees = %g: expected 0 < fov < 180 (0 = default)",
+                          path, o->fov_degrees);
+    if (o->use_eye < 0 || o->use_eye > 1)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "render %s: use_eye = %d: expected 0 or 1",
+                          path, o->use_eye);
+    if (!o->use_eye)
+        return LRR_OK;
+    const char *bad = !finite3(o->eye) ? "eye" : !finite3(o->target) ? "target"
+                      : !finite3(o->up) ? "up" : NULL;
+    if (bad)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "render %s: camera %s is not finite", path,
+                          bad);
+    double fwd[3], side[3], up[3] = {o->up[0], o->up[1], o->up[2]};
+    for (int j = 0; j < 3; j++)
+        fwd[j] = o->target[j] - o->eye[j];
+    if (up[0] == 0 && up[1] == 0 && up[2] == 0)
+        up[1] = 1;
+    double lf = sqrt(lrr__dot3(fwd, fwd)), lu = sqrt(lrr__dot3(up, up));
+    if (!(lf > 0) || !isfinite(lf))
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "render %s: camera eye = target = (%g, %g, %g): no view direction",
+                          path, o->eye[0], o->eye[1], o->eye[2]);
+    lrr__cross3(fwd, up, side);
+    if (!(sqrt(lrr__dot3(side, side)) > 1e-6 * lf * lu))
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "render %s: camera up (%g, %g, %g) is parallel to the view direction "
+                          "target - eye (%g, %g, %g)",
+                          path, up[0], up[1], up[2], fwd[0], fwd[1], fwd[2]);
+    return LRR_OK;
+}
+
 /* o = the options (defaults when opts is NULL), width × height the picture's size, after
  * checking them, the path and the operator's radiosity: errors name the path. */
 static lrr_status check_request(const lrr_operator *op, const float *radiosity,
@@ -174,6 +217,8 @@ static lrr_status check_request(const lrr_operator *op, const float *radiosity,
         return lrr__error(ctx, LRR_ERR_INVALID_ARG,
                           "render %s: use_cornell_camera = %d: expected -1, 0 or 1", path,
                           o->use_cornell_camera);
+    if ((st = check_camera(ctx, o, path)))
+        return st;
     if (!*path)
         return lrr__error(ctx, LRR_ERR_INVALID_ARG, "render: empty output path");
     if (op->n >= UINT32_MAX)
@@ -205,7 +250,8 @@ typedef struct render_buffers {
     lrr__rtri *tris;
     size_t nt;
     lrr__framebuffer fb;
-    uint8_t *pixels;          /* the picture: 8-bit sRGB, 3 per pixel */
+    uint8_t *pixels;          /* the picture: 8-bit sRGB, 3 per pixel (PNG only) */
+    int want_pixels;
 } render_buffers;
 
 /* All but the welded vertices' colours and the screen triangles, whose sizes come later. */
@@ -224,7 +270,7 @@ static lrr_status render_alloc(lrr_context *ctx, size_t n, render_buffers *b)
         (st = lrr__calloc(ctx, &b->fb.rgb, npix, 3 * sizeof *b->fb.rgb,
                           "render: colour buffer")) ||
         (st = lrr__calloc(ctx, &b->fb.id, npix, sizeof *b->fb.id, "render: id buffer")) ||
-        (st = lrr__calloc(ctx, &b->pixels, npix, 3, "render: picture")))
+        (b->want_pixels && (st = lrr__calloc(ctx, &b->pixels, npix, 3, "render: picture"))))
         return st;
     return LRR_OK;
 }
@@ -324,34 +370,57 @@ static lrr_status write_png(lrr_context *ctx, const char *path, unsigned width,
     return st;
 }
 
+/* b->fb: the picture of op under options o (checked), its radiosity before tone mapping. */
+static lrr_status render_framebuffer(const lrr_operator *op, const float *radiosity,
+                                     const lrr_render_options *o, render_buffers *b)
+{
+    lrr__camera cam;
+    lrr__render_camera_setup(&cam, op, radiosity, o, b->fb.width, b->fb.height);
+    lrr_status st = render_alloc(op->ctx, op->n, b);
+    if (!st)
+        st = shade_vertices(op, radiosity, b);
+    if (!st)
+        st = screen_triangles(op, &cam, b);
+    if (!st)
+        st = lrr__render_raster_all(op->ctx, &b->fb, b->tris, b->nt);
+    return st;
+}
+
 lrr_status lrr_render_png(const lrr_operator *op, const float *radiosity,
                           const lrr_render_options *opts, const char *path)
 {
-    lrr_context *ctx = op->ctx;
     lrr_render_options o;
     unsigned width, height;
     lrr_status st = check_request(op, radiosity, opts, path, &o, &width, &height);
     if (st)
         return st;
-
-    int cornell = o.use_cornell_camera == 1 ||
-                  (o.use_cornell_camera == -1 && (op->builtin == LRR__SCENE_CORNELL ||
-                                                  op->builtin == LRR__SCENE_CORNELL_CLOSED));
-    lrr__camera cam;
-    lrr__render_camera_setup(&cam, op, cornell, width, height);
-
-    render_buffers b = {.fb = {width, height, NULL, NULL, NULL}};
-    st = render_alloc(ctx, op->n, &b);
-    if (!st)
-        st = shade_vertices(op, radiosity, &b);
-    if (!st)
-        st = screen_triangles(op, &cam, &b);
-    if (!st)
-        st = lrr__render_raster_all(ctx, &b.fb, b.tris, b.nt);
+    render_buffers b = {.fb = {width, height, NULL, NULL, NULL}, .want_pixels = 1};
+    st = render_framebuffer(op, radiosity, &o, &b);
     if (!st)
         st = tone_map(op, radiosity, o.exposure, &b);
     if (!st)
-        st = write_png(ctx, path, width, height, b.pixels);
+        st = write_png(op->ctx, path, width, height, b.pixels);
+    render_free(&b);
+    return st;
+}
+
+lrr_status lrr_render_exr(const lrr_operator *op, const float *radiosity,
+                          const lrr_render_options *opts, const char *path)
+{
+    lrr_render_options o;
+    unsigned width, height;
+    lrr_status st = check_request(op, radiosity, opts, path, &o, &width, &height);
+    if (st)
+        return st;
+    render_buffers b = {.fb = {width, height, NULL, NULL, NULL}};
+    st = render_framebuffer(op, radiosity, &o, &b);
+    unsigned char *data = NULL;
+    size_t len = 0;
+    if (!st)
+        st = lrr__render_encode_exr(op->ctx, path, width, height, b.fb.rgb, &data, &len);
+    if (!st)
+        st = write_atomic(op->ctx, path, data, len);
+    lrr_aligned_free(data);
     render_free(&b);
     return st;
 }

@@ -1,5 +1,6 @@
-/* Shared by the files of the renderer (lib/output/ only; lrr.h declares lrr_render_png):
- * render.c (the entry point, tone mapping, PNG output), camera.c (the camera of the
+/* Shared by the files of the renderer (lib/output/ only; lrr.h declares lrr_render_png and
+ * lrr_render_exr): render.c (the entry points, tone mapping, PNG output), exr.cpp (OpenEXR
+ * output), camera.c (the camera of the
  * built-in scenes and of generic bounds), weld.c (subpatch corners welded into shared
  * vertices for smooth shading) and raster.c (clipping, triangle setup, the z-buffer
  * rasteriser). */
@@ -37,10 +38,11 @@ typedef struct lrr__framebuffer {
 /* camera.c */
 /* lo, hi: the bounding box of g's input triangles (all 0 when it has none). */
 void lrr__render_scene_bounds(const lrr__geometry *g, double lo[3], double hi[3]);
-/* The camera of a width×height picture of op: the Cornell box's published one when cornell
- * is set, otherwise one framing the scene's bounding sphere. */
-void lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op, int cornell,
-                              unsigned width, unsigned height);
+/* The camera of a width×height picture of op with radiosity (n×3) under options o (checked):
+ * the eye/target camera, the Cornell box's published one, one inside a lit closed scene or
+ * one framing the scene's bounding sphere (lrr.h lrr_render_png says which when). */
+void lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op, const float *radiosity,
+                              const lrr_render_options *o, unsigned width, unsigned height);
 
 /* weld.c */
 /* corner_vertex (3n): per subpatch corner (pos, 9 per subpatch) a welded vertex;
@@ -59,5 +61,13 @@ int lrr__render_setup_subpatch(const lrr__camera *cam, unsigned width, unsigned 
 /* Draws the nt triangles into fb (depth, colour and subpatch id per pixel). */
 lrr_status lrr__render_raster_all(lrr_context *ctx, lrr__framebuffer *fb,
                                   const lrr__rtri *tris, size_t nt);
+
+/* exr.cpp */
+/* Encodes width×height linear RGB floats (row 0 at the top) as an OpenEXR file (float R, G,
+ * B, ZIP compression) in memory: *data (lrr__alloc'd, free with lrr_aligned_free) of *len
+ * bytes. Errors name path; no exception escapes. */
+lrr_status lrr__render_encode_exr(lrr_context *ctx, const char *path, unsigned width,
+                                  unsigned height, const float *rgb, unsigned char **data,
+                                  size_t *len);
 
 #endif

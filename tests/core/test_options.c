@@ -137,8 +137,11 @@ static void test_first_sizes(void **state)
     assert_int_equal(LRR__FIRST_SIZE(lrr_subdivision, levels), sizeof(lrr_subdivision));
     assert_int_equal(LRR__FIRST_SIZE(lrr_build_options, adaptive_split),
                      sizeof(lrr_build_options));
+    /* lrr_render_options grew (the camera): its new fields start exactly where ABI 1's
+     * layout ended, past its padding, which an old caller may leave unset */
     assert_int_equal(LRR__FIRST_SIZE(lrr_render_options, use_cornell_camera),
-                     sizeof(lrr_render_options));
+                     offsetof(lrr_render_options, eye));
+    assert_int_equal(LRR__FIRST_SIZE(lrr_render_options, use_eye), sizeof(lrr_render_options));
     assert_int_equal(LRR__FIRST_SIZE(lrr_fit_options, history_len), sizeof(lrr_fit_options));
     assert_int_equal(offsetof(lrr_subdivision, size), 0);
     assert_int_equal(offsetof(lrr_build_options, size), 0);

@@ -563,9 +563,12 @@ static void test_invalid(void **state)
     remove(path);
 
     lrr_render_options bad[] = {
-        {0, 16385, 100, 0, 0}, {0, 100, 100000, 0, 0}, {0, 100, 100, -1, 0},
-        {0, 100, 100, NAN, 0}, {0, 100, 100, INFINITY, 0}, {0, 100, 100, 0, 2},
-        {0, 100, 100, 0, -2}};
+        {.width = 16385, .height = 100}, {.width = 100, .height = 100000},
+        {.width = 100, .height = 100, .exposure = -1},
+        {.width = 100, .height = 100, .exposure = NAN},
+        {.width = 100, .height = 100, .exposure = INFINITY},
+        {.width = 100, .height = 100, .use_cornell_camera = 2},
+        {.width = 100, .height = 100, .use_cornell_camera = -2}};
     for (size_t t = 0; t < sizeof bad / sizeof bad[0]; t++) {
         assert_int_equal(lrr_render_png(op, B, &bad[t], path), LRR_ERR_INVALID_ARG);
         assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_ERR_INVALID_ARG);
