@@ -487,6 +487,51 @@ LRR_API LRR_NODISCARD lrr_status lrr_reference_solve(const lrr_reference *ref,
                                                      size_t stats_size)
     LRR_NONNULL(1, 5, 6);
 
+/* Path-traced reference (docs/METHOD.md "Path-traced reference"): a Monte Carlo estimate
+ * of the same B as the exact solve of (I − R F) B = E with the exact (area-averaged) F, with
+ * no n×n matrix, by Embree rays. For each subpatch i, `samples` paths start at uniform points
+ * of i, gather cosine-weighted directions, take emitters by next-event estimation combined
+ * with the hits (balance heuristic), move to a uniform point of the subpatch hit (so each
+ * bounce is one step of B = E + R F B) and end by Russian roulette after 3 bounces. */
+typedef struct lrr_path_trace_options {
+    size_t size;              /* sizeof(lrr_path_trace_options) (its _defaults) or 0 */
+    size_t samples;           /* paths per subpatch, >= 2 (for a standard error); default
+                                 1024 */
+    uint64_t seed;            /* path (seed, subpatch, sample) has its own random stream */
+    int threads;              /* OpenMP threads; 0 = OpenMP's default; the result does not
+                                 depend on it */
+    lrr_progress_fn progress; /* may be NULL; done/total subpatches */
+    void *progress_user;
+} lrr_path_trace_options;
+static inline lrr_path_trace_options lrr_path_trace_options_defaults(void)
+{
+    lrr_path_trace_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    o.samples = 1024;
+    return o;
+}
+
+/* radiosity (n×3): the mean of each subpatch's path estimates; std_error (n×3, may be NULL):
+ * its standard error, the sample standard deviation / √samples. The scene must be
+ * subdivided; opts may be NULL (defaults). Errors (LRR_ERR_INVALID_ARG): samples < 2,
+ * threads < 0; LRR_ERR_CANCELLED from progress, LRR_ERR_UNSUPPORTED/NOMEM from Embree.
+ * Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_reference_path_trace(const lrr_scene *scene,
+                                                          const lrr_path_trace_options *opts,
+                                                          float *radiosity, float *std_error)
+    LRR_NONNULL(1, 3);
+
+/* Per input triangle t (mean n_triangles×3): Σ_{i∈t} A_i B_i / A_t, and (mean_std_error, may
+ * be NULL, needs std_error) √(Σ_{i∈t} A_i² σ_i²) / A_t, the standard error of that mean for
+ * independent subpatch estimates. The scene must be subdivided. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_reference_triangle_means(const lrr_scene *scene,
+                                                              const float *radiosity,
+                                                              const float *std_error,
+                                                              float *mean,
+                                                              float *mean_std_error)
+    LRR_NONNULL(1, 2, 4);
+
 /* ---------------------------------------------------------------- pictures */
 typedef struct lrr_render_options {
     size_t size;             /* sizeof(lrr_render_options) (lrr_render_options_defaults) or 0 */

@@ -114,7 +114,7 @@ help_mentions solve --csv --emission-scale --repeat --path --backend LRR_OPENCL_
 help_mentions render -o --width --height --exposure --emission-scale --probe --sources --probe-method \
     --eye --target --up --fov --format .exr linear
 help_mentions demo --out --memory-budget
-help_mentions reference --method jacobi gauss-seidel southwell direct --tol --max-iterations \
+help_mentions reference --method jacobi gauss-seidel southwell direct path-trace --samples --tol --max-iterations \
     --memory-budget --csv --hemicube --seed --threads --progress --patches --levels
 help_mentions compare rel_l2 max_rel mean_abs
 
@@ -179,6 +179,10 @@ run reference cornell --method direct --memory-budget 0
 expect_rc 2 "--memory-budget 0 is rejected"
 run compare only-one.csv
 expect_rc 2 "compare with one file is rejected"
+run reference cornell --method path-trace --samples 1
+expect_rc 2 "--samples 1 is rejected (no standard error)"
+run reference cornell --method jacobi --samples 8
+expect_rc 2 "--samples without --method path-trace is rejected"
 
 # ---------------------------------------------------------------- info
 run info cornell --patches 50 --levels 1
@@ -636,6 +640,21 @@ if [ "$rc" -eq 0 ] && num_le "$(value rel_l2)" 1e-5; then
     pass "d = 1: lrr solve vs direct reference, rel_l2 $(value rel_l2), max_rel $(value max_rel)"
 else
     fail "d = 1: compare solve vs reference (exit $rc): rel_l2 '$(value rel_l2)'"
+    show_err
+fi
+
+# The path-traced reference writes a CSV that compares against Gauss–Seidel on the same
+# subdivision (they differ by the hemicube's centre-point F and the noise: docs/METHOD.md
+# "Path-traced reference").
+run reference cornell --patches 150 --levels 0 --hemicube 128 --method gauss-seidel --csv "$T/pt-gs.csv"
+run reference cornell --patches 150 --levels 0 --method path-trace --samples 256 --seed 3 --csv "$T/pt.csv"
+ptrc=$rc
+ptse=$(value rel_std_error)
+run compare "$T/pt.csv" "$T/pt-gs.csv"
+if [ "$ptrc" -eq 0 ] && [ "$rc" -eq 0 ] && num_le "$(value rel_l2)" 0.1; then
+    pass "path-trace vs gauss-seidel: rel_l2 $(value rel_l2), rel_std_error $ptse"
+else
+    fail "path-trace vs gauss-seidel (exit $ptrc, compare $rc): rel_l2 '$(value rel_l2)'"
     show_err
 fi
 

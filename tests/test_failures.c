@@ -114,6 +114,10 @@ static run_result run_sequence(unsigned long fail_at, int adaptive)
     memcpy(E, lrr_reference_emission(ref), n * 3 * sizeof *E);
     STEP("lrr_reference_solve", lrr_reference_solve(ref, LRR_METHOD_DIRECT, 0, 0, E, B, NULL, 0));
     res.ref_sum = sum(B, n * 3);
+    lrr_path_trace_options po = lrr_path_trace_options_defaults();
+    po.samples = 2;
+    po.threads = 1;
+    STEP("lrr_reference_path_trace", lrr_reference_path_trace(scene, &po, B, NULL));
 #undef STEP
 
 done:

@@ -2,6 +2,8 @@
  * operator against. */
 #include <getopt.h>
 #include <stdio.h>
+#include <string.h>
+#include <unistd.h>
 #include <stdlib.h>
 
 #include "commands.h"
@@ -18,8 +20,14 @@ static const char reference_help[] =
     "mean_b_r, mean_b_g, mean_b_b (area-weighted mean radiosity), max_b.\n"
     "\n" SCENE_HELP "\n"
     "Options:\n"
-    "  --method M           jacobi, gauss-seidel, southwell (progressive refinement) or\n"
-    "                       direct (LU of I − R F per channel) (required)\n"
+    "  --method M           jacobi, gauss-seidel, southwell (progressive refinement),\n"
+    "                       direct (LU of I − R F per channel) or path-trace (required)\n"
+    "  --samples N          path-trace: paths per subpatch, >= 2 (default 1024). Path\n"
+    "                       tracing stores no F: it estimates the B of the exact F by Monte\n"
+    "                       Carlo with Embree rays (--seed, --threads apply; --hemicube,\n"
+    "                       --tol, --max-iterations do not) and prints samples,\n"
+    "                       trace_seconds and rel_std_error (area-weighted mean standard\n"
+    "                       error / mean B) instead of iterations, residual and the times\n"
     "  --tol T              relative residual at which the iterative methods stop\n"
     "                       (1e-13 <= T < 1, default 1e-6; the direct method ignores it)\n"
     "  --max-iterations N   most sweeps (shots for southwell); 0 = the library's default,\n"
@@ -40,7 +48,8 @@ typedef struct reference_args {
     subdiv_args sa;
     build_args ba;
     lrr_method method;
-    int have_method;
+    int have_method, path_trace;
+    size_t samples; /* 0: not given */
     double tol;
     size_t max_iterations, budget_mb;
 } reference_args;
@@ -53,6 +62,8 @@ typedef struct reference_run {
     float *b, *centre, *normal, *area;
     lrr_reference_stats st;
     lrr_status solved;
+    float *se; /* path-trace: standard errors n×3 */
+    double trace_seconds;
     double build_seconds;
 } reference_run;
 
@@ -62,15 +73,20 @@ static int reference_option(reference_args *a, int c, const char *arg)
 {
     switch (c) {
     case OPT_METHOD:
+        a->have_method = 1;
+        a->path_trace = strcmp(arg, "path-trace") == 0;
+        if (a->path_trace)
+            return 1;
         if (lrr_method_from_name(arg, &a->method) != LRR_OK) {
             cli_usage_error(prog,
                             "--method: '%s' is not one of jacobi, gauss-seidel, southwell, "
-                            "direct",
+                            "direct, path-trace",
                             arg);
             return -1;
         }
-        a->have_method = 1;
         return 1;
+    case OPT_SAMPLES:
+        return cli_parse_size(prog, "--samples", arg, 2, SIZE_MAX, &a->samples) != 0 ? -1 : 1;
     case OPT_TOL:
         /* the library's range: 1e-13 <= tol < 1 */
         if (cli_parse_double(prog, "--tol", arg, 1e-13, 0, 1.0, &a->tol) != 0)
@@ -101,8 +117,13 @@ static int reference_finish(reference_args *a, int argc, char *argv[])
     if (!a->scene)
         return CLI_EXIT_USAGE;
     if (!a->have_method) {
-        cli_usage_error(prog, "--method is required (jacobi, gauss-seidel, southwell, direct)");
+        cli_usage_error(prog, "--method is required (jacobi, gauss-seidel, southwell, direct, "
+                              "path-trace)");
         fprintf(stderr, "Try '%s --help'.\n", prog);
+        return CLI_EXIT_USAGE;
+    }
+    if (a->samples && !a->path_trace) {
+        cli_usage_error(prog, "--samples applies only to --method path-trace");
         return CLI_EXIT_USAGE;
     }
     if (a->csv && !a->csv[0]) {
@@ -126,6 +147,7 @@ static int parse_reference(reference_args *a, int argc, char *argv[])
         {"max-iterations", required_argument, NULL, OPT_MAX_ITERATIONS},
         {"memory-budget", required_argument, NULL, OPT_MEMORY_BUDGET},
         {"csv", required_argument, NULL, OPT_CSV},
+        {"samples", required_argument, NULL, OPT_SAMPLES},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     *a = (reference_args){.method = LRR_METHOD_DIRECT,
@@ -167,7 +189,7 @@ static int check_direct_budget(const reference_args *a, reference_run *r)
      * while it runs, so refuse here, before the hemicubes, when only that breaks it. */
     double f_bytes = (double)lrr_reference_bytes(r->n);
     double lu_bytes = 8.0 * (double)r->n * (double)r->n;
-    if (a->method == LRR_METHOD_DIRECT && f_bytes <= (double)budget &&
+    if (!a->path_trace && a->method == LRR_METHOD_DIRECT && f_bytes <= (double)budget &&
         f_bytes + lu_bytes > (double)budget)
         return cli_fail(LRR_ERR_BUDGET,
                         "the direct method on %zu subpatches needs %.1f MiB (%.1f MiB for F, "
@@ -234,6 +256,47 @@ static int solve_reference(lrr_context *ctx, const reference_args *a, reference_
     return CLI_EXIT_OK;
 }
 
+/* The path-traced estimate and its standard errors, timed (docs/METHOD.md "Path-traced
+ * reference"). */
+static int trace_reference(lrr_context *ctx, const reference_args *a, reference_run *r)
+{
+    r->se = cli_alloc_rgb(r->n);
+    if (!r->se)
+        return CLI_EXIT_FAIL;
+    cli_progress bar;
+    cli_progress_init(&bar, "paths", a->ba.force_progress || isatty(STDERR_FILENO));
+    lrr_path_trace_options o = lrr_path_trace_options_defaults();
+    if (a->samples)
+        o.samples = a->samples;
+    o.seed = a->ba.seed;
+    o.threads = (int)a->ba.threads;
+    o.progress = cli_progress_cb;
+    o.progress_user = &bar;
+    double t0 = cli_now();
+    lrr_status s = lrr_reference_path_trace(r->scene, &o, r->b, r->se);
+    r->trace_seconds = cli_now() - t0;
+    cli_progress_finish(&bar);
+    return s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, s);
+}
+
+static void print_path_trace(const reference_args *a, const reference_run *r)
+{
+    double sum_se = 0, sum_b = 0;
+    for (size_t i = 0; i < r->n; i++)
+        for (int c = 0; c < 3; c++) {
+            sum_se += (double)r->area[i] * r->se[3 * i + c];
+            sum_b += (double)r->area[i] * r->b[3 * i + c];
+        }
+    printf("n: %zu\n", r->n);
+    printf("method: path-trace\n");
+    printf("samples: %zu\n", a->samples ? a->samples : lrr_path_trace_options_defaults().samples);
+    printf("trace_seconds: %.3f\n", r->trace_seconds);
+    printf("rel_std_error: %.6g\n", sum_b > 0 ? sum_se / sum_b : 0.0);
+    print_radiosity_summary(r->n, r->area, r->b);
+    if (a->csv)
+        printf("csv: %s\n", a->csv);
+}
+
 static void print_reference(const reference_args *a, const reference_run *r)
 {
     printf("n: %zu\n", r->n);
@@ -260,18 +323,21 @@ static int run_reference(const reference_args *a)
         rc = open_subdivided_scene(ctx, a->scene, &a->sa, &r.scene);
     if (rc == CLI_EXIT_OK)
         rc = check_direct_budget(a, &r);
-    if (rc == CLI_EXIT_OK)
+    if (rc == CLI_EXIT_OK && !a->path_trace)
         rc = build_reference(ctx, a, &r);
     if (rc == CLI_EXIT_OK)
         rc = get_subpatches(ctx, &r);
     if (rc == CLI_EXIT_OK)
-        rc = solve_reference(ctx, a, &r);
+        rc = a->path_trace ? trace_reference(ctx, a, &r) : solve_reference(ctx, a, &r);
     if (rc == CLI_EXIT_OK)
         rc = check_finite(r.b, r.n);
     if (rc == CLI_EXIT_OK && a->csv)
         rc = cli_write_subpatch_csv(a->csv, r.n, r.d, NULL, r.area, r.centre, r.normal, r.b);
     if (rc == CLI_EXIT_OK) {
-        print_reference(a, &r);
+        if (a->path_trace)
+            print_path_trace(a, &r);
+        else
+            print_reference(a, &r);
         if (r.solved == LRR_NOT_CONVERGED)
             rc = CLI_EXIT_NOT_CONVERGED;
     }
@@ -279,6 +345,7 @@ static int run_reference(const reference_args *a)
     free(r.normal);
     free(r.centre);
     free(r.b);
+    free(r.se);
     lrr_reference_destroy(r.ref);
     lrr_scene_destroy(r.scene);
     lrr_context_destroy(ctx);

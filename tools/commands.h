@@ -87,7 +87,8 @@ enum {
     OPT_NO_SCENE_EMISSION,
     OPT_ADAPTIVE,
     OPT_ADAPTIVE_SAMPLES,
-    OPT_ADAPTIVE_SPLIT
+    OPT_ADAPTIVE_SPLIT,
+    OPT_SAMPLES
 };
 
 /* ------------------------------------------------------------------ help fragments */

@@ -143,6 +143,9 @@ static void test_first_sizes(void **state)
                      offsetof(lrr_render_options, eye));
     assert_int_equal(LRR__FIRST_SIZE(lrr_render_options, use_eye), sizeof(lrr_render_options));
     assert_int_equal(LRR__FIRST_SIZE(lrr_fit_options, history_len), sizeof(lrr_fit_options));
+    assert_int_equal(LRR__FIRST_SIZE(lrr_path_trace_options, progress_user),
+                     sizeof(lrr_path_trace_options));
+    assert_int_equal(offsetof(lrr_path_trace_options, size), 0);
     assert_int_equal(offsetof(lrr_subdivision, size), 0);
     assert_int_equal(offsetof(lrr_build_options, size), 0);
     assert_int_equal(offsetof(lrr_render_options, size), 0);
