@@ -253,6 +253,14 @@ typedef struct lrr_build_options {
                                      quarter of the resolution (at least 16) */
     int adaptive_split;           /* which patch the adaptive selection splits next:
                                      LRR_SPLIT_VARIANCE (0) or LRR_SPLIT_AREA */
+    int formfactor_method;        /* how each hemicube pixel finds what it sees:
+                                     LRR_FORMFACTOR_AUTO (0: raycast above R²/4 input
+                                     triangles, the measured crossover; raster otherwise),
+                                     LRR_FORMFACTOR_RASTER (z-buffer: cost per receiver ∝
+                                     triangles) or LRR_FORMFACTOR_RAYCAST (Embree rays
+                                     through the same pixel centres: ∝ log triangles). Either
+                                     works with both backends; other values
+                                     LRR_ERR_INVALID_ARG */
 } lrr_build_options;
 static inline lrr_build_options lrr_build_options_defaults(void)
 {
@@ -268,6 +276,10 @@ static inline lrr_build_options lrr_build_options_defaults(void)
  * LRR_SPLIT_AREA: the largest patch, i.e. uniform subdivision over the same subpatches and
  * at the same patch count: the baseline the adaptive hierarchy is measured against. */
 enum { LRR_SPLIT_VARIANCE = 0, LRR_SPLIT_AREA = 1 };
+
+/* lrr_build_options.formfactor_method: the same five faces, pixel centres, multiplier map
+ * and per-receiver rotation either way; rows agree to the pixels on triangle edges. */
+enum { LRR_FORMFACTOR_AUTO = 0, LRR_FORMFACTOR_RASTER = 1, LRR_FORMFACTOR_RAYCAST = 2 };
 
 /* Builds F̄ by one hemicube per subpatch, then M_c = (I_k - Vᵀ diag(rho_c) F̄)^{-1} per
  * channel in double precision (LAPACKE dgetrf/dgetri, dgecon condition estimates), stored in
@@ -336,6 +348,8 @@ typedef struct lrr_operator_info {
     uint64_t seed;
     int no_rotation;        /* built without the random rotation */
     size_t bytes;           /* memory held by F̄, M_c and per-subpatch data */
+    int formfactor_method;  /* what the build used: LRR_FORMFACTOR_RASTER or _RAYCAST
+                               (0 after lrr_operator_load: .lrr files do not record it) */
 } lrr_operator_info;
 /* info_size = sizeof *info (see Conventions). */
 LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info,

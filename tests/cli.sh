@@ -108,7 +108,7 @@ help_mentions() {
 }
 help_mentions info --max-patch-area --patches --levels cornell
 help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage --no-rotation \
-    --memory-budget "physical memory"
+    --memory-budget "physical memory" --formfactor raycast
 help_mentions solve --csv --emission-scale --repeat --path --backend LRR_OPENCL_DEVICE --probe --sources \
     --probe-method --probe-scale --no-scene-emission direct_light_seconds
 help_mentions render -o --width --height --exposure --emission-scale --probe --sources --probe-method \
@@ -415,6 +415,31 @@ else
 fi
 run preprocess cornell --storage f8 -o "$T/f8.lrr"
 expect_rc 2 "preprocess --storage f8 is a usage error"
+# --formfactor: the method used is printed (auto: raster on the 36-triangle box); the
+# ray-cast operator solves to nearly the same radiosity (the same pixels); a bad name is a
+# usage error.
+for ff in auto:raster raster:raster raycast:raycast; do
+    run preprocess cornell --patches 24 --levels 1 --hemicube 32 --formfactor "${ff%%:*}" \
+        -o "$T/ff-${ff%%:*}.lrr"
+    if [ "$rc" -eq 0 ] && [ "$(value formfactor)" = "${ff#*:}" ]; then
+        pass "preprocess --formfactor ${ff%%:*} prints formfactor: ${ff#*:}"
+    else
+        fail "preprocess --formfactor ${ff%%:*} (exit $rc, formfactor: $(value formfactor))"
+        show_err
+    fi
+done
+run solve "$T/ff-raster.lrr" --csv "$T/ff-raster.csv" --repeat 1
+run solve "$T/ff-raycast.lrr" --csv "$T/ff-raycast.csv" --repeat 1
+run compare "$T/ff-raycast.csv" "$T/ff-raster.csv"
+l2=$(value rel_l2)
+if [ "$rc" -eq 0 ] && awk -v e="$l2" 'BEGIN { exit !(e > 0 && e < 1e-3) }'; then
+    pass "raycast and raster operators give the same radiosity (rel_l2 $l2)"
+else
+    fail "compare raster/raycast (exit $rc, rel_l2 '$l2')"
+    show_err
+fi
+run preprocess cornell --formfactor zbuffer -o "$T/ff.lrr"
+expect_rc 2 "preprocess --formfactor zbuffer is a usage error"
 
 # ---------------------------------------------------------------- render
 PNG="$T/b.png"

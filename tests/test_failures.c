@@ -53,7 +53,7 @@ static double sum(const float *x, size_t len)
 
 /* The whole sequence on a fresh context with the N-th allocation failing (0: none); with
  * adaptive, the operator is an adaptive hierarchy (the selection's sampled rows, radiosity
- * weights, greedy heap and exchanges, and a version-2 file). */
+ * weights, greedy heap and exchanges, and a version-2 file) with ray-cast form factors. */
 static run_result run_sequence(unsigned long fail_at, int adaptive)
 {
     run_result res = {0, LRR_OK, NULL, 0, 0, 0};
@@ -72,6 +72,7 @@ static run_result run_sequence(unsigned long fail_at, int adaptive)
         sub = (lrr_subdivision){.target_patches = 200, .levels = 0};
         bo.adaptive_patches = 90;
         bo.adaptive_samples = 48;
+        bo.formfactor_method = LRR_FORMFACTOR_RAYCAST; /* and the ray caster's allocations */
     }
     lrr_status st;
 

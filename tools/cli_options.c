@@ -88,6 +88,7 @@ void build_init(build_args *b)
     b->seed = DEFAULT_SEED;
     b->force_progress = 0;
     b->no_rotation = 0;
+    b->formfactor = LRR_FORMFACTOR_AUTO;
 }
 
 int build_option(build_args *b, const char *prog, int c, const char *arg)
@@ -112,6 +113,18 @@ int build_option(build_args *b, const char *prog, int c, const char *arg)
     case OPT_NO_ROTATION:
         b->no_rotation = 1;
         return 1;
+    case OPT_FORMFACTOR:
+        if (strcmp(arg, "auto") == 0)
+            b->formfactor = LRR_FORMFACTOR_AUTO;
+        else if (strcmp(arg, "raster") == 0)
+            b->formfactor = LRR_FORMFACTOR_RASTER;
+        else if (strcmp(arg, "raycast") == 0)
+            b->formfactor = LRR_FORMFACTOR_RAYCAST;
+        else {
+            cli_usage_error(prog, "--formfactor: '%s' is not auto, raster or raycast", arg);
+            return -1;
+        }
+        return 1;
     default:
         return 0;
     }
@@ -126,6 +139,7 @@ lrr_build_options build_start(const build_args *b, cli_progress *bar)
                             .progress = cli_progress_cb,
                             .progress_user = bar,
                             .no_rotation = b->no_rotation};
+    bo.formfactor_method = b->formfactor;
     return bo;
 }
 

@@ -17,7 +17,8 @@ static const char preprocess_help[] =
     "Usage: lrr preprocess SCENE -o FILE.lrr [OPTIONS]\n"
     "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
     "saves it atomically. Prints 'key: value' lines: n, k, d, hemicube, seed,\n"
-    "build_seconds, cond_r, cond_g, cond_b, storage, memory_mb, backend, output. Warns on\n"
+    "build_seconds, cond_r, cond_g, cond_b, storage, memory_mb, backend, formfactor\n"
+    "(raster or raycast, as used), output. Warns on\n"
     "stderr when a condition estimate is so large (cond × FLT_EPSILON > 1e-3) that M_c,\n"
     "stored in single precision, may not carry the solution to 0.1%.\n"
     "\n" SCENE_HELP "\n"
@@ -234,6 +235,10 @@ static void print_preprocess(const preprocess_args *a, const lrr_operator *op)
 {
     print_operator_info(op);
     printf("backend: %s\n", a->on_device ? "opencl" : "cpu");
+    lrr_operator_info info;
+    lrr_operator_get_info(op, &info, sizeof info);
+    printf("formfactor: %s\n",
+           info.formfactor_method == LRR_FORMFACTOR_RAYCAST ? "raycast" : "raster");
     printf("output: %s\n", a->output);
 }
 

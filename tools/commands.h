@@ -88,7 +88,8 @@ enum {
     OPT_ADAPTIVE,
     OPT_ADAPTIVE_SAMPLES,
     OPT_ADAPTIVE_SPLIT,
-    OPT_SAMPLES
+    OPT_SAMPLES,
+    OPT_FORMFACTOR
 };
 
 /* ------------------------------------------------------------------ help fragments */
@@ -108,6 +109,10 @@ enum {
     "  --hemicube R         hemicube resolution: even, 8..4096 (default 128)\n"                \
     "  --seed S             seed of the random hemicube rotations (default 1)\n"               \
     "  --no-rotation        no random rotation: every hemicube in the same tangent frame\n"     \
+    "  --formfactor M       auto (default), raster or raycast: how each hemicube pixel finds\n" \
+    "                       what it sees (z-buffer, cost per hemicube grows with the\n"       \
+    "                       triangles; or Embree rays, grows with their log); auto casts\n"  \
+    "                       rays above a measured triangle count\n"                         \
     "  --threads T          OpenMP threads, 0 = OpenMP's default (default 0)\n"                \
     "  --progress           draw a progress bar on stderr even when it is not a terminal\n"
 
@@ -132,7 +137,8 @@ int bad_option(const char *prog, int c, char *const argv[]);
     {"seed", required_argument, NULL, OPT_SEED},                                              \
     {"threads", required_argument, NULL, OPT_THREADS},                                        \
     {"progress", no_argument, NULL, OPT_PROGRESS},                                            \
-    {"no-rotation", no_argument, NULL, OPT_NO_ROTATION}
+    {"no-rotation", no_argument, NULL, OPT_NO_ROTATION},                                      \
+    {"formfactor", required_argument, NULL, OPT_FORMFACTOR}
 #define PROBE_LONGOPTS                                                                         \
     {"probe", required_argument, NULL, OPT_PROBE},                                            \
     {"sources", required_argument, NULL, OPT_SOURCES},                                        \
@@ -162,6 +168,7 @@ typedef struct build_args {
     uint64_t seed;
     int force_progress;
     int no_rotation;
+    int formfactor;   /* LRR_FORMFACTOR_* */
 } build_args;
 
 void build_init(build_args *b);

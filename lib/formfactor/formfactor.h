@@ -10,6 +10,11 @@
  * (opts may be NULL); checks that the scene is subdivided and the thread count. */
 lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_options *opts,
                                       lrr_build_options *o);
+/* The method a build with opts uses on g: opts->formfactor_method, or for
+ * LRR_FORMFACTOR_AUTO raycast above R²/4 triangles (hemicube_private.h), raster otherwise;
+ * LRR_ERR_INVALID_ARG for an unknown value. */
+lrr_status lrr__formfactor_method(lrr_context *ctx, const lrr__geometry *g,
+                                  const lrr_build_options *opts, int *method);
 /* Bytes of hemicube.c's per-triangle table entry (16 doubles; checked there), for the
  * memory budget of a build (operator/budget.c). */
 #define LRR__HEMICUBE_TRI_BYTES ((size_t)16 * sizeof(double))

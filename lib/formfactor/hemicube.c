@@ -20,7 +20,7 @@
  * edge belongs to exactly one of them). A closed room's rows then sum to 1 to rounding.
  */
 #include "config.h"
-#include "formfactor/formfactor.h"
+#include "formfactor/hemicube_private.h"
 
 #include <math.h>
 #include <omp.h>
@@ -83,11 +83,7 @@ void lrr__multiplier_map_free(lrr__multiplier_map *m)
 /* ------------------------------------------------------------------ small vector helpers */
 
 /* ------------------------------------------------------------------ per-triangle data */
-typedef struct {
-    double v0[3], e1[3], e2[3];
-    double n[3];                 /* unnormalised geometric normal (v1-v0)×(v2-v0) */
-    double g11, g12, g22, inv;   /* Gram matrix of e1, e2 and 1/det for barycentrics */
-} tri_info;
+typedef lrr__tri_info tri_info;
 _Static_assert(sizeof(tri_info) == LRR__HEMICUBE_TRI_BYTES, "budget.c counts tri_info's size");
 
 /* ------------------------------------------------------------------ rasteriser */
@@ -200,22 +196,8 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
 }
 
 /* ------------------------------------------------------------------ one hemicube */
-typedef struct {
-    double right[3], up[3], fwd[3];
-    int W, H;              /* pixels */
-    int side;              /* 0 top: rows span [-1,1]; 1 side: rows span heights [0,1] */
-    const double *weight;  /* multiplier map of this face */
-    float *depth;
-    int32_t *item;
-} face;
-
-typedef struct {
-    const lrr__geometry *g;
-    const tri_info *tri;
-    const lrr__multiplier_map *mm;
-    double near, eps;      /* near plane and "on the plane" distance, scene units */
-    int by_subpatch;       /* 1: columns are subpatches (full F, n wide); 0: patches (F̄) */
-} hemi_ctx;
+typedef lrr__hemi_face face;
+typedef lrr__hemi_ctx hemi_ctx;
 
 static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t, int32_t id)
 {
@@ -285,6 +267,13 @@ static inline size_t pixel_target(const hemi_ctx *h, const double x[3], const fa
 /* Accumulates the visible patches (or subpatches) of face f into row (k or n doubles). */
 static void integrate_face(const hemi_ctx *h, const double x[3], const face *f, double *row)
 {
+    const size_t pixels = (size_t)f->W * f->H;
+    if (h->rc) { /* the ray caster's item buffer holds patches already */
+        for (size_t pix = 0; pix < pixels; pix++)
+            if (f->item[pix] >= 0)
+                row[f->item[pix]] += f->weight[pix];
+        return;
+    }
     for (int y = 0; y < f->H; y++)
         for (int xx = 0; xx < f->W; xx++) {
             size_t pix = (size_t)y * f->W + xx;
@@ -313,61 +302,12 @@ typedef struct {
     double *row;
 } scratch;
 
-static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate, scratch *sc,
-                         float *out)
+/* Rasterises every input triangle into the five faces (cost ∝ triangles). */
+static void raster_faces(const hemi_ctx *h, const double x[3], const double N[3], face *faces,
+                         scratch *sc)
 {
     const lrr__geometry *g = h->g;
-    unsigned R = h->mm->res;
-    double v[9];
-    lrr__subpatch_vertices(g, i, v);
-    double x[3], N[3], e1[3], e2[3];
-    for (int j = 0; j < 3; j++) {
-        x[j] = (v[j] + v[3 + j] + v[6 + j]) / 3;
-        e1[j] = v[3 + j] - v[j];
-        e2[j] = v[6 + j] - v[j];
-    }
-    lrr__cross3(e1, e2, N);
-    lrr__normalize3(N);
-    /* tangent frame, then the per-receiver random rotation about N */
-    double helper[3] = {1, 0, 0};
-    if (fabs(N[0]) > 0.6) { helper[0] = 0; helper[1] = 1; }
-    double U0[3], V0[3], U[3], Vv[3];
-    lrr__cross3(helper, N, U0);
-    lrr__normalize3(U0);
-    lrr__cross3(N, U0, V0);
-    double theta =
-        rotate ? 2 * M_PI * (double)(lrr__splitmix64(seed ^ lrr__splitmix64(i)) >> 11) *
-                     0x1.0p-53
-               : 0;
-    double ct = cos(theta), st = sin(theta);
-    for (int j = 0; j < 3; j++)
-        U[j] = ct * U0[j] + st * V0[j];
-    lrr__cross3(N, U, Vv);
-
-    size_t rr = (size_t)R * R;
-    face faces[5];
-    for (int fi = 0; fi < 5; fi++) {
-        face *f = &faces[fi];
-        f->W = (int)R;
-        f->H = fi == 0 ? (int)R : (int)R / 2;
-        f->side = fi != 0;
-        f->weight = fi == 0 ? h->mm->top : h->mm->side;
-        f->depth = sc->depth + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
-        f->item = sc->item + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
-        if (fi == 0) {
-            memcpy(f->fwd, N, sizeof N);
-            memcpy(f->right, U, sizeof U);
-            memcpy(f->up, Vv, sizeof Vv);
-        } else {
-            const double *ax = (fi == 1 || fi == 2) ? U : Vv;
-            double sgn = (fi == 1 || fi == 3) ? 1 : -1;
-            for (int j = 0; j < 3; j++)
-                f->fwd[j] = sgn * ax[j];
-            memcpy(f->up, N, sizeof N);
-            lrr__cross3(f->up, f->fwd, f->right);
-        }
-    }
-    size_t total = rr * 3;
+    size_t total = (size_t)h->mm->res * h->mm->res * 3;
     for (size_t p = 0; p < total; p++) {
         sc->depth[p] = 0.0f;
         sc->item[p] = -1;
@@ -392,8 +332,79 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         for (int fi = 0; fi < 5; fi++)
             render_face(h, x, &faces[fi], t, id);
     }
-    if (!out) { /* device integration: hand over patch ids instead of a row */
+}
+
+/* Receiver i's centre x, unit normal N and tangent frame (U, V): rotated about N by an angle
+ * drawn from (seed, i) when rotate. */
+static void receiver_frame(const lrr__geometry *g, size_t i, uint64_t seed, int rotate,
+                           double x[3], double N[3], double U[3], double Vv[3])
+{
+    double v[9];
+    lrr__subpatch_vertices(g, i, v);
+    double e1[3], e2[3];
+    for (int j = 0; j < 3; j++) {
+        x[j] = (v[j] + v[3 + j] + v[6 + j]) / 3;
+        e1[j] = v[3 + j] - v[j];
+        e2[j] = v[6 + j] - v[j];
+    }
+    lrr__cross3(e1, e2, N);
+    lrr__normalize3(N);
+    /* tangent frame, then the per-receiver random rotation about N */
+    double helper[3] = {1, 0, 0};
+    if (fabs(N[0]) > 0.6) { helper[0] = 0; helper[1] = 1; }
+    double U0[3], V0[3];
+    lrr__cross3(helper, N, U0);
+    lrr__normalize3(U0);
+    lrr__cross3(N, U0, V0);
+    double theta =
+        rotate ? 2 * M_PI * (double)(lrr__splitmix64(seed ^ lrr__splitmix64(i)) >> 11) *
+                     0x1.0p-53
+               : 0;
+    double ct = cos(theta), st = sin(theta);
+    for (int j = 0; j < 3; j++)
+        U[j] = ct * U0[j] + st * V0[j];
+    lrr__cross3(N, U, Vv);
+}
+
+static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate, scratch *sc,
+                         float *out)
+{
+    const lrr__geometry *g = h->g;
+    unsigned R = h->mm->res;
+    double x[3], N[3], U[3], Vv[3];
+    receiver_frame(g, i, seed, rotate, x, N, U, Vv);
+
+    size_t rr = (size_t)R * R;
+    face faces[5];
+    for (int fi = 0; fi < 5; fi++) {
+        face *f = &faces[fi];
+        f->W = (int)R;
+        f->H = fi == 0 ? (int)R : (int)R / 2;
+        f->side = fi != 0;
+        f->weight = fi == 0 ? h->mm->top : h->mm->side;
+        f->depth = sc->depth + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
+        f->item = sc->item + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
+        if (fi == 0) {
+            memcpy(f->fwd, N, sizeof N);
+            memcpy(f->right, U, sizeof U);
+            memcpy(f->up, Vv, sizeof Vv);
+        } else {
+            const double *ax = (fi == 1 || fi == 2) ? U : Vv;
+            double sgn = (fi == 1 || fi == 3) ? 1 : -1;
+            for (int j = 0; j < 3; j++)
+                f->fwd[j] = sgn * ax[j];
+            memcpy(f->up, N, sizeof N);
+            lrr__cross3(f->up, f->fwd, f->right);
+        }
+    }
+    if (h->rc) {
         for (int fi = 0; fi < 5; fi++)
+            lrr__raycast_face(h, x, N, &faces[fi]);
+    } else {
+        raster_faces(h, x, N, faces, sc);
+    }
+    if (!out) { /* device integration: hand over patch ids instead of a row */
+        for (int fi = 0; fi < 5 && !h->rc; fi++)
             resolve_face(h, x, &faces[fi]);
         return;
     }
@@ -432,7 +443,8 @@ lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_op
     if (o->threads < 0)
         return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0",
                           o->threads);
-    return LRR_OK;
+    int method = LRR_FORMFACTOR_RASTER;
+    return lrr__formfactor_method(scene->ctx, &scene->geom, o, &method);
 }
 
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
@@ -530,32 +542,14 @@ lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
     return rows_impl(ctx, g, &o, 1, rows, count, out);
 }
 
-static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
-                            const lrr_build_options *opts, int by_subpatch, const size_t *rows,
-                            size_t count, float *out)
+/* The per-triangle table of g and the diagonal of its bounding box. */
+static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, tri_info **out,
+                            double *diag)
 {
-    unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
-    const int on_device = opts->backend == LRR_BACKEND_OPENCL;
-    if (opts->backend != 0 && opts->backend != LRR_BACKEND_CPU && !on_device)
-        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
-                          "build backend %d: must be 0, LRR_BACKEND_CPU or LRR_BACKEND_OPENCL",
-                          opts->backend);
-    if (on_device && by_subpatch)
-        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
-                          "the full form-factor matrix (lrr_reference_build) is integrated on "
-                          "the CPU only: use backend LRR_BACKEND_CPU");
-    if (g->n_tri > INT32_MAX)
-        return lrr__error(ctx, LRR_ERR_OVERFLOW, "%zu triangles: the item buffer holds int32 ids",
-                          g->n_tri);
-    lrr__multiplier_map mm;
-    lrr_status st = lrr__multiplier_map_create(ctx, R, &mm);
+    tri_info *tri;
+    lrr_status st = lrr__calloc(ctx, &tri, g->n_tri, sizeof *tri, "triangle table");
     if (st)
         return st;
-    tri_info *tri;
-    if ((st = lrr__calloc(ctx, &tri, g->n_tri, sizeof *tri, "triangle table"))) {
-        lrr__multiplier_map_free(&mm);
-        return st;
-    }
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t t = 0; t < g->n_tri; t++) {
         const float *v = g->vert + 9 * t;
@@ -575,21 +569,18 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
         ti->g22 = lrr__dot3(ti->e2, ti->e2);
         ti->inv = 1.0 / (ti->g11 * ti->g22 - ti->g12 * ti->g12);
     }
-    double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                       (hi[2] - lo[2]) * (hi[2] - lo[2]));
-    /* Distances below ~1e-7 of the scene size are float rounding of the input coordinates:
-     * treat such points as lying in the plane (edge-on / tangent), and put the near plane
-     * there too so touching geometry (a block on the floor) is still seen up close. */
-    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch};
-    const size_t cols = by_subpatch ? g->n : g->k;
+    *diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                 (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    *out = tri;
+    return LRR_OK;
+}
 
-    if (on_device) {
-        st = device_rows(ctx, &h, opts, out);
-        lrr_aligned_free(tri);
-        lrr__multiplier_map_free(&mm);
-        return st;
-    }
-    size_t rr = (size_t)R * R;
+/* rows (or 0..count-1 when NULL) on the CPU, OpenMP over receivers. */
+static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_options *opts,
+                           const size_t *rows, size_t count, float *out)
+{
+    const size_t rr = (size_t)h->mm->res * h->mm->res;
+    const size_t cols = h->by_subpatch ? h->g->n : h->g->k;
     int nthreads = opts->threads > 0 ? opts->threads : omp_get_max_threads();
     volatile int cancelled = 0, failed = 0;
     size_t done = 0;
@@ -608,7 +599,7 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
         for (size_t r = 0; r < count; r++) {
             if (cancelled || failed)
                 continue;
-            hemicube_row(&h, rows ? rows[r] : r, opts->seed, !opts->no_rotation, &sc,
+            hemicube_row(h, rows ? rows[r] : r, opts->seed, !opts->no_rotation, &sc,
                          out + r * cols);
             size_t now_done;
             #pragma omp atomic capture
@@ -628,14 +619,68 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
         lrr_aligned_free(sc.item);
         lrr_aligned_free(sc.row);
     }
-    lrr_aligned_free(tri);
-    lrr__multiplier_map_free(&mm);
     if (failed)
         return LRR_ERR_NOMEM;
     if (cancelled)
         return lrr__error(ctx, LRR_ERR_CANCELLED, "form-factor build cancelled after %zu of %zu "
                           "receivers", done, count);
-    if (opts->progress && !cancelled)
+    if (opts->progress)
         opts->progress(opts->progress_user, count, count);
     return LRR_OK;
+}
+
+static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
+                            const lrr_build_options *opts, int by_subpatch, const size_t *rows,
+                            size_t count, float *out)
+{
+    unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
+    const int on_device = opts->backend == LRR_BACKEND_OPENCL;
+    if (opts->backend != 0 && opts->backend != LRR_BACKEND_CPU && !on_device)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "build backend %d: must be 0, LRR_BACKEND_CPU or LRR_BACKEND_OPENCL",
+                          opts->backend);
+    if (on_device && by_subpatch)
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "the full form-factor matrix (lrr_reference_build) is integrated on "
+                          "the CPU only: use backend LRR_BACKEND_CPU");
+    if (g->n_tri > INT32_MAX)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW, "%zu triangles: the item buffer holds int32 ids",
+                          g->n_tri);
+    int method = LRR_FORMFACTOR_RASTER;
+    lrr_status st = lrr__formfactor_method(ctx, g, opts, &method);
+    if (st)
+        return st;
+    if (method == LRR_FORMFACTOR_RAYCAST && (by_subpatch ? g->n : g->k) > INT32_MAX)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW, "%zu %s: ray casting keeps int32 ids per pixel",
+                          by_subpatch ? g->n : g->k, by_subpatch ? "subpatches" : "patches");
+    lrr__multiplier_map mm;
+    if ((st = lrr__multiplier_map_create(ctx, R, &mm)))
+        return st;
+    tri_info *tri;
+    double diag;
+    if ((st = tri_table(ctx, g, &tri, &diag))) {
+        lrr__multiplier_map_free(&mm);
+        return st;
+    }
+    lrr__raycaster *rc = NULL;
+    if (method == LRR_FORMFACTOR_RAYCAST && (st = lrr__raycaster_create(ctx, g, diag, &rc))) {
+        lrr_aligned_free(tri);
+        lrr__multiplier_map_free(&mm);
+        return st;
+    }
+    /* Distances below ~1e-7 of the scene size are float rounding of the input coordinates:
+     * treat such points as lying in the plane (edge-on / tangent), and put the near plane
+     * there too so touching geometry (a block on the floor) is still seen up close. */
+    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc};
+    /* the device integration takes the same item buffers, rasterised or ray cast */
+    st = on_device ? device_rows(ctx, &h, opts, out) : cpu_rows(ctx, &h, opts, rows, count, out);
+    if (rc) {
+        lrr_status rst = lrr__raycaster_status(ctx, rc);
+        if (!st)
+            st = rst;
+        lrr__raycaster_destroy(rc);
+    }
+    lrr_aligned_free(tri);
+    lrr__multiplier_map_free(&mm);
+    return st;
 }

@@ -119,7 +119,8 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
     op->hemicube_resolution = o.hemicube_resolution;
     op->seed = o.seed;
     op->no_rotation = o.no_rotation != 0;
-    if ((st = lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission)) ||
+    if ((st = lrr__formfactor_method(ctx, &op->geom, &o, &op->formfactor_method)) ||
+        (st = lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission)) ||
         (st = lrr__hemicube_fbar(ctx, &op->geom, &o, op->fbar)) ||
         (st = lrr__smw_factor(op))) {
         lrr_operator_destroy(op);
@@ -187,6 +188,7 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_
     info->hemicube_resolution = op->hemicube_resolution;
     info->seed = op->seed;
     info->no_rotation = op->no_rotation;
+    info->formfactor_method = op->formfactor_method;
     info->storage = op->storage;
     info->bytes = op->n * op->k * (op->storage == LRR_STORAGE_F32 ? sizeof(float) : 2) +
                   (op->row_scale ? op->n * sizeof(float) : 0) +

@@ -25,6 +25,7 @@ struct lrr_operator {
     unsigned hemicube_resolution;
     uint64_t seed;
     int no_rotation;           /* built with lrr_build_options.no_rotation */
+    int formfactor_method;     /* LRR_FORMFACTOR_RASTER or _RAYCAST; 0 after a load */
 };
 
 /* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, m and

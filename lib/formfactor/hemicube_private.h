@@ -1,0 +1,62 @@
+/* What hemicube.c (the rasteriser) and raycast.c (Embree rays through the same pixels) share:
+ * the per-triangle table, a face of one receiver's hemicube and the build's constants. The
+ * frame, the per-receiver rotation, the pixel centres, the multiplier map and the turning of
+ * an item buffer (triangle ids) into a row stay in hemicube.c; raycast.c only fills the item
+ * buffer. */
+#ifndef LRR_FORMFACTOR_HEMICUBE_PRIVATE_H
+#define LRR_FORMFACTOR_HEMICUBE_PRIVATE_H
+
+#include "formfactor/formfactor.h"
+
+typedef struct lrr__tri_info {
+    double v0[3], e1[3], e2[3];
+    double n[3];                 /* unnormalised geometric normal (v1-v0)×(v2-v0) */
+    double g11, g12, g22, inv;   /* Gram matrix of e1, e2 and 1/det for barycentrics */
+} lrr__tri_info;
+
+/* One face of a receiver's hemicube: pixel (c, r) looks along right·sx + up·sy + fwd with
+ * sx = (c + 0.5)/(W/2) - 1 and sy = (r + 0.5)/(W/2) (side) or that minus 1 (top). */
+typedef struct lrr__hemi_face {
+    double right[3], up[3], fwd[3];
+    int W, H;              /* pixels */
+    int side;              /* 0 top: rows span [-1,1]; 1 side: rows span heights [0,1] */
+    const double *weight;  /* multiplier map of this face */
+    float *depth;          /* the rasteriser's z-buffer (unused by rays) */
+    int32_t *item;         /* per pixel, what is seen from the front (-1 for nothing): the
+                              triangle (rasteriser) or already its patch (ray caster) */
+} lrr__hemi_face;
+
+typedef struct lrr__raycaster lrr__raycaster;
+
+typedef struct lrr__hemi_ctx {
+    const lrr__geometry *g;
+    const lrr__tri_info *tri;
+    const lrr__multiplier_map *mm;
+    double near, eps;      /* near plane and "on the plane" distance, scene units */
+    int by_subpatch;       /* 1: columns are subpatches (full F, n wide); 0: patches (F̄) */
+    const lrr__raycaster *rc; /* non-NULL: pixels by ray casting (raycast.c), else raster */
+} lrr__hemi_ctx;
+
+/* An Embree scene (robust, watertight) of g's triangles, built once per form-factor build;
+ * diag is the scene's bounding-box diagonal (for the ray origins' offset). */
+lrr_status lrr__raycaster_create(lrr_context *ctx, const lrr__geometry *g, double diag,
+                                 lrr__raycaster **out);
+/* The error of the first failed Embree call since create (LRR_OK if none): check after the
+ * rays of a build, since Embree reports errors from inside the traversal by callback. */
+lrr_status lrr__raycaster_status(lrr_context *ctx, const lrr__raycaster *rc);
+void lrr__raycaster_destroy(lrr__raycaster *rc);
+/* Fills f->item for the receiver at x with unit normal N: the patch (subpatch when
+ * h->by_subpatch) each pixel's ray hits first, or -1 for a miss or a hit on a triangle's back
+ * (which occludes and carries nothing, as in the rasteriser). Thread-safe. */
+void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N[3],
+                       lrr__hemi_face *f);
+
+/* LRR_FORMFACTOR_AUTO casts rays when triangles T > R² / LRR__RAYCAST_PIXELS_PER_TRIANGLE:
+ * a raster hemicube costs ~ R² + c·T (every triangle is set up and clipped), a ray-cast one
+ * ~ R² log T with a larger constant per pixel, so the crossover T grows like R². Measured
+ * (bench/results/2026-12-02-raycast.md, Cornell box tessellated to T = 36·4^L, AMD EPYC,
+ * 2 shared cores): raycast/raster hemicubes per second crosses 1 at T ≈ 150–580 for R = 32,
+ * 580–2300 for R = 64 and 2300–9200 for R = 128, i.e. near R²/4 (256, 1024, 4096). */
+#define LRR__RAYCAST_PIXELS_PER_TRIANGLE 4
+
+#endif
