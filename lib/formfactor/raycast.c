@@ -10,86 +10,22 @@
  * and carries nothing (-1), like the rasteriser's depth-only back faces. */
 #include "config.h"
 #include "formfactor/hemicube_private.h"
+#include "scene/bvh.h"
 
-#include <embree3/rtcore.h>
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
 
-/* Embree reports errors through a callback: the first one is kept (as in probe/light.c). */
-typedef struct embree_error {
-    enum RTCError code;
-    char message[256];
-} embree_error;
-
 struct lrr__raycaster {
-    RTCDevice dev;
-    RTCScene scene;
+    lrr__bvh bvh;       /* the input triangles, robust (watertight) */
     double lift;        /* ray origins sit this far above the receiver along its normal */
-    embree_error err;
 };
-
-static void embree_error_cb(void *user, enum RTCError code, const char *str)
-{
-    embree_error *e = user;
-    if (e->code != RTC_ERROR_NONE)
-        return;
-    e->code = code;
-    snprintf(e->message, sizeof e->message, "%s", str ? str : "(no message)");
-}
-
-static lrr_status embree_fail(lrr_context *ctx, const embree_error *err, const char *what)
-{
-    lrr_status s = err->code == RTC_ERROR_OUT_OF_MEMORY ? LRR_ERR_NOMEM : LRR_ERR_UNSUPPORTED;
-    return lrr__error(ctx, s, "ray-cast form factors: Embree %s failed (error %d: %s)", what,
-                      (int)err->code, err->code != RTC_ERROR_NONE ? err->message : "unknown");
-}
-
-/* The robust scene of g's triangles (primitive id = triangle index); NULL on failure. */
-static RTCScene build_scene(RTCDevice dev, const lrr__geometry *g, const embree_error *err)
-{
-    RTCScene scene = rtcNewScene(dev);
-    if (!scene)
-        return NULL;
-    rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
-    RTCGeometry geo = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    if (!geo) {
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    float *v = rtcSetNewGeometryBuffer(geo, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                       3 * sizeof(float), 3 * g->n_tri);
-    unsigned *ix = rtcSetNewGeometryBuffer(geo, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                           3 * sizeof(unsigned), g->n_tri);
-    if (!v || !ix) {
-        rtcReleaseGeometry(geo);
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    memcpy(v, g->vert, 9 * g->n_tri * sizeof(float));
-    for (size_t i = 0; i < 3 * g->n_tri; i++)
-        ix[i] = (unsigned)i;
-    rtcCommitGeometry(geo);
-    rtcAttachGeometry(scene, geo);
-    rtcReleaseGeometry(geo);
-    rtcCommitScene(scene);
-    if (err->code != RTC_ERROR_NONE) {
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    return scene;
-}
 
 lrr_status lrr__raycaster_create(lrr_context *ctx, const lrr__geometry *g, double diag,
                                  lrr__raycaster **out)
 {
     *out = NULL;
-    if (g->n_tri > UINT32_MAX / 3)
-        return lrr__error(ctx, LRR_ERR_OVERFLOW,
-                          "ray-cast form factors: %zu triangles exceed Embree's 32-bit indices",
-                          g->n_tri);
     lrr__raycaster *rc;
     lrr_status st = lrr__calloc(ctx, &rc, 1, sizeof *rc, "ray caster");
     if (st)
@@ -102,19 +38,8 @@ lrr_status lrr__raycaster_create(lrr_context *ctx, const lrr__geometry *g, doubl
      * hit the receiver's (or a coplanar neighbour's) back. A few float ulps of the largest
      * coordinate plus 1e-6 of the scene size stays clear of it and is far below a pixel. */
     rc->lift = 1e-6 * diag + 8 * FLT_EPSILON * maxabs;
-    rc->err.code = RTC_ERROR_NONE;
-    rc->dev = rtcNewDevice(NULL);
-    if (!rc->dev) {
-        rc->err.code = rtcGetDeviceError(NULL);
-        st = embree_fail(ctx, &rc->err, "device creation");
-        lrr_aligned_free(rc);
-        return st;
-    }
-    rtcSetDeviceErrorFunction(rc->dev, embree_error_cb, &rc->err);
-    rc->scene = build_scene(rc->dev, g, &rc->err);
-    if (!rc->scene) {
-        st = embree_fail(ctx, &rc->err, "scene build");
-        rtcReleaseDevice(rc->dev);
+    if ((st = lrr__bvh_build(ctx, g, RTC_BUILD_QUALITY_MEDIUM, 1, "ray-cast form factors",
+                             &rc->bvh))) {
         lrr_aligned_free(rc);
         return st;
     }
@@ -124,15 +49,14 @@ lrr_status lrr__raycaster_create(lrr_context *ctx, const lrr__geometry *g, doubl
 
 lrr_status lrr__raycaster_status(lrr_context *ctx, const lrr__raycaster *rc)
 {
-    return rc->err.code == RTC_ERROR_NONE ? LRR_OK : embree_fail(ctx, &rc->err, "ray query");
+    return lrr__bvh_status(ctx, &rc->bvh, "ray query");
 }
 
 void lrr__raycaster_destroy(lrr__raycaster *rc)
 {
     if (!rc)
         return;
-    rtcReleaseScene(rc->scene);
-    rtcReleaseDevice(rc->dev);
+    lrr__bvh_release(&rc->bvh);
     lrr_aligned_free(rc);
 }
 
@@ -198,7 +122,7 @@ void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N
                 rh.hit.geomID[l] = RTC_INVALID_GEOMETRY_ID;
                 rh.hit.instID[0][l] = RTC_INVALID_GEOMETRY_ID;
             }
-            rtcIntersect16(valid, rc->scene, &ictx, &rh);
+            rtcIntersect16(valid, rc->bvh.scene, &ictx, &rh);
             for (int l = 0; l < PACKET; l++) {
                 int xx = x0 + l % TILE, y = y0 + l / TILE;
                 if (!valid[l])

@@ -2,69 +2,12 @@
  * with shadows from Embree occlusion rays: the emission vector of the first bounce. */
 #include "config.h"
 #include "probe/probe.h"
+#include "scene/bvh.h"
 
-#include <embree3/rtcore.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
-
-/* Embree reports errors through a callback: the first one is kept here (one per call). */
-typedef struct embree_error {
-    enum RTCError code;
-    char message[256];
-} embree_error;
-
-static void embree_error_cb(void *user, enum RTCError code, const char *str)
-{
-    embree_error *e = user;
-    if (e->code != RTC_ERROR_NONE)
-        return;
-    e->code = code;
-    snprintf(e->message, sizeof e->message, "%s", str ? str : "(no message)");
-}
-
-static lrr_status embree_fail(lrr_context *ctx, const embree_error *err, const char *what)
-{
-    lrr_status s = err->code == RTC_ERROR_OUT_OF_MEMORY ? LRR_ERR_NOMEM : LRR_ERR_UNSUPPORTED;
-    return lrr__error(ctx, s, "lrr_probe_direct_light: Embree %s failed (error %d: %s)", what,
-                      (int)err->code, err->code != RTC_ERROR_NONE ? err->message : "unknown");
-}
-
-/* The scene of the operator's input triangles; NULL on failure (err filled). */
-static RTCScene build_scene(RTCDevice dev, const lrr__geometry *g, embree_error *err)
-{
-    RTCScene scene = rtcNewScene(dev);
-    if (!scene)
-        return NULL;
-    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
-    RTCGeometry geo = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    if (!geo) {
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    float *v = rtcSetNewGeometryBuffer(geo, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                       3 * sizeof(float), 3 * g->n_tri);
-    unsigned *ix = rtcSetNewGeometryBuffer(geo, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                           3 * sizeof(unsigned), g->n_tri);
-    if (!v || !ix) {
-        rtcReleaseGeometry(geo);
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    memcpy(v, g->vert, 9 * g->n_tri * sizeof(float));
-    for (size_t i = 0; i < 3 * g->n_tri; i++)
-        ix[i] = (unsigned)i;
-    rtcCommitGeometry(geo);
-    rtcAttachGeometry(scene, geo);
-    rtcReleaseGeometry(geo);
-    rtcCommitScene(scene);
-    if (err->code != RTC_ERROR_NONE) {
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    return scene;
-}
 
 /* L (6 floats per light: its unit direction, then its rgb) from the lights, checked: an
  * error names the light. */
@@ -112,26 +55,6 @@ static float ray_offset(const lrr__geometry *g)
     double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                        (hi[2] - lo[2]) * (hi[2] - lo[2]));
     return (float)(1e-5 * diag);
-}
-
-/* *dev, *scene: an Embree device reporting its errors to err, and the scene of g's
- * triangles; on failure nothing is left to release and the error is recorded. */
-static lrr_status embree_open(lrr_context *ctx, const lrr__geometry *g, embree_error *err,
-                              RTCDevice *dev, RTCScene *scene)
-{
-    *dev = rtcNewDevice(NULL);
-    if (!*dev) {
-        err->code = rtcGetDeviceError(NULL);
-        return embree_fail(ctx, err, "device creation");
-    }
-    rtcSetDeviceErrorFunction(*dev, embree_error_cb, err);
-    *scene = build_scene(*dev, g, err);
-    if (!*scene) {
-        lrr_status st = embree_fail(ctx, err, "scene build");
-        rtcReleaseDevice(*dev);
-        return st;
-    }
-    return LRR_OK;
 }
 
 /* emission (n×3) = rho × Σ over the lights L that subpatch i's centre sees (an occlusion ray
@@ -198,29 +121,18 @@ lrr_status lrr_probe_direct_light(const lrr_operator *op, const lrr_light *light
         return LRR_OK;
     }
     const lrr__geometry *g = &op->geom;
-    if (g->n_tri > UINT32_MAX / 3) {
-        lrr_aligned_free(L);
-        return lrr__error(ctx, LRR_ERR_OVERFLOW,
-                          "lrr_probe_direct_light: %zu triangles exceed Embree's 32-bit indices",
-                          g->n_tri);
-    }
     const float eps = ray_offset(g);
-
-    embree_error err = {RTC_ERROR_NONE, ""};
-    RTCDevice dev;
-    RTCScene scene;
-    if ((st = embree_open(ctx, g, &err, &dev, &scene)) != LRR_OK) {
+    lrr__bvh bvh;
+    if ((st = lrr__bvh_build(ctx, g, RTC_BUILD_QUALITY_MEDIUM, 0, "lrr_probe_direct_light",
+                             &bvh)) != LRR_OK) {
         lrr_aligned_free(L);
         return st;
     }
-    int bad = gather_direct(op, scene, L, count, eps, emission);
-    rtcReleaseScene(scene);
-    int failed = err.code != RTC_ERROR_NONE;
-    if (failed)
-        st = embree_fail(ctx, &err, "occlusion query");
-    rtcReleaseDevice(dev);
+    int bad = gather_direct(op, bvh.scene, L, count, eps, emission);
+    st = lrr__bvh_status(ctx, &bvh, "occlusion query");
+    lrr__bvh_release(&bvh);
     lrr_aligned_free(L);
-    if (failed) {
+    if (st != LRR_OK) {
         memset(emission, 0, 3 * n * sizeof(float));
         return st;
     }

@@ -7,13 +7,11 @@
  * include another's code, so the few lines are repeated).
  */
 #include "config.h"
-#include "scene/scene.h"
+#include "scene/bvh.h"
 
-#include <embree3/rtcore.h>
 #include <math.h>
 #include <omp.h>
 #include <stdint.h>
-#include <stdio.h>
 #include <string.h>
 
 #define DEFAULT_SAMPLES 1024
@@ -21,64 +19,6 @@
 #define RR_BOUNCES 3
 /* Survival probability at most this, so a path through ρ → 1 still ends. */
 #define RR_MAX_SURVIVAL 0.95
-
-/* ------------------------------------------------------------------ Embree */
-/* Embree reports errors through a callback: the first one is kept here (one per call). */
-typedef struct embree_error {
-    enum RTCError code;
-    char message[256];
-} embree_error;
-
-static void embree_error_cb(void *user, enum RTCError code, const char *str)
-{
-    embree_error *e = user;
-    if (e->code != RTC_ERROR_NONE)
-        return;
-    e->code = code;
-    snprintf(e->message, sizeof e->message, "%s", str ? str : "(no message)");
-}
-
-static lrr_status embree_fail(lrr_context *ctx, const embree_error *err, const char *what)
-{
-    lrr_status s = err->code == RTC_ERROR_OUT_OF_MEMORY ? LRR_ERR_NOMEM : LRR_ERR_UNSUPPORTED;
-    return lrr__error(ctx, s, "lrr_reference_path_trace: Embree %s failed (error %d: %s)", what,
-                      (int)err->code, err->code != RTC_ERROR_NONE ? err->message : "unknown");
-}
-
-/* The scene of g's input triangles (primitive id = triangle index); NULL on failure. */
-static RTCScene build_scene(RTCDevice dev, const lrr__geometry *g, embree_error *err)
-{
-    RTCScene scene = rtcNewScene(dev);
-    if (!scene)
-        return NULL;
-    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH); /* many rays per build */
-    RTCGeometry geo = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    if (!geo) {
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    float *v = rtcSetNewGeometryBuffer(geo, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                       3 * sizeof(float), 3 * g->n_tri);
-    unsigned *ix = rtcSetNewGeometryBuffer(geo, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                           3 * sizeof(unsigned), g->n_tri);
-    if (!v || !ix) {
-        rtcReleaseGeometry(geo);
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    memcpy(v, g->vert, 9 * g->n_tri * sizeof(float));
-    for (size_t i = 0; i < 3 * g->n_tri; i++)
-        ix[i] = (unsigned)i;
-    rtcCommitGeometry(geo);
-    rtcAttachGeometry(scene, geo);
-    rtcReleaseGeometry(geo);
-    rtcCommitScene(scene);
-    if (err->code != RTC_ERROR_NONE) {
-        rtcReleaseScene(scene);
-        return NULL;
-    }
-    return scene;
-}
 
 /* ------------------------------------------------------------------ the scene as traced */
 typedef struct tracer {
@@ -420,24 +360,16 @@ lrr_status lrr_reference_path_trace(const lrr_scene *scene, const lrr_path_trace
         tracer_free(&tr);
         return st;
     }
-    embree_error err = {RTC_ERROR_NONE, ""};
-    RTCDevice dev = rtcNewDevice(NULL);
-    if (!dev) {
-        err.code = rtcGetDeviceError(NULL);
-        tracer_free(&tr);
-        return embree_fail(ctx, &err, "device creation");
-    }
-    rtcSetDeviceErrorFunction(dev, embree_error_cb, &err);
-    tr.scene = build_scene(dev, &scene->geom, &err);
-    if (!tr.scene)
-        st = embree_fail(ctx, &err, "scene build");
-    else
+    lrr__bvh bvh;
+    st = lrr__bvh_build(ctx, &scene->geom, RTC_BUILD_QUALITY_HIGH /* many rays per build */, 0,
+                        "lrr_reference_path_trace", &bvh);
+    if (st == LRR_OK) {
+        tr.scene = bvh.scene;
         st = estimate_all(ctx, &tr, &o, radiosity, std_error);
-    if (tr.scene)
-        rtcReleaseScene(tr.scene);
-    if (st == LRR_OK && err.code != RTC_ERROR_NONE)
-        st = embree_fail(ctx, &err, "ray query");
-    rtcReleaseDevice(dev);
+        if (st == LRR_OK)
+            st = lrr__bvh_status(ctx, &bvh, "ray query");
+        lrr__bvh_release(&bvh);
+    }
     tracer_free(&tr);
     return st;
 }
