@@ -337,6 +337,7 @@ LRR_API LRR_NODISCARD lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_
 LRR_API void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
     LRR_NONNULL(1, 3);
 
+#define LRR_BACK_FACE_WORST 5 /* entries of lrr_operator_info's worst back-face lists */
 typedef struct lrr_operator_info {
     size_t n, k, d, triangles; /* d = 0 for an adaptive hierarchy (patch sizes vary) */
     size_t d_min, d_max;    /* fewest and most subpatches in one patch (both d if uniform) */
@@ -350,6 +351,17 @@ typedef struct lrr_operator_info {
     size_t bytes;           /* memory held by F̄, M_c and per-subpatch data */
     int formfactor_method;  /* what the build used: LRR_FORMFACTOR_RASTER or _RAYCAST
                                (0 after lrr_operator_load: .lrr files do not record it) */
+    /* Light-leak indicator: the mean over receivers (subpatches) of the share of each
+     * hemicube (Σ delta form factors, 0..1) whose first hit is the back of a triangle. Light
+     * there is lost: a closed scene with consistent inward-facing surfaces gives 0; surfaces
+     * modelled the wrong way round, a receiver inside a closed solid (a floor under a box)
+     * or behind a one-sided emitter give > 0. The worst input triangles (index as in
+     * lrr_scene_subpatch_at; the mean share of their subpatches), largest first; unused
+     * entries have share 0 and triangle SIZE_MAX. All 0 (triangles SIZE_MAX) after
+     * lrr_operator_load: .lrr files do not record them. */
+    double back_face_share;
+    size_t worst_back_face_triangle[LRR_BACK_FACE_WORST];
+    double worst_back_face_share[LRR_BACK_FACE_WORST];
 } lrr_operator_info;
 /* info_size = sizeof *info (see Conventions). */
 LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info,

@@ -219,6 +219,34 @@ leftover=""
 for f in "$T"/*tmp*; do [ -e "$f" ] && leftover="$leftover $f"; done
 if [ -n "$leftover" ]; then fail "preprocess left temporary files:$leftover"; else pass "preprocess left no temporary file"; fi
 
+# the light-leak indicator: the share of hemicube pixels seeing back faces, and the worst
+# triangles. A cube with all faces outward: no receiver sees a back. The same cube with face
+# 5 flipped inwards: that face sees only backs (share 1), 1 of 12 triangles → 1/12.
+# cornell-closed is not 0: the floor under the closed blocks and the ceiling over the
+# one-sided light (0.05 mm under it) see back faces; they are hidden and receive nothing.
+TDATA=${LRR_SRCDIR:-.}/tests/data
+run preprocess "$TDATA/check_box.obj" -o "$T/leak.lrr" --levels 1 --hemicube 16 --threads 2
+if [ "$rc" -eq 0 ] && [ "$(value back_face_share)" = 0 ] && ! grep -q '^worst_back_face:' "$T/out"; then
+    pass "preprocess: back_face_share 0 for a consistently oriented cube"
+else
+    fail "back_face_share of check_box.obj (exit $rc): '$(value back_face_share)'"; show_err
+fi
+run preprocess "$TDATA/check_box_flipped.obj" -o "$T/leak.lrr" --levels 1 --hemicube 16 --threads 2
+if [ "$rc" -eq 0 ] && [ "$(value back_face_share)" = 0.0833333 ] &&
+    [ "$(grep -c '^worst_back_face:' "$T/out")" = 1 ] && [ "$(value worst_back_face)" = "5 1" ]; then
+    pass "preprocess: a flipped face gives back_face_share $(value back_face_share), names 'worst_back_face: 5 1'"
+else
+    fail "back_face_share of check_box_flipped.obj (exit $rc): $(grep back_face "$T/out" | tr '\n' ' ')"; show_err
+fi
+run preprocess cornell-closed -o "$T/leak.lrr" --patches 30 --levels 1 --hemicube 32 --threads 2
+share=$(value back_face_share)
+if [ "$rc" -eq 0 ] && awk -v s="$share" 'BEGIN { exit !(s > 0 && s < 0.05) }' &&
+    ! sed -n 's/^worst_back_face: //p' "$T/out" | awk '$1 > 3 { bad = 1 } END { exit !bad }'; then
+    pass "preprocess cornell-closed: back_face_share $share, only floor/ceiling triangles named"
+else
+    fail "back_face_share of cornell-closed (exit $rc): $(grep back_face "$T/out" | tr '\n' ' ')"; show_err
+fi
+
 # --memory-budget: a build that does not fit is refused before it starts, naming the MiB it
 # needs (n = 7968, k = 498: F̄ alone is 15 MiB); the small build above fits in 1 MiB.
 BIGSCENE="cornell --patches 500 --levels 2 --hemicube 32"
@@ -932,6 +960,26 @@ EOF
     fi
     run check cornell --strict
     expect_rc 1 "check cornell --strict (warnings count)"
+    # the real scenes in data/scenes (counts from their SOURCE.md, data/README.md): the IFC
+    # house's solids intersect and touch (exit 1, errors), the bunny room only has open edges
+    # (the scan's holes and the light quad); 0.7 s each here
+    run check "${LRR_DATA_DIR:-data}/scenes/fzk_haus.obj"
+    if [ "$rc" -eq 1 ] && [ "$(value triangles)" = 35910 ] && [ "$(value degenerate)" = 3 ] &&
+        [ "$(value intersecting_pairs)" = 10825 ] && [ "$(value coplanar_overlaps)" = 1263 ] &&
+        [ "$(value contacts)" = 14806 ] && [ "$(value open_edges)" = 3207 ] &&
+        [ "$(value inconsistent_components)" = 35 ] && grep -qx 'result: errors' "$T/out"; then
+        pass "check fzk_haus.obj: 10825 intersecting pairs, 14806 contacts, 3207 open edges (exit 1)"
+    else
+        fail "check fzk_haus.obj (exit $rc): $(grep -E '^[a-z_]+: [0-9]+$' "$T/out" | tr '\n' ' ')"; show_err
+    fi
+    run check "${LRR_DATA_DIR:-data}/scenes/bunny_room.obj"
+    if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 72525 ] && [ "$(value intersecting_pairs)" = 0 ] &&
+        [ "$(value contacts)" = 0 ] && [ "$(value open_edges)" = 227 ] &&
+        [ "$(value inconsistent_components)" = 0 ] && grep -qx 'result: warnings only' "$T/out"; then
+        pass "check bunny_room.obj: 72525 triangles, 227 open edges, warnings only"
+    else
+        fail "check bunny_room.obj (exit $rc): $(grep -E '^[a-z_]+: [0-9]+$' "$T/out" | tr '\n' ' ')"; show_err
+    fi
 fi
 run check
 expect_rc 2 "check without a scene"

@@ -18,7 +18,10 @@ static const char preprocess_help[] =
     "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
     "saves it atomically. Prints 'key: value' lines: n, k, d, hemicube, seed,\n"
     "build_seconds, cond_r, cond_g, cond_b, storage, memory_mb, backend, formfactor\n"
-    "(raster or raycast, as used), output. Warns on\n"
+    "(raster or raycast, as used), back_face_share (the light-leak indicator: the mean\n"
+    "share of the receivers' hemicubes that sees the back of a triangle; 0 for a closed\n"
+    "scene with consistent orientation), up to 5 'worst_back_face: TRIANGLE SHARE' lines\n"
+    "(the input triangles whose receivers see most back faces), output. Warns on\n"
     "stderr when a condition estimate is so large (cond × FLT_EPSILON > 1e-3) that M_c,\n"
     "stored in single precision, may not carry the solution to 0.1%.\n"
     "\n" SCENE_HELP "\n"
@@ -239,6 +242,11 @@ static void print_preprocess(const preprocess_args *a, const lrr_operator *op)
     lrr_operator_get_info(op, &info, sizeof info);
     printf("formfactor: %s\n",
            info.formfactor_method == LRR_FORMFACTOR_RAYCAST ? "raycast" : "raster");
+    /* the light-leak indicator: hemicube share seeing back faces, and the worst triangles */
+    printf("back_face_share: %.6g\n", info.back_face_share);
+    for (int w = 0; w < LRR_BACK_FACE_WORST && info.worst_back_face_share[w] > 0; w++)
+        printf("worst_back_face: %zu %.6g\n", info.worst_back_face_triangle[w],
+               info.worst_back_face_share[w]);
     printf("output: %s\n", a->output);
 }
 

@@ -29,9 +29,11 @@ typedef struct lrr__multiplier_map {
 lrr_status lrr__multiplier_map_create(lrr_context *ctx, unsigned res, lrr__multiplier_map *m);
 void lrr__multiplier_map_free(lrr__multiplier_map *m);
 
-/* Fills fbar (n×k) from geometry g with one hemicube per subpatch. */
+/* Fills fbar (n×k) from geometry g with one hemicube per subpatch, and back (n doubles, may
+ * be NULL) with each receiver's back-face share: the part of its hemisphere (Σ delta form
+ * factors, 0..1) whose first hit is the back of a triangle, in the same pass. */
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
-                              const lrr_build_options *opts, float *fbar);
+                              const lrr_build_options *opts, float *fbar, double *back);
 /* The same hemicubes with subpatch columns when by_subpatch (out n×n: the full F, not
  * divided by d) or patch columns otherwise (out n×k: F̄). */
 lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,

@@ -10,8 +10,11 @@
  *   - the *input triangles* are rasterised (not the subdivision), so a hemicube's cost does
  *     not depend on k or d; the item buffer holds the triangle id, and the visible point's
  *     barycentric coordinates in its triangle give the patch;
- *   - back faces write depth but no id (they occlude but carry nothing);
- *   - row_p = Σ multiplier(pixel) over pixels showing patch p.
+ *   - back faces write depth and LRR__ITEM_BACK (they occlude but carry nothing);
+ *   - row_p = Σ multiplier(pixel) over pixels showing patch p, and the receiver's back-face
+ *     share = Σ multiplier(pixel) over pixels showing a back face (the light-leak indicator
+ *     of lrr_operator_info: light that should reach the receiver through a surface modelled
+ *     the wrong way round is lost), summed in the same pass over the pixels.
  *
  * Watertightness: triangles are clipped in homogeneous camera space (near plane plus a guard
  * band at ±4 on the sides) so that projected coordinates stay small; edge functions are
@@ -264,36 +267,39 @@ static inline size_t pixel_target(const hemi_ctx *h, const double x[3], const fa
                           : lrr__patch_at(h->g, (size_t)id, b1, b2);
 }
 
-/* Accumulates the visible patches (or subpatches) of face f into row (k or n doubles). */
-static void integrate_face(const hemi_ctx *h, const double x[3], const face *f, double *row)
+/* Accumulates the visible patches (or subpatches) of face f into row (k or n doubles), or
+ * only resolves the item buffer to patch ids when row is NULL (the device integration then
+ * sums the multiplier map per patch in this same order; markers stay). Returns the delta form
+ * factors of the pixels showing back faces. */
+static double integrate_face(const hemi_ctx *h, const double x[3], const face *f, double *row)
 {
     const size_t pixels = (size_t)f->W * f->H;
+    double back = 0;
     if (h->rc) { /* the ray caster's item buffer holds patches already */
-        for (size_t pix = 0; pix < pixels; pix++)
-            if (f->item[pix] >= 0)
-                row[f->item[pix]] += f->weight[pix];
-        return;
+        for (size_t pix = 0; pix < pixels; pix++) {
+            int32_t id = f->item[pix];
+            if (id >= 0 && row)
+                row[id] += f->weight[pix];
+            else if (id == LRR__ITEM_BACK)
+                back += f->weight[pix];
+        }
+        return back;
     }
     for (int y = 0; y < f->H; y++)
         for (int xx = 0; xx < f->W; xx++) {
             size_t pix = (size_t)y * f->W + xx;
             int32_t id = f->item[pix];
-            if (id >= 0)
-                row[pixel_target(h, x, f, xx, y, id)] += f->weight[pix];
+            if (id >= 0) {
+                size_t p = pixel_target(h, x, f, xx, y, id);
+                if (row)
+                    row[p] += f->weight[pix];
+                else
+                    f->item[pix] = (int32_t)p;
+            } else if (id == LRR__ITEM_BACK) {
+                back += f->weight[pix];
+            }
         }
-}
-
-/* For the device integration: rewrites face f's item buffer from triangle ids to patch ids
- * (-1 stays -1); the device then sums the multiplier map per patch in this same order. */
-static void resolve_face(const hemi_ctx *h, const double x[3], const face *f)
-{
-    for (int y = 0; y < f->H; y++)
-        for (int xx = 0; xx < f->W; xx++) {
-            size_t pix = (size_t)y * f->W + xx;
-            int32_t id = f->item[pix];
-            if (id >= 0)
-                f->item[pix] = (int32_t)pixel_target(h, x, f, xx, y, id);
-        }
+    return back;
 }
 
 typedef struct {
@@ -310,7 +316,7 @@ static void raster_faces(const hemi_ctx *h, const double x[3], const double N[3]
     size_t total = (size_t)h->mm->res * h->mm->res * 3;
     for (size_t p = 0; p < total; p++) {
         sc->depth[p] = 0.0f;
-        sc->item[p] = -1;
+        sc->item[p] = LRR__ITEM_NONE;
     }
     for (size_t t = 0; t < g->n_tri; t++) {
         const tri_info *ti = &h->tri[t];
@@ -328,7 +334,7 @@ static void raster_faces(const hemi_ctx *h, const double x[3], const double N[3]
         double side = lrr__dot3(w0, ti->n) / sqrt(lrr__dot3(ti->n, ti->n));
         if (fabs(side) <= h->eps)
             continue; /* x lies in the triangle's plane: seen edge-on */
-        int32_t id = side > 0 ? (int32_t)t : -1;
+        int32_t id = side > 0 ? (int32_t)t : LRR__ITEM_BACK;
         for (int fi = 0; fi < 5; fi++)
             render_face(h, x, &faces[fi], t, id);
     }
@@ -366,8 +372,10 @@ static void receiver_frame(const lrr__geometry *g, size_t i, uint64_t seed, int 
     lrr__cross3(N, U, Vv);
 }
 
+/* Receiver i's row into out (NULL: patch ids into sc->item for the device); its back-face
+ * share into *back when back is not NULL. */
 static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate, scratch *sc,
-                         float *out)
+                         float *out, double *back)
 {
     const lrr__geometry *g = h->g;
     unsigned R = h->mm->res;
@@ -403,15 +411,16 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
     } else {
         raster_faces(h, x, N, faces, sc);
     }
-    if (!out) { /* device integration: hand over patch ids instead of a row */
-        for (int fi = 0; fi < 5 && !h->rc; fi++)
-            resolve_face(h, x, &faces[fi]);
-        return;
-    }
     size_t cols = h->by_subpatch ? g->n : g->k;
-    memset(sc->row, 0, cols * sizeof(double));
+    if (out)
+        memset(sc->row, 0, cols * sizeof(double));
+    double back_sum = 0;
     for (int fi = 0; fi < 5; fi++)
-        integrate_face(h, x, &faces[fi], sc->row);
+        back_sum += integrate_face(h, x, &faces[fi], out ? sc->row : NULL);
+    if (back)
+        *back = back_sum;
+    if (!out) /* device integration: the item buffer now holds patch ids */
+        return;
     if (h->by_subpatch) {
         for (size_t p = 0; p < cols; p++)
             out[p] = (float)sc->row[p];
@@ -447,17 +456,21 @@ lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_op
     return lrr__formfactor_method(scene->ctx, &scene->geom, o, &method);
 }
 
+static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
+                            const lrr_build_options *opts, int by_subpatch, const size_t *rows,
+                            size_t count, float *out, double *back);
+
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
-                              const lrr_build_options *opts, float *fbar)
+                              const lrr_build_options *opts, float *fbar, double *back)
 {
-    return lrr__hemicube_rows(ctx, g, opts, 0, fbar);
+    return rows_impl(ctx, g, opts, 0, NULL, g->n, fbar, back);
 }
 
 /* Batches of hemicubes are rasterised and resolved to patch ids on the CPU (OpenMP, each
  * receiver straight into its slice of the batch's id buffer), then integrated on the device.
  * A batch is at most 256 hemicubes and 64 MiB of ids. */
 static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_options *opts,
-                              float *out)
+                              float *out, double *back)
 {
     const lrr__geometry *g = h->g;
     const unsigned R = h->mm->res;
@@ -498,7 +511,8 @@ static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_bui
                 if (failed)
                     continue;
                 sc.item = ids + (i - i0) * P;
-                hemicube_row(h, i, opts->seed, !opts->no_rotation, &sc, NULL);
+                hemicube_row(h, i, opts->seed, !opts->no_rotation, &sc, NULL,
+                             back ? back + i : NULL);
             }
             lrr_aligned_free(sc.depth);
         }
@@ -522,14 +536,10 @@ static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_bui
     return st;
 }
 
-static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
-                            const lrr_build_options *opts, int by_subpatch, const size_t *rows,
-                            size_t count, float *out);
-
 lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, int by_subpatch, float *out)
 {
-    return rows_impl(ctx, g, opts, by_subpatch, NULL, g->n, out);
+    return rows_impl(ctx, g, opts, by_subpatch, NULL, g->n, out, NULL);
 }
 
 lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
@@ -539,7 +549,7 @@ lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
     lrr_build_options o = *opts;
     o.backend = LRR_BACKEND_CPU; /* subpatch columns are integrated on the CPU only */
     o.progress = NULL;
-    return rows_impl(ctx, g, &o, 1, rows, count, out);
+    return rows_impl(ctx, g, &o, 1, rows, count, out, NULL);
 }
 
 /* The per-triangle table of g and the diagonal of its bounding box. */
@@ -577,7 +587,7 @@ static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, tri_info *
 
 /* rows (or 0..count-1 when NULL) on the CPU, OpenMP over receivers. */
 static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_options *opts,
-                           const size_t *rows, size_t count, float *out)
+                           const size_t *rows, size_t count, float *out, double *back)
 {
     const size_t rr = (size_t)h->mm->res * h->mm->res;
     const size_t cols = h->by_subpatch ? h->g->n : h->g->k;
@@ -600,7 +610,7 @@ static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_
             if (cancelled || failed)
                 continue;
             hemicube_row(h, rows ? rows[r] : r, opts->seed, !opts->no_rotation, &sc,
-                         out + r * cols);
+                         out + r * cols, back ? back + r : NULL);
             size_t now_done;
             #pragma omp atomic capture
             now_done = ++done;
@@ -631,7 +641,7 @@ static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_
 
 static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
                             const lrr_build_options *opts, int by_subpatch, const size_t *rows,
-                            size_t count, float *out)
+                            size_t count, float *out, double *back)
 {
     unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
     const int on_device = opts->backend == LRR_BACKEND_OPENCL;
@@ -673,7 +683,8 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
      * there too so touching geometry (a block on the floor) is still seen up close. */
     hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc};
     /* the device integration takes the same item buffers, rasterised or ray cast */
-    st = on_device ? device_rows(ctx, &h, opts, out) : cpu_rows(ctx, &h, opts, rows, count, out);
+    st = on_device ? device_rows(ctx, &h, opts, out, back)
+                   : cpu_rows(ctx, &h, opts, rows, count, out, back);
     if (rc) {
         lrr_status rst = lrr__raycaster_status(ctx, rc);
         if (!st)

@@ -22,9 +22,15 @@ typedef struct lrr__hemi_face {
     int side;              /* 0 top: rows span [-1,1]; 1 side: rows span heights [0,1] */
     const double *weight;  /* multiplier map of this face */
     float *depth;          /* the rasteriser's z-buffer (unused by rays) */
-    int32_t *item;         /* per pixel, what is seen from the front (-1 for nothing): the
-                              triangle (rasteriser) or already its patch (ray caster) */
+    int32_t *item;         /* per pixel, what is seen from the front: the triangle
+                              (rasteriser) or already its patch (ray caster); else
+                              LRR__ITEM_NONE or LRR__ITEM_BACK */
 } lrr__hemi_face;
+
+/* Item-buffer markers: nothing seen (or a triangle edge-on), or the back of a triangle,
+ * which occludes and carries nothing; the integration skips both (any id < 0) and sums the
+ * back faces' delta form factors for the light-leak indicator (lrr_operator_info). */
+enum { LRR__ITEM_NONE = -1, LRR__ITEM_BACK = -2 };
 
 typedef struct lrr__raycaster lrr__raycaster;
 
@@ -46,8 +52,9 @@ lrr_status lrr__raycaster_create(lrr_context *ctx, const lrr__geometry *g, doubl
 lrr_status lrr__raycaster_status(lrr_context *ctx, const lrr__raycaster *rc);
 void lrr__raycaster_destroy(lrr__raycaster *rc);
 /* Fills f->item for the receiver at x with unit normal N: the patch (subpatch when
- * h->by_subpatch) each pixel's ray hits first, or -1 for a miss or a hit on a triangle's back
- * (which occludes and carries nothing, as in the rasteriser). Thread-safe. */
+ * h->by_subpatch) each pixel's ray hits first, LRR__ITEM_NONE for a miss (or a triangle whose
+ * plane holds x), LRR__ITEM_BACK for a hit on a triangle's back (which occludes and carries
+ * nothing, as in the rasteriser). Thread-safe. */
 void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N[3],
                        lrr__hemi_face *f);
 

@@ -7,7 +7,7 @@
  * Watertightness: RTC_SCENE_FLAG_ROBUST (Embree's watertight triangle test), so a ray through
  * a shared edge hits one of the two triangles and a closed room's rows still sum to 1.
  * Back faces: Embree reports hits on both sides; a hit from behind occludes (the ray stops)
- * and carries nothing (-1), like the rasteriser's depth-only back faces. */
+ * and carries nothing (LRR__ITEM_BACK), like the rasteriser's depth-only back faces. */
 #include "config.h"
 #include "formfactor/hemicube_private.h"
 #include "scene/bvh.h"
@@ -127,16 +127,21 @@ void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N
                 int xx = x0 + l % TILE, y = y0 + l / TILE;
                 if (!valid[l])
                     continue;
-                int32_t id = -1;
+                int32_t id = LRR__ITEM_NONE;
                 if (rh.hit.geomID[l] != RTC_INVALID_GEOMETRY_ID) {
                     size_t t = rh.hit.primID[l];
                     const lrr__tri_info *ti = &h->tri[t];
                     double w0[3] = {x[0] - ti->v0[0], x[1] - ti->v0[1], x[2] - ti->v0[2]};
-                    /* the rasteriser's test: x strictly in front of the triangle's plane */
-                    if (lrr__dot3(w0, ti->n) > h->eps * sqrt(lrr__dot3(ti->n, ti->n)))
+                    /* the rasteriser's test: x strictly in front of the triangle's plane
+                     * (within eps of it the triangle is edge-on: nothing, not a back) */
+                    double side = lrr__dot3(w0, ti->n);
+                    double tol = h->eps * sqrt(lrr__dot3(ti->n, ti->n));
+                    if (side > tol)
                         id = (int32_t)(h->by_subpatch
                                            ? lrr__subpatch_at(h->g, t, rh.hit.u[l], rh.hit.v[l])
                                            : lrr__patch_at(h->g, t, rh.hit.u[l], rh.hit.v[l]));
+                    else if (side < -tol)
+                        id = LRR__ITEM_BACK;
                 }
                 f->item[(size_t)y * f->W + xx] = id;
             }

@@ -10,6 +10,7 @@
  *                hemicubes  multiplier map (R² + R²/2 doubles), triangle table
  *                           (LRR__HEMICUBE_TRI_BYTES per triangle) and per thread a depth
  *                           and an item buffer (3R² floats and int32) and one row (k doubles);
+ *                           each receiver's back-face share (n doubles);
  *                           on an OpenCL device the host holds a batch of patch ids instead
  *                           of the per-thread item buffers (see device_rows in hemicube.c)
  *                factor     G (k×k doubles) and k pivots (plus one decoded row of F̄ per
@@ -72,7 +73,8 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
               /* hemicube phase */
               add3(&hemi, rr + rr / 2, 1, sizeof(double)) &&
               add3(&hemi, n_tri, 1, LRR__HEMICUBE_TRI_BYTES) &&
-              add3(&hemi, T, 3 * rr, sizeof(float)) && add3(&hemi, T, k, sizeof(double));
+              add3(&hemi, T, 3 * rr, sizeof(float)) && add3(&hemi, T, k, sizeof(double)) &&
+              add3(&hemi, n, 1, sizeof(double)); /* back-face shares (leak indicator) */
     if (ok && o->backend == LRR_BACKEND_OPENCL)
         ok = add3(&hemi, device_batch(n, 3 * rr), 3 * rr, sizeof(int32_t)) &&
              add3(&hemi, 3 * rr, 1, sizeof(double)); /* the multiplier map's upload */

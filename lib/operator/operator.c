@@ -38,6 +38,8 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
     if (!op)
         return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate an operator");
     op->ctx = lrr__context_retain(ctx);
+    for (int w = 0; w < LRR_BACK_FACE_WORST; w++)
+        op->worst_tri[w] = SIZE_MAX;
     lrr_status st;
     size_t kk;
     if ((st = lrr__geometry_copy(ctx, &op->geom, g)))
@@ -70,6 +72,36 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
 fail:
     lrr_operator_destroy(op);
     return st;
+}
+
+/* The leak indicator from the receivers' back-face shares: their mean, and the input
+ * triangles whose subpatches (equal areas within a triangle) have the largest mean share. */
+static void back_face_summary(lrr_operator *op, const double *back)
+{
+    const lrr__geometry *g = &op->geom;
+    double sum = 0;
+    for (size_t i = 0; i < g->n; i++)
+        sum += back[i];
+    op->back_face_share = g->n ? sum / (double)g->n : 0;
+    for (size_t t = 0; t < g->n_tri; t++) {
+        size_t i0 = g->sub0[t], i1 = g->sub0[t + 1];
+        double s = 0;
+        for (size_t i = i0; i < i1; i++)
+            s += back[i];
+        s = i1 > i0 ? s / (double)(i1 - i0) : 0;
+        /* insertion into the sorted list; ties keep the lower triangle first */
+        int w = LRR_BACK_FACE_WORST;
+        while (w > 0 && s > op->worst_share[w - 1])
+            w--;
+        if (w == LRR_BACK_FACE_WORST)
+            continue;
+        for (int j = LRR_BACK_FACE_WORST - 1; j > w; j--) {
+            op->worst_share[j] = op->worst_share[j - 1];
+            op->worst_tri[j] = op->worst_tri[j - 1];
+        }
+        op->worst_share[w] = s;
+        op->worst_tri[w] = t;
+    }
 }
 
 lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *opts,
@@ -119,13 +151,18 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
     op->hemicube_resolution = o.hemicube_resolution;
     op->seed = o.seed;
     op->no_rotation = o.no_rotation != 0;
+    double *back = NULL;
     if ((st = lrr__formfactor_method(ctx, &op->geom, &o, &op->formfactor_method)) ||
         (st = lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission)) ||
-        (st = lrr__hemicube_fbar(ctx, &op->geom, &o, op->fbar)) ||
+        (st = lrr__calloc(ctx, &back, op->n, sizeof(double), "back-face shares")) ||
+        (st = lrr__hemicube_fbar(ctx, &op->geom, &o, op->fbar, back)) ||
         (st = lrr__smw_factor(op))) {
+        lrr_aligned_free(back);
         lrr_operator_destroy(op);
         return st;
     }
+    back_face_summary(op, back);
+    lrr_aligned_free(back);
     op->build_seconds = lrr__now() - t0;
     *out = op;
     return LRR_OK;
@@ -189,6 +226,9 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_
     info->seed = op->seed;
     info->no_rotation = op->no_rotation;
     info->formfactor_method = op->formfactor_method;
+    info->back_face_share = op->back_face_share;
+    memcpy(info->worst_back_face_triangle, op->worst_tri, sizeof op->worst_tri);
+    memcpy(info->worst_back_face_share, op->worst_share, sizeof op->worst_share);
     info->storage = op->storage;
     info->bytes = op->n * op->k * (op->storage == LRR_STORAGE_F32 ? sizeof(float) : 2) +
                   (op->row_scale ? op->n * sizeof(float) : 0) +

@@ -26,6 +26,9 @@ struct lrr_operator {
     uint64_t seed;
     int no_rotation;           /* built with lrr_build_options.no_rotation */
     int formfactor_method;     /* LRR_FORMFACTOR_RASTER or _RAYCAST; 0 after a load */
+    double back_face_share;    /* lrr_operator_info's leak indicator; 0 after a load */
+    size_t worst_tri[LRR_BACK_FACE_WORST];   /* SIZE_MAX where unused */
+    double worst_share[LRR_BACK_FACE_WORST];
 };
 
 /* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, m and

@@ -196,6 +196,78 @@ static void test_reproducible(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* The light-leak indicator (lrr_operator_info.back_face_share): a unit square facing a unit
+ * square at distance 1 (F = 0.1998) whose triangles are flipped, so the receiver's hemicube
+ * sees the wall's back. Each receiver triangle's share is its form factor to the wall and
+ * the mean over all receivers (half of them on the wall, which sees nothing) is F/2, with
+ * either pixel method; unflipped, nothing is a back face; a loaded operator reports none. */
+static void test_back_face_share(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    const double F = parallel_closed_form(1, 1);
+    const double p0[3] = {0, 0, 0}, p1[3] = {1, 0, 0}, p2[3] = {1, 1, 0}, p3[3] = {0, 1, 0};
+    const double q0[3] = {0, 0, 1}, q1[3] = {0, 1, 1}, q2[3] = {1, 1, 1}, q3[3] = {1, 0, 1};
+    float rho[12], em[12] = {0};
+    for (int i = 0; i < 12; i++)
+        rho[i] = 0.5f;
+    for (int flipped = 0; flipped < 2; flipped++)
+        for (int m = LRR_FORMFACTOR_RASTER; m <= LRR_FORMFACTOR_RAYCAST; m++) {
+            float v[36];
+            tu_quad(v, p0, p1, p2, p3);
+            if (flipped) /* the wall faces +z, away from the receiver */
+                tu_quad(v + 18, q0, q3, q2, q1);
+            else
+                tu_quad(v + 18, q0, q1, q2, q3);
+            lrr_scene *s;
+            LRR_CHECK(ctx, lrr_scene_create(ctx, 4, v, rho, em, "test", &s));
+            lrr_subdivision sd = {.max_patch_area = 1.0 / 16, .levels = 2};
+            LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
+            lrr_build_options o = {.hemicube_resolution = 128, .seed = 3, .formfactor_method = m};
+            lrr_operator *op;
+            LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+            lrr_operator_info info;
+            lrr_operator_get_info(op, &info, sizeof info);
+            print_message("%s wall, %s: back_face_share %.6f (F/2 = %.6f), worst %zu %.6f, "
+                          "%zu %.6f\n", flipped ? "flipped" : "facing",
+                          m == LRR_FORMFACTOR_RASTER ? "raster" : "raycast",
+                          info.back_face_share, F / 2, info.worst_back_face_triangle[0],
+                          info.worst_back_face_share[0], info.worst_back_face_triangle[1],
+                          info.worst_back_face_share[1]);
+            if (!flipped) {
+                assert_true(info.back_face_share == 0);
+                assert_true(info.worst_back_face_share[0] == 0);
+                assert_true(info.worst_back_face_triangle[0] == SIZE_MAX);
+            } else {
+                ASSERT_NEAR(info.back_face_share, F / 2, 0.01 * F, "method %d\n", m);
+                for (int w = 0; w < 2; w++) { /* the two receiver triangles, by symmetry */
+                    assert_true(info.worst_back_face_triangle[w] < 2);
+                    ASSERT_NEAR(info.worst_back_face_share[w], F, 0.02 * F, "entry %d\n", w);
+                }
+                assert_true(info.worst_back_face_share[2] == 0); /* the wall sees nothing */
+                assert_true(info.worst_back_face_triangle[2] == SIZE_MAX);
+                /* the back of the wall carries nothing: no row reaches it */
+                for (size_t i = 0; i < op->n * op->k; i++)
+                    if (op->geom.first[i % op->k] >= op->n / 2)
+                        assert_true(op->fbar[i] == 0);
+                char path[256];
+                tu_tmp_path(path, sizeof path, "leak.lrr");
+                LRR_CHECK(ctx, lrr_operator_save(op, path));
+                lrr_operator *back;
+                LRR_CHECK(ctx, lrr_operator_load(ctx, path, &back));
+                lrr_operator_get_info(back, &info, sizeof info);
+                assert_true(info.back_face_share == 0 && info.worst_back_face_share[0] == 0);
+                assert_true(info.worst_back_face_triangle[0] == SIZE_MAX);
+                unlink(path);
+                lrr_operator_destroy(back);
+            }
+            lrr_operator_destroy(op);
+            lrr_scene_destroy(s);
+        }
+    lrr_context_destroy(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -203,6 +275,7 @@ int main(void)
         cmocka_unit_test(test_point_to_disk),
         cmocka_unit_test(test_closed_forms),
         cmocka_unit_test(test_reproducible),
+        cmocka_unit_test(test_back_face_share),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
