@@ -175,14 +175,20 @@ LRR_API void lrr_scene_get_info(const lrr_scene *scene, lrr_scene_info *info, si
  * that pierce, light leaks), coplanar overlaps facing the same way (z-fighting), closed
  * components (connected by shared edges, keyed by exact positions) with an edge traversed in
  * the same direction by its two triangles. Warnings: open edges (used by one triangle) and
- * contacts (coplanar overlaps facing opposite ways, e.g. a block standing on a floor). */
+ * contacts (coplanar overlaps facing opposite ways, e.g. a block standing on a floor), open
+ * sheets that look upside down. */
 typedef enum lrr_check_kind {
     LRR_CHECK_DEGENERATE = 0,   /* face_a has (exactly) zero area */
     LRR_CHECK_INTERSECT = 1,    /* face_a and face_b pierce each other */
     LRR_CHECK_ZFIGHT = 2,       /* coplanar, interiors overlap, same facing */
     LRR_CHECK_CONTACT = 3,      /* coplanar, interiors overlap, opposite facing (warning) */
     LRR_CHECK_OPEN_EDGE = 4,    /* an edge of face_a used by no other triangle (warning) */
-    LRR_CHECK_ORIENTATION = 5   /* face_a is flipped against its closed component (face_b) */
+    LRR_CHECK_ORIENTATION = 5,  /* face_a is flipped against its closed component (face_b) */
+    LRR_CHECK_UPSIDE_DOWN = 6   /* face_a belongs to an open sheet (first face face_b) that
+                                   looks modelled upside down (warning: a ray-cast heuristic,
+                                   see check.cpp): rays from its front
+                                   mostly meet back faces or nothing while rays from its back
+                                   meet front faces (a floor quad facing down into a room) */
 } lrr_check_kind;
 typedef struct lrr_check_finding {
     lrr_check_kind kind;
@@ -198,6 +204,7 @@ typedef struct lrr_check_report {
     float *vert, *rho, *emission; /* ×9, ×3, ×3 */
     size_t *face;
     unsigned char *fix;
+    size_t upside_down_sheets; /* open connected sheets reported as LRR_CHECK_UPSIDE_DOWN */
 } lrr_check_report;
 LRR_API LRR_NODISCARD lrr_status lrr_scene_check(lrr_context *ctx, const char *name,
                                                  lrr_check_report **out) LRR_NONNULL(1, 2, 3);

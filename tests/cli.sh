@@ -963,11 +963,27 @@ EOF
     # the real scenes in data/scenes (counts from their SOURCE.md, data/README.md): the IFC
     # house's solids intersect and touch (exit 1, errors), the bunny room only has open edges
     # (the scan's holes and the light quad); 0.7 s each here
+    # an open floor quad facing down, away from its room: flagged as a warning
+    run check "${LRR_SRCDIR:-.}/tests/data/room_floor_flipped.obj"
+    if [ "$rc" -eq 0 ] && [ "$(value upside_down_sheets)" = 1 ] &&
+        grep -q '^warning: face 10 is in an open sheet that looks upside down' "$T/out" &&
+        grep -qx 'result: warnings only' "$T/out"; then
+        pass "check names the upside-down floor quad (warning)"
+    else
+        fail "check room_floor_flipped.obj (exit $rc)"; sed 's/^/    out: /' "$T/out" | head -n 14
+    fi
+    run check "${LRR_SRCDIR:-.}/tests/data/room_floor.obj"
+    if [ "$rc" -eq 0 ] && [ "$(value upside_down_sheets)" = 0 ]; then
+        pass "check: the floor facing its room is not flagged"
+    else
+        fail "check room_floor.obj (exit $rc): upside_down_sheets '$(value upside_down_sheets)'"
+    fi
     run check "${LRR_DATA_DIR:-data}/scenes/fzk_haus.obj"
     if [ "$rc" -eq 1 ] && [ "$(value triangles)" = 35910 ] && [ "$(value degenerate)" = 3 ] &&
         [ "$(value intersecting_pairs)" = 10825 ] && [ "$(value coplanar_overlaps)" = 1263 ] &&
         [ "$(value contacts)" = 14806 ] && [ "$(value open_edges)" = 3207 ] &&
-        [ "$(value inconsistent_components)" = 35 ] && grep -qx 'result: errors' "$T/out"; then
+        [ "$(value inconsistent_components)" = 35 ] && [ "$(value upside_down_sheets)" = 6 ] &&
+        grep -qx 'result: errors' "$T/out"; then
         pass "check fzk_haus.obj: 10825 intersecting pairs, 14806 contacts, 3207 open edges (exit 1)"
     else
         fail "check fzk_haus.obj (exit $rc): $(grep -E '^[a-z_]+: [0-9]+$' "$T/out" | tr '\n' ' ')"; show_err
@@ -975,7 +991,8 @@ EOF
     run check "${LRR_DATA_DIR:-data}/scenes/bunny_room.obj"
     if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 72525 ] && [ "$(value intersecting_pairs)" = 0 ] &&
         [ "$(value contacts)" = 0 ] && [ "$(value open_edges)" = 227 ] &&
-        [ "$(value inconsistent_components)" = 0 ] && grep -qx 'result: warnings only' "$T/out"; then
+        [ "$(value inconsistent_components)" = 0 ] && [ "$(value upside_down_sheets)" = 0 ] &&
+        grep -qx 'result: warnings only' "$T/out"; then
         pass "check bunny_room.obj: 72525 triangles, 227 open edges, warnings only"
     else
         fail "check bunny_room.obj (exit $rc): $(grep -E '^[a-z_]+: [0-9]+$' "$T/out" | tr '\n' ' ')"; show_err

@@ -15,13 +15,17 @@ static const char check_help[] =
     "Usage: lrr check SCENE [--fix OUT.obj] [--max-report N] [--strict]\n"
     "The scene doctor (exact predicates, CGAL). Reads the raw triangles (zero-area ones\n"
     "included) and prints 'key: value' lines (triangles, degenerate, intersecting_pairs,\n"
-    "coplanar_overlaps, contacts, open_edges, inconsistent_components), then one line per\n"
+    "coplanar_overlaps, contacts, open_edges, inconsistent_components,\n"
+    "upside_down_sheets), then one line per\n"
     "finding naming the file's face numbers (for a built-in scene, triangle indices).\n"
     "Errors: degenerate (zero-area) triangles; intersecting pairs (each crosses the other's\n"
     "plane: light leaks); coplanar overlaps facing the same way (z-fighting); closed\n"
     "components whose faces disagree on orientation (the minority is named).\n"
     "Warnings: open edges (boundaries; the Cornell box's front is open) and contacts\n"
-    "(coplanar overlaps facing opposite ways, e.g. a block standing on the floor).\n"
+    "(coplanar overlaps facing opposite ways, e.g. a block standing on the floor);\n"
+    "open sheets that look upside down (a few rays from each side of the sheet: its\n"
+    "front sees back faces or nothing while its back sees front faces, e.g. a floor quad\n"
+    "facing down into its room).\n"
     "\n" SCENE_HELP "\n"
     "  --fix OUT.obj        write the scene without degenerates and with each closed\n"
     "                       component oriented like its majority (OBJ + OUT.mtl with Kd/Ke,\n"
@@ -101,6 +105,11 @@ static void print_finding(const lrr_check_finding *f)
         printf("error: face %zu is oriented against its closed component (e.g. face %zu)\n",
                f->face_a, f->face_b);
         break;
+    case LRR_CHECK_UPSIDE_DOWN:
+        printf("warning: face %zu is in an open sheet that looks upside down (its front sees "
+               "back faces or nothing, its back sees front faces; sheet of face %zu)\n",
+               f->face_a, f->face_b);
+        break;
     }
 }
 
@@ -109,9 +118,9 @@ static int print_report(const check_args *a, const lrr_check_report *r)
 {
     printf("scene: %s\ntriangles: %zu\ndegenerate: %zu\nintersecting_pairs: %zu\n"
            "coplanar_overlaps: %zu\ncontacts: %zu\nopen_edges: %zu\n"
-           "inconsistent_components: %zu\n",
+           "inconsistent_components: %zu\nupside_down_sheets: %zu\n",
            a->scene, r->triangles, r->degenerate, r->intersecting_pairs, r->coplanar_overlaps,
-           r->contacts, r->open_edges, r->inconsistent_components);
+           r->contacts, r->open_edges, r->inconsistent_components, r->upside_down_sheets);
     for (size_t i = 0; i < r->n_findings && i < a->max_report; i++)
         print_finding(&r->findings[i]);
     if (r->n_findings > a->max_report)
@@ -119,7 +128,7 @@ static int print_report(const check_args *a, const lrr_check_report *r)
                r->n_findings - a->max_report);
     size_t errors = r->degenerate + r->intersecting_pairs + r->coplanar_overlaps +
                     r->inconsistent_components;
-    size_t warnings = r->contacts + r->open_edges;
+    size_t warnings = r->contacts + r->open_edges + r->upside_down_sheets;
     int rc = errors || (a->strict && warnings) ? CLI_EXIT_FAIL : CLI_EXIT_OK;
     printf("result: %s\n", errors ? "errors" : warnings ? (a->strict ? "warnings (strict)" : "warnings only") : "clean");
     return rc;

@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cfloat>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -37,7 +38,9 @@
 #include <CGAL/box_intersection_d.h>
 #include <CGAL/intersections.h>
 
+#include <embree3/rtcore.h> /* C++ headers (templates): outside extern "C" */
 extern "C" {
+#include "scene/bvh.h"
 #include "scene/scene.h"
 }
 
@@ -60,6 +63,9 @@ struct Checker {
     std::vector<char> degen;
     std::vector<lrr_check_finding> found;
     lrr_check_report *r;
+    std::vector<std::vector<std::size_t>> sheets; /* open components, for upside_down() */
+    lrr_context *ctx;
+    lrr_status st; /* an Embree failure of upside_down() */
 
     Key key(std::size_t t, int i) const
     {
@@ -198,6 +204,7 @@ struct Checker {
         for (const auto &c : cand)
             pair(c.first, c.second);
         topology();
+        upside_down();
         std::sort(found.begin(), found.end(),
                   [](const lrr_check_finding &x, const lrr_check_finding &y) {
                       if (x.kind != y.kind)
@@ -205,6 +212,10 @@ struct Checker {
                       return x.face_a != y.face_a ? x.face_a < y.face_a : x.face_b < y.face_b;
                   });
     }
+
+    /* The open sheets that look upside down (SheetRays), with one Embree BVH of all the
+     * triangles (degenerate ones are never hit). */
+    void upside_down();
 
     /* Edges keyed by exact vertex positions; components by shared edges. */
     void topology()
@@ -269,6 +280,8 @@ struct Checker {
                     }
                 }
             }
+            if (!closed)
+                sheets.push_back(comp);
             if (!closed || !bad)
                 continue;
             r->inconsistent_components++;
@@ -291,6 +304,151 @@ struct Checker {
         }
     }
 };
+
+/* Open sheets modelled upside down (a floor quad facing down into its room): from up to
+ * SAMPLES triangles of each sheet, RAYS rays leave each side (the normal and four directions
+ * tilted 27° from it). A sheet facing the right way sees front faces from its front and back
+ * faces (or nothing) from its back; "wrong" counts the opposite: back faces seen from the
+ * front and front faces seen from the back. Flagged when wrong > 2 × right and at least 4
+ * rays say so (a light quad under its ceiling sees the ceiling's front from its back, but as
+ * many front faces from its front: not flagged). At most 80 rays per sheet. */
+struct SheetRays {
+    enum { SAMPLES = 8, RAYS = 5 };
+    const float *v;
+    std::size_t n;
+    RTCScene scene;
+    float lift; /* ray origins leave the surface by this much */
+
+    /* false when the unit normal is not representable (a sliver whose cross product
+     * underflows, or coordinates near FLT_MAX whose products overflow) */
+    bool normal(std::size_t t, double nrm[3]) const
+    {
+        const float *a = v + 9 * t;
+        double e1[3], e2[3];
+        for (int j = 0; j < 3; j++) {
+            e1[j] = (double)a[3 + j] - a[j];
+            e2[j] = (double)a[6 + j] - a[j];
+        }
+        nrm[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        nrm[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        nrm[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        double len = std::sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2]);
+        if (!(len > 0 && std::isfinite(len)))
+            return false;
+        for (int j = 0; j < 3; j++)
+            nrm[j] /= len;
+        return true;
+    }
+    /* +1: the ray from t's centroid along dir (on side s of t) meets a front face, -1 a back
+     * face, 0 nothing (or a face edge-on) */
+    int cast(std::size_t t, const double dir[3], double s) const
+    {
+        const float *a = v + 9 * t;
+        double nrm[3];
+        if (!normal(t, nrm))
+            return 0;
+        struct RTCRayHit rh;
+        std::memset(&rh, 0, sizeof rh);
+        rh.ray.org_x = (a[0] + a[3] + a[6]) / 3 + (float)(s * nrm[0]) * lift;
+        rh.ray.org_y = (a[1] + a[4] + a[7]) / 3 + (float)(s * nrm[1]) * lift;
+        rh.ray.org_z = (a[2] + a[5] + a[8]) / 3 + (float)(s * nrm[2]) * lift;
+        rh.ray.dir_x = (float)dir[0];
+        rh.ray.dir_y = (float)dir[1];
+        rh.ray.dir_z = (float)dir[2];
+        rh.ray.tfar = INFINITY;
+        rh.ray.mask = UINT32_MAX;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        /* Embree asserts (ray.valid()) origins within ±1.844e18 (its FLT_LARGE): a raw
+         * scene may hold larger coordinates, whose sheets are then not ray tested */
+        const float big = 1e18f;
+        if (!(std::fabs(rh.ray.org_x) <= big && std::fabs(rh.ray.org_y) <= big &&
+              std::fabs(rh.ray.org_z) <= big))
+            return 0;
+        struct RTCIntersectContext ictx;
+        rtcInitIntersectContext(&ictx);
+        rtcIntersect1(scene, &ictx, &rh);
+        if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+            return 0;
+        double hn[3];
+        if (!normal(rh.hit.primID, hn))
+            return 0;
+        double c = hn[0] * dir[0] + hn[1] * dir[1] + hn[2] * dir[2];
+        return c < -1e-6 ? 1 : c > 1e-6 ? -1 : 0;
+    }
+    bool upside_down(const std::vector<std::size_t> &comp) const
+    {
+        int right = 0, wrong = 0;
+        std::size_t step = comp.size() > SAMPLES ? comp.size() / SAMPLES : 1;
+        for (std::size_t k = 0; k < comp.size() && k / step < SAMPLES; k += step) {
+            std::size_t t = comp[k];
+            double nrm[3], u[3], w[3];
+            if (!normal(t, nrm))
+                continue;
+            double h[3] = {1, 0, 0};
+            if (std::fabs(nrm[0]) > 0.6) {
+                h[0] = 0;
+                h[1] = 1;
+            }
+            u[0] = h[1] * nrm[2] - h[2] * nrm[1];
+            u[1] = h[2] * nrm[0] - h[0] * nrm[2];
+            u[2] = h[0] * nrm[1] - h[1] * nrm[0];
+            double ul = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+            for (int j = 0; j < 3; j++)
+                u[j] /= ul;
+            w[0] = nrm[1] * u[2] - nrm[2] * u[1];
+            w[1] = nrm[2] * u[0] - nrm[0] * u[2];
+            w[2] = nrm[0] * u[1] - nrm[1] * u[0];
+            for (double s = 1; s >= -1; s -= 2)
+                for (int r = 0; r < RAYS; r++) {
+                    double a = r == 0 ? 0 : 0.5, cu = r == 1 ? a : r == 2 ? -a : 0;
+                    double cw = r == 3 ? a : r == 4 ? -a : 0, dir[3];
+                    for (int j = 0; j < 3; j++)
+                        dir[j] = s * nrm[j] + cu * u[j] + cw * w[j];
+                    int hit = cast(t, dir, s);
+                    if (hit != 0 && (hit > 0) == (s > 0))
+                        right++;
+                    else if (hit != 0)
+                        wrong++;
+                }
+        }
+        return wrong > 2 * right && wrong >= 4;
+    }
+};
+
+void Checker::upside_down()
+{
+    if (sheets.empty())
+        return;
+    lrr__geometry g;
+    std::memset(&g, 0, sizeof g);
+    g.n_tri = n;
+    g.vert = const_cast<float *>(v);
+    lrr__bvh bvh;
+    if ((st = lrr__bvh_build(ctx, &g, RTC_BUILD_QUALITY_MEDIUM, 1, "lrr_scene_check", &bvh)))
+        return;
+    /* the ray caster's lift (lib/formfactor/raycast.c): clear of float rounding of the
+     * origin, far below any feature */
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double maxabs = 0;
+    for (std::size_t i = 0; i < 9 * n; i++) {
+        lo[i % 3] = std::min(lo[i % 3], (double)v[i]);
+        hi[i % 3] = std::max(hi[i % 3], (double)v[i]);
+        maxabs = std::max(maxabs, std::fabs((double)v[i]));
+    }
+    double diag = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                            (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    SheetRays rays{v, n, bvh.scene, (float)(1e-6 * diag + 8 * FLT_EPSILON * maxabs)};
+    for (const auto &comp : sheets) {
+        if (!rays.upside_down(comp))
+            continue;
+        r->upside_down_sheets++;
+        std::size_t first = *std::min_element(comp.begin(), comp.end());
+        for (std::size_t t : comp)
+            add(LRR_CHECK_UPSIDE_DOWN, t, first);
+    }
+    st = lrr__bvh_status(ctx, &bvh, "ray query");
+    lrr__bvh_release(&bvh);
+}
 
 bool is_file(const char *name)
 {
@@ -371,8 +529,12 @@ extern "C" lrr_status lrr_scene_check(lrr_context *ctx, const char *name, lrr_ch
     }
     r->triangles = n;
     try {
-        Checker c{n, r->vert, {}, {}, {}, r};
+        Checker c{n, r->vert, {}, {}, {}, r, {}, ctx, LRR_OK};
         c.run();
+        if (c.st != LRR_OK) {
+            lrr_check_report_destroy(r);
+            return c.st;
+        }
         r->n_findings = c.found.size();
         r->findings = static_cast<lrr_check_finding *>(
             std::malloc((c.found.size() ? c.found.size() : 1) * sizeof(lrr_check_finding)));

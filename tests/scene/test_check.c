@@ -1,5 +1,6 @@
 /* The scene doctor (lib/scene/check.cpp, lrr_scene_check): degenerates, intersections,
- * coplanar overlaps (z-fighting vs contact), open edges and inconsistent orientation. */
+ * coplanar overlaps (z-fighting vs contact), open edges, inconsistent orientation and open
+ * sheets modelled upside down. */
 #include <unistd.h> /* getpid, used by testutil.h */
 
 #include "testutil.h"
@@ -123,6 +124,42 @@ static int teardown(void **state)
     return 0;
 }
 
+/* An open room (walls and ceiling inwards) over a separate floor quad: facing up, nothing is
+ * flagged; upside down (its front sees nothing, its back the room's fronts), both floor
+ * triangles (10, 11) are named as one sheet, and the room's sheet (whose rays from the front
+ * now meet the floor's back too) is not. The built-in scenes have no such sheet (the Cornell
+ * box's light quad sees its ceiling's front from behind, but as many fronts from its front). */
+static void test_upside_down_sheet(void **state)
+{
+    lrr_check_report *r = check(*state, LRR_TEST_DATA "/room_floor.obj");
+    assert_int_equal(r->open_edges, 8);
+    assert_int_equal(r->upside_down_sheets, 0);
+    assert_int_equal(count_kind(r, LRR_CHECK_UPSIDE_DOWN), 0);
+    lrr_check_report_destroy(r);
+    r = check(*state, LRR_TEST_DATA "/room_floor_flipped.obj");
+    assert_int_equal(r->open_edges, 8);
+    assert_int_equal(r->inconsistent_components, 0);
+    assert_int_equal(r->upside_down_sheets, 1);
+    assert_int_equal(count_kind(r, LRR_CHECK_UPSIDE_DOWN), 2);
+    size_t named = 0;
+    for (size_t i = 0; i < r->n_findings; i++)
+        if (r->findings[i].kind == LRR_CHECK_UPSIDE_DOWN) {
+            assert_true(r->findings[i].face_a == 10 || r->findings[i].face_a == 11);
+            assert_int_equal(r->findings[i].face_b, 10);
+            named += r->findings[i].face_a;
+        }
+    assert_int_equal(named, 21);
+    for (size_t t = 0; t < r->triangles; t++)
+        assert_int_equal(r->fix[t], 0); /* reported, not repaired */
+    lrr_check_report_destroy(r);
+    const char *builtin[] = {"cornell", "cornell-closed"};
+    for (int b = 0; b < 2; b++) {
+        r = check(*state, builtin[b]);
+        assert_int_equal(r->upside_down_sheets, 0);
+        lrr_check_report_destroy(r);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -133,6 +170,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_degenerate_named, setup, teardown),
         cmocka_unit_test_setup_teardown(test_cornell_contacts_only, setup, teardown),
         cmocka_unit_test_setup_teardown(test_missing_file, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_upside_down_sheet, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
