@@ -574,9 +574,6 @@ typedef struct lrr_render_options {
                                 outside; -1: automatic (the Cornell camera for the built-in
                                 boxes; inside a closed scene with light sources, see below;
                                 else framing) */
-    /* Appended after ABI 1's layout: read only when size covers them, so set size with
-     * lrr_render_options_defaults() (size = 0 reads the first layout: these keep their
-     * defaults). */
     double eye[3], target[3]; /* use_eye = 1: a pinhole camera at eye looking at target */
     double up[3];            /* the picture's up direction (0, 0, 0 = +y); not parallel to
                                 target − eye */

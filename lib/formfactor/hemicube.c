@@ -444,7 +444,7 @@ lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_op
     o->size = sizeof *o;
     lrr_status st;
     if (opts && (st = lrr__options_read(scene->ctx, opts, sizeof *o,
-                                        LRR__FIRST_SIZE(lrr_build_options, adaptive_split), o,
+                                        LRR__FIRST_SIZE(lrr_build_options, formfactor_method), o,
                                         "lrr_build_options")))
         return st;
     if (o->hemicube_resolution == 0)

@@ -200,7 +200,7 @@ static lrr_status check_request(const lrr_operator *op, const float *radiosity,
     *o = lrr_render_options_defaults();
     lrr_status st;
     if (opts && (st = lrr__options_read(ctx, opts, sizeof *o,
-                                        LRR__FIRST_SIZE(lrr_render_options, use_cornell_camera),
+                                        LRR__FIRST_SIZE(lrr_render_options, use_eye),
                                         o, "lrr_render_options")))
         return st;
     *width = o->width ? o->width : RENDER_DEFAULT_SIZE;

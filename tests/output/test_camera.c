@@ -155,9 +155,9 @@ static void test_eye_target(void **state)
     lrr_context_destroy(ctx);
 }
 
-/* The camera fields come after ABI 1's layout: with size = 0 (designated initialisers) they
- * are not read, and the picture is the one without them. */
-static void test_first_layout_ignores_eye(void **state)
+/* The camera fields are part of ABI 1's layout: with size = 0 (designated initialisers)
+ * they are read, and the picture is the one the defaults plus the same fields give. */
+static void test_first_layout_reads_eye(void **state)
 {
     (void)state;
     lrr_context *ctx;
@@ -166,13 +166,22 @@ static void test_first_layout_ignores_eye(void **state)
     lrr_operator *op = box_op(ctx, 0, 0, &B);
     lrr_render_options o0 = {.width = 48, .height = 48, .use_cornell_camera = 0,
                              .use_eye = 1, .eye = {1, 0.5, 0.75}, .target = {2, 0.5, 0.75}};
+    lrr_render_options sized = lrr_render_options_defaults();
+    sized.width = sized.height = 48;
+    sized.use_cornell_camera = 0;
+    sized.use_eye = 1;
+    memcpy(sized.eye, o0.eye, sizeof o0.eye);
+    memcpy(sized.target, o0.target, sizeof o0.target);
     lrr_render_options plain = {.width = 48, .height = 48, .use_cornell_camera = 0};
     int w, h;
     unsigned char *a = ru_render(ctx, op, B, &o0, "camera-size0.png", &w, &h);
-    unsigned char *b = ru_render(ctx, op, B, &plain, "camera-plain.png", &w, &h);
+    unsigned char *b = ru_render(ctx, op, B, &sized, "camera-sized.png", &w, &h);
+    unsigned char *c = ru_render(ctx, op, B, &plain, "camera-plain.png", &w, &h);
     assert_memory_equal(a, b, (size_t)3 * w * h);
+    assert_true(memcmp(a, c, (size_t)3 * w * h) != 0); /* the eye did move the camera */
     stbi_image_free(a);
     stbi_image_free(b);
+    stbi_image_free(c);
     free(B);
     lrr_operator_destroy(op);
     lrr_context_destroy(ctx);
@@ -228,7 +237,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_inside_closed_lit), cmocka_unit_test(test_outside_otherwise),
-        cmocka_unit_test(test_eye_target), cmocka_unit_test(test_first_layout_ignores_eye),
+        cmocka_unit_test(test_eye_target), cmocka_unit_test(test_first_layout_reads_eye),
         cmocka_unit_test(test_invalid_camera),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
