@@ -13,10 +13,12 @@
 
 static lrr_scene *tessellated(lrr_context *ctx, unsigned L)
 {
-    lrr_scene *s;
-    lrr_scene_cornell_box(ctx, 0, &s);
+    lrr_scene *s = NULL;
     lrr_subdivision sd = {.max_patch_area = 1e30, .levels = L};
-    lrr_scene_subdivide(s, &sd);
+    if (lrr_scene_cornell_box(ctx, 0, &s) != LRR_OK || lrr_scene_subdivide(s, &sd) != LRR_OK) {
+        fprintf(stderr, "rc_bench: cannot subdivide the Cornell box (L = %u)\n", L);
+        exit(1);
+    }
     const lrr__geometry *g = &s->geom;
     size_t T = g->n;
     float *v = malloc(T * 9 * sizeof(float)), *rho = malloc(T * 3 * sizeof(float)),
@@ -29,10 +31,13 @@ static lrr_scene *tessellated(lrr_context *ctx, unsigned L)
         for (int c = 0; c < 3; c++)
             rho[3 * i + c] = 0.5f;
     }
-    lrr_scene *t;
-    lrr_scene_create(ctx, T, v, rho, em, "tess", &t);
+    lrr_scene *t = NULL;
     lrr_subdivision sd0 = {.max_patch_area = 1e30, .levels = 0};
-    lrr_scene_subdivide(t, &sd0);
+    if (lrr_scene_create(ctx, T, v, rho, em, "tess", &t) != LRR_OK ||
+        lrr_scene_subdivide(t, &sd0) != LRR_OK) {
+        fprintf(stderr, "rc_bench: cannot build the tessellated scene (T = %zu)\n", T);
+        exit(1);
+    }
     lrr_scene_destroy(s);
     free(v);
     free(rho);
