@@ -50,7 +50,8 @@ int main(int argc, char **argv)
     unsigned maxL = argc > 1 ? (unsigned)atoi(argv[1]) : 4;
     unsigned minL = argc > 2 ? (unsigned)atoi(argv[2]) : 0;
     lrr_context *ctx;
-    lrr_context_create(&ctx);
+    if (lrr_context_create(&ctx) != LRR_OK)
+        return 1;
     printf("T,R,threads,raster_per_s,raycast_per_s,ratio\n");
     for (unsigned L = minL; L <= maxL; L++) {
         lrr_scene *s = tessellated(ctx, L);
