@@ -65,6 +65,23 @@ static inline void tu_box_inward(float v[108], double sx, double sy, double sz)
         tu_quad(v + 18 * i, c[f[i][0]], c[f[i][1]], c[f[i][2]], c[f[i][3]]);
 }
 
+/* The furnace (docs/METHOD.md "Exact cases"): tu_box_inward(sx, sy, sz) with reflectance rho
+ * and emission e (every channel) on every face, so B = e/(1 − rho) everywhere. */
+static inline lrr_scene *tu_furnace(lrr_context *ctx, double sx, double sy, double sz,
+                                    const float rho[3], float e)
+{
+    float v[108], r[36], em[36];
+    tu_box_inward(v, sx, sy, sz);
+    for (int t = 0; t < 12; t++)
+        for (int c = 0; c < 3; c++) {
+            r[3 * t + c] = rho[c];
+            em[3 * t + c] = e;
+        }
+    lrr_scene *s;
+    LRR_CHECK(ctx, lrr_scene_create(ctx, 12, v, r, em, "furnace", &s));
+    return s;
+}
+
 /* Temporary file path under $LRR_TEST_TMP (or /tmp), unique per process. */
 static inline void tu_tmp_path(char *buf, size_t len, const char *name)
 {

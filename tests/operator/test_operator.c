@@ -165,16 +165,8 @@ static void test_furnace(void **state)
     (void)state;
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    float v[108], rho[36], em[36];
-    tu_box_inward(v, 1.0, 0.7, 1.3);
     const float r[3] = {0.9f, 0.5f, 0.99f};
-    for (int t = 0; t < 12; t++)
-        for (int c = 0; c < 3; c++) {
-            rho[3 * t + c] = r[c];
-            em[3 * t + c] = 2.0f;
-        }
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_create(ctx, 12, v, rho, em, "furnace", &s));
+    lrr_scene *s = tu_furnace(ctx, 1.0, 0.7, 1.3, r, 2.0f);
     lrr_operator *op = build_scene(ctx, s, 48, 2, 64);
     float *B = malloc(op->n * 3 * sizeof(float));
     lrr_solver *sv;

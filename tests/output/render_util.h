@@ -1,5 +1,6 @@
-/* Helpers of the picture tests (tests/output/test_camera.c, test_exr.c): operators built by
- * hand from triangles, so that they need no form factors, and pictures decoded again. */
+/* Helpers of the picture tests (tests/output/test_render.c, test_camera.c, test_exr.c):
+ * operators built by hand from triangles, so that they need no form factors, pictures
+ * decoded again, and the temporary files an atomic write must not leave behind. */
 #ifndef LRR_TESTS_RENDER_UTIL_H
 #define LRR_TESTS_RENDER_UTIL_H
 
@@ -7,13 +8,15 @@
 
 #include "operator/operator.h"
 
+#include <dirent.h>
 #include <sys/stat.h>
 
 #include <stb_image.h>
 
-/* An operator for the given triangles (one patch each, `levels` subdivisions). */
+/* An operator for the given triangles (one patch each, `levels` subdivisions); builtin is
+ * the LRR__SCENE_* kind that chooses the render camera. */
 static inline lrr_operator *ru_make_op(lrr_context *ctx, size_t n_tri, const float *vert,
-                                unsigned levels)
+                                       unsigned levels, int builtin)
 {
     lrr__geometry g = {0};
     g.n_tri = n_tri;
@@ -25,11 +28,12 @@ static inline lrr_operator *ru_make_op(lrr_context *ctx, size_t n_tri, const flo
     LRR_CHECK(ctx, lrr__geometry_index(ctx, &g, SIZE_MAX));
     lrr_operator *op = NULL;
     LRR_CHECK(ctx, lrr__operator_new(ctx, &g, LRR_STORAGE_F32, &op));
-    op->builtin = LRR__SCENE_FILE;
+    op->builtin = builtin;
     lrr__geometry_free(&g);
     return op;
 }
 
+/* n×3 radiosity, every subpatch (r, g, b). */
 static inline float *ru_uniform(size_t n, float r, float g, float b)
 {
     float *B = malloc(n * 3 * sizeof *B);
@@ -43,9 +47,9 @@ static inline float *ru_uniform(size_t n, float r, float g, float b)
 }
 
 /* Renders to a PNG and decodes it (free with stbi_image_free). */
-static inline unsigned char *ru_render(lrr_context *ctx, const lrr_operator *op, const float *b,
-                                const lrr_render_options *opts, const char *name, int *w,
-                                int *h)
+static inline unsigned char *ru_render(lrr_context *ctx, const lrr_operator *op,
+                                       const float *b, const lrr_render_options *opts,
+                                       const char *name, int *w, int *h)
 {
     char path[512];
     tu_tmp_path(path, sizeof path, name);
@@ -54,6 +58,7 @@ static inline unsigned char *ru_render(lrr_context *ctx, const lrr_operator *op,
     unsigned char *img = stbi_load(path, w, h, &comp, 3);
     if (!img)
         fail_msg("%s: stb_image cannot decode it: %s", path, stbi_failure_reason());
+    assert_int_equal(comp, 3);
     remove(path);
     return img;
 }
@@ -71,6 +76,27 @@ static inline int ru_file_exists(const char *path)
 {
     struct stat sb;
     return stat(path, &sb) == 0;
+}
+
+/* Where the tests write (LRR_TEST_TMP, else /tmp). */
+static inline const char *ru_tmp_dir(void)
+{
+    const char *dir = getenv("LRR_TEST_TMP");
+    return dir && *dir ? dir : "/tmp";
+}
+
+/* Number of entries in ru_tmp_dir() whose name starts with prefix. */
+static inline int ru_count_prefixed(const char *prefix)
+{
+    DIR *d = opendir(ru_tmp_dir());
+    assert_non_null(d);
+    int count = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strncmp(e->d_name, prefix, strlen(prefix)) == 0)
+            count++;
+    closedir(d);
+    return count;
 }
 
 #endif

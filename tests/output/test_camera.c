@@ -14,7 +14,7 @@ static lrr_operator *box_op(lrr_context *ctx, int lit, int open, float **B)
 {
     float v[108];
     tu_box_inward(v, 2, 1, 1.5);
-    lrr_operator *op = ru_make_op(ctx, open ? 10 : 12, v, 1);
+    lrr_operator *op = ru_make_op(ctx, open ? 10 : 12, v, 1, LRR__SCENE_FILE);
     *B = ru_uniform(op->n, 0, 0, 0);
     for (size_t i = 0; i < op->n; i++) {
         size_t face = (i / op->d) / 2; /* one patch per triangle, two triangles per face */

@@ -5,27 +5,7 @@
 
 #include "probe/probe.h"
 
-#include <dirent.h>
 #include <errno.h>
-
-static const char *tmp_dir(void)
-{
-    const char *dir = getenv("LRR_TEST_TMP");
-    return dir && *dir ? dir : "/tmp";
-}
-
-static int count_prefixed(const char *prefix)
-{
-    DIR *d = opendir(tmp_dir());
-    assert_non_null(d);
-    int count = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        if (strncmp(e->d_name, prefix, strlen(prefix)) == 0)
-            count++;
-    closedir(d);
-    return count;
-}
 
 /* Uniform radiosity B = (0.25, 0.5, 2): every covered pixel holds B (float precision), no
  * exposure or curve applied, the background is exactly 0, and the covered pixels are the
@@ -37,7 +17,7 @@ static void test_linear_values(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[108];
     tu_box_inward(v, 2, 1, 1.5);
-    lrr_operator *op = ru_make_op(ctx, 12, v, 2);
+    lrr_operator *op = ru_make_op(ctx, 12, v, 2, LRR__SCENE_FILE);
     const float want[3] = {0.25f, 0.5f, 2.0f};
     float *B = ru_uniform(op->n, want[0], want[1], want[2]);
     lrr_render_options o = lrr_render_options_defaults();
@@ -99,7 +79,7 @@ static void test_errors_atomic(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[108];
     tu_box_inward(v, 1, 1, 1);
-    lrr_operator *op = ru_make_op(ctx, 12, v, 0);
+    lrr_operator *op = ru_make_op(ctx, 12, v, 0, LRR__SCENE_FILE);
     float *B = ru_uniform(op->n, 1, 1, 1);
     lrr_render_options o = lrr_render_options_defaults();
     o.width = 32;
@@ -150,7 +130,7 @@ static void test_errors_atomic(void **state)
         assert_int_equal(fread(buf, 1, sizeof buf, in), 3);
         fclose(in);
         assert_string_equal(buf, "old");
-        assert_int_equal(count_prefixed(prefix), 0);
+        assert_int_equal(ru_count_prefixed(prefix), 0);
     }
     lrr__context_set_io_hook(ctx, NULL, NULL);
     LRR_CHECK(ctx, lrr_render_exr(op, B, &o, path));

@@ -1,79 +1,10 @@
 /* lrr_render_png: Gouraud shading, welding, back-face culling, cameras, tone mapping, errors
  * and atomic writing. Pictures are decoded again with stb_image and inspected. */
-#include "testutil.h"
+#include "output/render_util.h"
 
-#include "operator/operator.h"
-
-#include <dirent.h>
 #include <errno.h>
-#include <sys/stat.h>
-
-#include <stb_image.h>
 
 /* ------------------------------------------------------------------ helpers */
-
-/* An operator for the given triangles (one patch each, `levels` subdivisions), built by hand
- * so that these tests need no form factors. */
-static lrr_operator *make_op(lrr_context *ctx, size_t n_tri, const float *vert, unsigned levels,
-                             int builtin)
-{
-    lrr__geometry g = {0};
-    g.n_tri = n_tri;
-    g.levels = levels;
-    LRR_CHECK(ctx, lrr__calloc(ctx, &g.vert, n_tri, 9 * sizeof(float), "test vertices"));
-    LRR_CHECK(ctx, lrr__calloc(ctx, &g.depth, n_tri, 1, "test depths"));
-    LRR_CHECK(ctx, lrr__calloc(ctx, &g.patch0, n_tri + 1, sizeof(size_t), "test index"));
-    memcpy(g.vert, vert, n_tri * 9 * sizeof(float));
-    LRR_CHECK(ctx, lrr__geometry_index(ctx, &g, SIZE_MAX));
-    lrr_operator *op = NULL;
-    LRR_CHECK(ctx, lrr__operator_new(ctx, &g, LRR_STORAGE_F32, &op));
-    op->builtin = builtin;
-    lrr__geometry_free(&g);
-    return op;
-}
-
-/* Renders and decodes; returns the RGB pixels (free with stbi_image_free). */
-static unsigned char *render_decode(lrr_context *ctx, const lrr_operator *op, const float *b,
-                                    const lrr_render_options *opts, const char *name, int *w,
-                                    int *h)
-{
-    char path[512];
-    tu_tmp_path(path, sizeof path, name);
-    LRR_CHECK(ctx, lrr_render_png(op, b, opts, path));
-    int comp = 0;
-    unsigned char *img = stbi_load(path, w, h, &comp, 3);
-    if (!img)
-        fail_msg("%s: stb_image cannot decode it: %s", path, stbi_failure_reason());
-    assert_int_equal(comp, 3);
-    remove(path);
-    return img;
-}
-
-static int file_exists(const char *path)
-{
-    struct stat sb;
-    return stat(path, &sb) == 0;
-}
-
-/* Number of entries in dir whose name starts with prefix. */
-static int count_prefixed(const char *dir, const char *prefix)
-{
-    DIR *d = opendir(dir);
-    assert_non_null(d);
-    int count = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        if (strncmp(e->d_name, prefix, strlen(prefix)) == 0)
-            count++;
-    closedir(d);
-    return count;
-}
-
-static const char *tmp_dir(void)
-{
-    const char *dir = getenv("LRR_TEST_TMP");
-    return dir && *dir ? dir : "/tmp";
-}
 
 /* The unit square at z = z0 facing +z (front_z = 1) or −z (front_z = 0). */
 static void unit_quad(float v[18], double z0, int front_z)
@@ -83,27 +14,6 @@ static void unit_quad(float v[18], double z0, int front_z)
         tu_quad(v, p0, p1, p2, p3);
     else
         tu_quad(v, p0, p3, p2, p1);
-}
-
-static float *uniform_radiosity(size_t n, float r, float g, float b)
-{
-    float *B = malloc(n * 3 * sizeof *B);
-    assert_non_null(B);
-    for (size_t i = 0; i < n; i++) {
-        B[3 * i] = r;
-        B[3 * i + 1] = g;
-        B[3 * i + 2] = b;
-    }
-    return B;
-}
-
-static size_t count_lit(const unsigned char *img, int w, int h)
-{
-    size_t lit = 0;
-    for (size_t p = 0; p < (size_t)w * h; p++)
-        if (img[3 * p] || img[3 * p + 1] || img[3 * p + 2])
-            lit++;
-    return lit;
 }
 
 /* ------------------------------------------------------------------ tests */
@@ -117,10 +27,10 @@ static void test_uniform(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[108];
     tu_box_inward(v, 2, 1, 1.5);
-    lrr_operator *op = make_op(ctx, 12, v, 2, LRR__SCENE_FILE);
-    float *B = uniform_radiosity(op->n, 0.3f, 0.3f, 0.3f);
+    lrr_operator *op = ru_make_op(ctx, 12, v, 2, LRR__SCENE_FILE);
+    float *B = ru_uniform(op->n, 0.3f, 0.3f, 0.3f);
     int w, h;
-    unsigned char *img = render_decode(ctx, op, B, NULL, "render-uniform.png", &w, &h);
+    unsigned char *img = ru_render(ctx, op, B, NULL, "render-uniform.png", &w, &h);
     assert_int_equal(w, 512);
     assert_int_equal(h, 512);
     size_t lit = 0;
@@ -158,14 +68,14 @@ static void test_gouraud_ramp(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[18];
     unit_quad(v, 0, 1);
-    lrr_operator *op = make_op(ctx, 2, v, 3, LRR__SCENE_FILE); /* 8×8 steps across */
-    float *B = uniform_radiosity(op->n, 0, 0, 0);
+    lrr_operator *op = ru_make_op(ctx, 2, v, 3, LRR__SCENE_FILE); /* 8×8 steps across */
+    float *B = ru_uniform(op->n, 0, 0, 0);
     for (size_t i = 0; i < op->n; i++)
         for (int j = 0; j < 3; j++)
             B[3 * i + j] = 0.3f + 1.5f * op->centre[3 * i];
     lrr_render_options o = {.width = 400, .height = 300, .exposure = 1.0, .use_cornell_camera = 0};
     int w, h;
-    unsigned char *img = render_decode(ctx, op, B, &o, "render-ramp.png", &w, &h);
+    unsigned char *img = ru_render(ctx, op, B, &o, "render-ramp.png", &w, &h);
     assert_int_equal(w, 400);
     assert_int_equal(h, 300);
     int rows = 0;
@@ -217,18 +127,18 @@ static void test_sharp_corners(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[108];
     tu_box_inward(v, 1, 1, 1);
-    lrr_operator *op = make_op(ctx, 12, v, 2, LRR__SCENE_FILE);
+    lrr_operator *op = ru_make_op(ctx, 12, v, 2, LRR__SCENE_FILE);
     /* faces in order x=0, x=1, y=0, y=1, z=0, z=1; each a pure colour */
     static const float face_col[6][3] = {{0.4f, 0, 0}, {0, 0.4f, 0}, {0, 0, 0.4f},
                                          {0.4f, 0.4f, 0}, {0, 0.4f, 0.4f}, {0.4f, 0, 0.4f}};
-    float *B = uniform_radiosity(op->n, 0, 0, 0);
+    float *B = ru_uniform(op->n, 0, 0, 0);
     for (size_t i = 0; i < op->n; i++) {
         size_t face = (i / op->d) / 2; /* one patch per triangle, two triangles per face */
         memcpy(B + 3 * i, face_col[face], sizeof face_col[face]);
     }
     lrr_render_options o = {.width = 256, .height = 256, .exposure = 2.0, .use_cornell_camera = 0};
     int w, h;
-    unsigned char *img = render_decode(ctx, op, B, &o, "render-corners.png", &w, &h);
+    unsigned char *img = ru_render(ctx, op, B, &o, "render-corners.png", &w, &h);
     int seen[6] = {0};
     for (size_t p = 0; p < (size_t)w * h; p++) {
         const unsigned char *c = img + 3 * p;
@@ -274,13 +184,13 @@ static void test_disjoint_triangles(void **state)
         for (int k = 0; k < 9; k++)
             v[9 * t + k] = (float)p[k / 3][k % 3];
     }
-    lrr_operator *op = make_op(ctx, T, v, 0, LRR__SCENE_FILE);
-    float *B = uniform_radiosity(op->n, 0, 0, 0);
+    lrr_operator *op = ru_make_op(ctx, T, v, 0, LRR__SCENE_FILE);
+    float *B = ru_uniform(op->n, 0, 0, 0);
     for (size_t i = 0; i < op->n; i++)
         B[3 * i] = B[3 * i + 1] = B[3 * i + 2] = 0.1f + 0.9f * (float)i / (T - 1);
     lrr_render_options o = {.width = 512, .height = 512, .exposure = 1.0, .use_cornell_camera = 0};
     int w, h;
-    unsigned char *img = render_decode(ctx, op, B, &o, "render-disjoint.png", &w, &h);
+    unsigned char *img = ru_render(ctx, op, B, &o, "render-disjoint.png", &w, &h);
     size_t hist[256] = {0};
     for (size_t p = 0; p < (size_t)w * h; p++)
         hist[img[3 * p]]++;
@@ -318,10 +228,10 @@ static void test_back_face(void **state)
             tu_quad(v, p0, p3, p2, p1); /* normal −z: faces the camera */
         else
             tu_quad(v, p0, p1, p2, p3); /* normal +z: faces away */
-        lrr_operator *op = make_op(ctx, 2, v, 1, LRR__SCENE_FILE);
-        float *B = uniform_radiosity(op->n, 1, 1, 1);
-        unsigned char *img = render_decode(ctx, op, B, &o, "render-backface.png", &w, &h);
-        size_t lit = count_lit(img, w, h);
+        lrr_operator *op = ru_make_op(ctx, 2, v, 1, LRR__SCENE_FILE);
+        float *B = ru_uniform(op->n, 1, 1, 1);
+        unsigned char *img = ru_render(ctx, op, B, &o, "render-backface.png", &w, &h);
+        size_t lit = ru_count_lit(img, w, h);
         if (towards) {
             assert_true(lit > (size_t)w * h / 10);
             /* the centre of the picture looks at the square's centre */
@@ -347,11 +257,11 @@ static void test_near_clipping(void **state)
     double p0[3] = {-1e6, 0, -5000}, p1[3] = {-1e6, 0, 1e5}, p2[3] = {1e6, 0, 1e5},
            p3[3] = {1e6, 0, -5000};
     tu_quad(v, p0, p1, p2, p3); /* normal +y */
-    lrr_operator *op = make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
-    float *B = uniform_radiosity(op->n, 1, 1, 1);
+    lrr_operator *op = ru_make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
+    float *B = ru_uniform(op->n, 1, 1, 1);
     lrr_render_options o = {.width = 64, .height = 64, .exposure = 1.0, .use_cornell_camera = 1};
     int w, h;
-    unsigned char *img = render_decode(ctx, op, B, &o, "render-clip.png", &w, &h);
+    unsigned char *img = ru_render(ctx, op, B, &o, "render-clip.png", &w, &h);
     /* the floor is 273 below the eye; its far edge (z = 1e5) projects 0.24 pixels below the
      * middle of the picture, so exactly the rows from h/2 down are covered */
     for (int y = 0; y < h; y++)
@@ -370,11 +280,11 @@ static void test_near_clipping(void **state)
     tu_box_inward(room, 1, 1, 1);
     for (int i = 0; i < 108; i++) /* [0,1]³ → a 3000-wide room with the eye inside */
         room[i] = room[i] * 3000 - 1500 + (i % 3 == 0 ? 278 : i % 3 == 1 ? 273 : -800);
-    op = make_op(ctx, 12, room, 3, LRR__SCENE_FILE);
-    B = uniform_radiosity(op->n, 1, 1, 1);
+    op = ru_make_op(ctx, 12, room, 3, LRR__SCENE_FILE);
+    B = ru_uniform(op->n, 1, 1, 1);
     lrr_render_options o2 = {.width = 97, .height = 61, .exposure = 1.0, .use_cornell_camera = 1};
-    img = render_decode(ctx, op, B, &o2, "render-room.png", &w, &h);
-    assert_int_equal(count_lit(img, w, h), (size_t)w * h);
+    img = ru_render(ctx, op, B, &o2, "render-room.png", &w, &h);
+    assert_int_equal(ru_count_lit(img, w, h), (size_t)w * h);
     stbi_image_free(img);
     free(B);
     lrr_operator_destroy(op);
@@ -447,11 +357,11 @@ static void test_cornell_camera(void **state)
     unsigned char *imgs[2];
     for (int closed = 0; closed < 2; closed++) {
         lrr_operator *op = cornell_op(ctx, closed);
-        float *B = uniform_radiosity(op->n, 0, 0, 0);
+        float *B = ru_uniform(op->n, 0, 0, 0);
         crude_radiosity(op, B);
         lrr_render_options o = {.width = 200, .height = 200, .use_cornell_camera = -1};
         int w, h;
-        unsigned char *img = render_decode(ctx, op, B, &o, "render-cornell.png", &w, &h);
+        unsigned char *img = ru_render(ctx, op, B, &o, "render-cornell.png", &w, &h);
         assert_int_equal(w, 200);
         double rl, gl, rr, gr;
         channel_sums(img, w, h, 0, w / 2, &rl, &gl);
@@ -460,7 +370,7 @@ static void test_cornell_camera(void **state)
         assert_true(gr > rr);
         /* the room fills the view: the box's opening spans most of the 2·atan(12.5/35)
          * field of view */
-        assert_true(count_lit(img, w, h) > (size_t)w * h * 3 / 4);
+        assert_true(ru_count_lit(img, w, h) > (size_t)w * h * 3 / 4);
         /* the light, at the top centre, is white */
         int light = 0;
         for (int y = 0; y < h / 6; y++)
@@ -484,12 +394,12 @@ static void test_cornell_camera(void **state)
 
     /* use_cornell_camera = 0 frames the scene instead: a different picture */
     lrr_operator *op = cornell_op(ctx, 0);
-    float *B = uniform_radiosity(op->n, 0, 0, 0);
+    float *B = ru_uniform(op->n, 0, 0, 0);
     crude_radiosity(op, B);
     lrr_render_options o = {.width = 200, .height = 200, .use_cornell_camera = 0};
     int w, h;
-    unsigned char *img = render_decode(ctx, op, B, &o, "render-cornell-framed.png", &w, &h);
-    size_t lit = count_lit(img, w, h);
+    unsigned char *img = ru_render(ctx, op, B, &o, "render-cornell-framed.png", &w, &h);
+    size_t lit = ru_count_lit(img, w, h);
     assert_true(lit > 1000 && lit < (size_t)w * h * 3 / 4); /* the whole box, with margins */
     stbi_image_free(img);
     free(B);
@@ -518,11 +428,11 @@ static void test_cornell_solved(void **state)
     lrr_scene_destroy(scene);
     lrr_solver *solver;
     LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &solver));
-    float *B = uniform_radiosity(op->n, 0, 0, 0);
+    float *B = ru_uniform(op->n, 0, 0, 0);
     LRR_CHECK(ctx, lrr_solve(solver, lrr_operator_emission(op), B));
     int w, h;
     lrr_render_options o = {.width = 256, .height = 256, .use_cornell_camera = -1};
-    unsigned char *img = render_decode(ctx, op, B, &o, "render-cornell-solved.png", &w, &h);
+    unsigned char *img = ru_render(ctx, op, B, &o, "render-cornell-solved.png", &w, &h);
     double rl, gl, rr, gr;
     channel_sums(img, w, h, 0, w / 2, &rl, &gl);
     channel_sums(img, w, h, w / 2, w, &rr, &gr);
@@ -556,8 +466,8 @@ static void test_invalid(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[18];
     unit_quad(v, 0, 1);
-    lrr_operator *op = make_op(ctx, 2, v, 1, LRR__SCENE_FILE);
-    float *B = uniform_radiosity(op->n, 0.5f, 0.5f, 0.5f);
+    lrr_operator *op = ru_make_op(ctx, 2, v, 1, LRR__SCENE_FILE);
+    float *B = ru_uniform(op->n, 0.5f, 0.5f, 0.5f);
     char path[512], msg[512];
     tu_tmp_path(path, sizeof path, "render-invalid.png");
     remove(path);
@@ -573,7 +483,7 @@ static void test_invalid(void **state)
         assert_int_equal(lrr_render_png(op, B, &bad[t], path), LRR_ERR_INVALID_ARG);
         assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_ERR_INVALID_ARG);
         assert_true(strlen(msg) > 10);
-        assert_false(file_exists(path));
+        assert_false(ru_file_exists(path));
     }
     const float poison[] = {NAN, INFINITY, -INFINITY, -0.25f};
     for (size_t t = 0; t < 4; t++) {
@@ -582,13 +492,13 @@ static void test_invalid(void **state)
         assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_ERR_INVALID_ARG);
         if (!strstr(msg, "subpatch 5"))
             fail_msg("message does not name the subpatch: %s", msg);
-        assert_false(file_exists(path));
+        assert_false(ru_file_exists(path));
     }
     B[3 * 5 + 1] = 0.5f;
     /* the largest legal size per side is accepted */
     lrr_render_options thin = {.width = 16384, .height = 1, .use_cornell_camera = 0};
     LRR_CHECK(ctx, lrr_render_png(op, B, &thin, path));
-    assert_true(file_exists(path));
+    assert_true(ru_file_exists(path));
     remove(path);
     free(B);
     lrr_operator_destroy(op);
@@ -603,8 +513,8 @@ static void test_io_errors(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[18];
     unit_quad(v, 0, 1);
-    lrr_operator *op = make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
-    float *B = uniform_radiosity(op->n, 0.5f, 0.5f, 0.5f);
+    lrr_operator *op = ru_make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
+    float *B = ru_uniform(op->n, 0.5f, 0.5f, 0.5f);
     lrr_render_options o = {.width = 32, .height = 32, .use_cornell_camera = 0};
     char path[640], msg[512], dir[512];
 
@@ -615,7 +525,7 @@ static void test_io_errors(void **state)
     assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_ERR_IO);
     if (!strstr(msg, path) || !strstr(msg, strerror(ENOENT)))
         fail_msg("message should name the path and the cause: %s", msg);
-    assert_false(file_exists(dir));
+    assert_false(ru_file_exists(dir));
 
     /* the destination is a directory: the rename fails after the temporary file was written,
      * which must then be removed */
@@ -626,7 +536,7 @@ static void test_io_errors(void **state)
     assert_int_equal(lrr_render_png(op, B, &o, dir), LRR_ERR_IO);
     assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_ERR_IO);
     assert_non_null(strstr(msg, dir));
-    assert_int_equal(count_prefixed(tmp_dir(), prefix), 0);
+    assert_int_equal(ru_count_prefixed(prefix), 0);
     assert_int_equal(rmdir(dir), 0);
 
     /* an existing file is replaced by a complete new picture */
@@ -644,7 +554,7 @@ static void test_io_errors(void **state)
     stbi_image_free(img);
     remove(path);
     snprintf(prefix, sizeof prefix, "%s.tmp.", strrchr(path, '/') + 1);
-    assert_int_equal(count_prefixed(tmp_dir(), prefix), 0);
+    assert_int_equal(ru_count_prefixed(prefix), 0);
 
     free(B);
     lrr_operator_destroy(op);
@@ -675,8 +585,8 @@ static void test_write_faults(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[18];
     unit_quad(v, 0, 1);
-    lrr_operator *op = make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
-    float *B = uniform_radiosity(op->n, 0.5f, 0.5f, 0.5f);
+    lrr_operator *op = ru_make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
+    float *B = ru_uniform(op->n, 0.5f, 0.5f, 0.5f);
     lrr_render_options o = {.width = 32, .height = 32, .use_cornell_camera = 0};
     char path[640], msg[512], prefix[256];
     tu_tmp_path(path, sizeof path, "render-faults.png");
@@ -700,14 +610,14 @@ static void test_write_faults(void **state)
         if (!strstr(msg, path) || !strstr(msg, strerror(ENOSPC)))
             fail_msg("step %lu (%s): the message should name the path and the cause: %s", at,
                      f.names[at], msg);
-        if (file_exists(path))
+        if (ru_file_exists(path))
             fail_msg("step %lu (%s) failed, yet the picture exists", at, f.names[at]);
-        assert_int_equal(count_prefixed(tmp_dir(), prefix), 0);
+        assert_int_equal(ru_count_prefixed(prefix), 0);
     }
     f = (render_fault){.at = steps};
     lrr__context_set_io_hook(ctx, render_inject, &f);
     LRR_CHECK(ctx, lrr_render_png(op, B, &o, path));
-    assert_true(file_exists(path));
+    assert_true(ru_file_exists(path));
     remove(path);
     lrr__context_set_io_hook(ctx, NULL, NULL);
     free(B);
@@ -724,20 +634,20 @@ static void test_exposure(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     float v[18];
     unit_quad(v, 0, 1);
-    lrr_operator *op = make_op(ctx, 2, v, 1, LRR__SCENE_FILE);
+    lrr_operator *op = ru_make_op(ctx, 2, v, 1, LRR__SCENE_FILE);
     int w, h, centre = 3 * (32 * 16 + 16);
     lrr_render_options o = {.width = 32, .height = 32, .use_cornell_camera = 0};
-    float *B = uniform_radiosity(op->n, 0.01f, 0.01f, 0.01f);
-    unsigned char *a = render_decode(ctx, op, B, &o, "render-exp.png", &w, &h);
+    float *B = ru_uniform(op->n, 0.01f, 0.01f, 0.01f);
+    unsigned char *a = ru_render(ctx, op, B, &o, "render-exp.png", &w, &h);
     for (size_t i = 0; i < 3 * op->n; i++)
         B[i] = 1000;
-    unsigned char *b = render_decode(ctx, op, B, &o, "render-exp.png", &w, &h);
+    unsigned char *b = ru_render(ctx, op, B, &o, "render-exp.png", &w, &h);
     assert_true(a[centre] > 0);
     assert_int_equal(a[centre], b[centre]);
     o.exposure = 1e-3;
-    unsigned char *c = render_decode(ctx, op, B, &o, "render-exp.png", &w, &h); /* x = 1 */
+    unsigned char *c = ru_render(ctx, op, B, &o, "render-exp.png", &w, &h); /* x = 1 */
     o.exposure = 1e-2;
-    unsigned char *d = render_decode(ctx, op, B, &o, "render-exp.png", &w, &h); /* x = 10 */
+    unsigned char *d = ru_render(ctx, op, B, &o, "render-exp.png", &w, &h); /* x = 10 */
     assert_true(c[centre] > 100 && c[centre] < 250);
     assert_int_equal(d[centre], 255);
     stbi_image_free(a);

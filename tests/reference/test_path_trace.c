@@ -10,16 +10,8 @@ static void test_furnace(void **state)
     (void)state;
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    float v[108], rho[36], em[36];
-    tu_box_inward(v, 1.0, 0.8, 1.2);
     const float r[3] = {0.5f, 0.7f, 0.8f};
-    for (int t = 0; t < 12; t++)
-        for (int c = 0; c < 3; c++) {
-            rho[3 * t + c] = r[c];
-            em[3 * t + c] = 1.0f;
-        }
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_create(ctx, 12, v, rho, em, "furnace", &s));
+    lrr_scene *s = tu_furnace(ctx, 1.0, 0.8, 1.2, r, 1.0f);
     lrr_subdivision sd = {.target_patches = 48, .levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     lrr_scene_info info;
