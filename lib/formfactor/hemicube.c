@@ -560,7 +560,6 @@ static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, tri_info *
     lrr_status st = lrr__calloc(ctx, &tri, g->n_tri, sizeof *tri, "triangle table");
     if (st)
         return st;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (size_t t = 0; t < g->n_tri; t++) {
         const float *v = g->vert + 9 * t;
         tri_info *ti = &tri[t];
@@ -568,10 +567,6 @@ static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, tri_info *
             ti->v0[j] = v[j];
             ti->e1[j] = (double)v[3 + j] - v[j];
             ti->e2[j] = (double)v[6 + j] - v[j];
-            for (int c = 0; c < 3; c++) {
-                lo[j] = fmin(lo[j], v[3 * c + j]);
-                hi[j] = fmax(hi[j], v[3 * c + j]);
-            }
         }
         lrr__cross3(ti->e1, ti->e2, ti->n);
         ti->g11 = lrr__dot3(ti->e1, ti->e1);
@@ -579,8 +574,7 @@ static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, tri_info *
         ti->g22 = lrr__dot3(ti->e2, ti->e2);
         ti->inv = 1.0 / (ti->g11 * ti->g22 - ti->g12 * ti->g12);
     }
-    *diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                 (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    *diag = lrr__geometry_bounds(g, NULL, NULL);
     *out = tri;
     return LRR_OK;
 }

@@ -29,23 +29,6 @@ static void camera_orient(lrr__camera *cam, const double fwd[3], const double up
 
 static const double world_up[3] = {0, 1, 0};
 
-void lrr__render_scene_bounds(const lrr__geometry *g, double lo[3], double hi[3])
-{
-    for (int j = 0; j < 3; j++) {
-        lo[j] = INFINITY;
-        hi[j] = -INFINITY;
-    }
-    for (size_t i = 0; i < 9 * g->n_tri; i++) {
-        int j = (int)(i % 3);
-        double x = g->vert[i];
-        if (x < lo[j]) lo[j] = x;
-        if (x > hi[j]) hi[j] = x;
-    }
-    if (g->n_tri == 0)
-        for (int j = 0; j < 3; j++)
-            lo[j] = hi[j] = 0;
-}
-
 /* Projected area of the front faces seen from eye (occlusion ignored): used to decide from
  * which side a scene is meant to be seen. */
 static double front_area(const lrr_operator *op, const double eye[3])
@@ -250,9 +233,7 @@ void lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op, const fl
 {
     double aspect = (double)width / height;
     double lo[3], hi[3];
-    lrr__render_scene_bounds(&op->geom, lo, hi);
-    double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                       (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    double diag = lrr__geometry_bounds(&op->geom, lo, hi);
     if (!(diag > 0) || !isfinite(diag))
         diag = 1;
     int cornell = !o->use_eye && (o->use_cornell_camera == 1 ||

@@ -36,8 +36,6 @@ typedef struct lrr__framebuffer {
 
 
 /* camera.c */
-/* lo, hi: the bounding box of g's input triangles (all 0 when it has none). */
-void lrr__render_scene_bounds(const lrr__geometry *g, double lo[3], double hi[3]);
 /* The camera of a width×height picture of op with radiosity (n×3) under options o (checked):
  * the eye/target camera, the Cornell box's published one, one inside a lit closed scene or
  * one framing the scene's bounding sphere (lrr.h lrr_render_png says which when). */

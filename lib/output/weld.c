@@ -96,10 +96,7 @@ lrr_status lrr__render_weld_vertices(const lrr_operator *op, const double *pos,
         goto done;
 
     double lo[3], hi[3];
-    lrr__render_scene_bounds(&op->geom, lo, hi);
-    double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                       (hi[2] - lo[2]) * (hi[2] - lo[2]));
-    double q = WELD_POS_TOL * diag;
+    double q = WELD_POS_TOL * lrr__geometry_bounds(&op->geom, lo, hi);
     if (!(q > 0) || !isfinite(q))
         q = 1;
     /* relative to the minimum corner, keys stay within ±1e5 whatever the scene's offset */

@@ -46,15 +46,7 @@ static lrr_status light_table(lrr_context *ctx, const lrr_light *lights, size_t 
 static float ray_offset(const lrr__geometry *g)
 {
     /* the ray origins move off the surface by 1e-5 × the scene's bounding-box diagonal */
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-    for (size_t i = 0; i < 3 * g->n_tri; i++)
-        for (int c = 0; c < 3; c++) {
-            lo[c] = fmin(lo[c], g->vert[3 * i + c]);
-            hi[c] = fmax(hi[c], g->vert[3 * i + c]);
-        }
-    double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                       (hi[2] - lo[2]) * (hi[2] - lo[2]));
-    return (float)(1e-5 * diag);
+    return (float)(1e-5 * lrr__geometry_bounds(g, NULL, NULL));
 }
 
 /* emission (n×3) = rho × Σ over the lights L that subpatch i's centre sees (an occlusion ray

@@ -230,7 +230,6 @@ static lrr_status tracer_init(const lrr_scene *scene, tracer *tr)
         (st = lrr__calloc(ctx, &tr->cdf, g->n_tri, sizeof(double), "emitter table")) ||
         (st = lrr__calloc(ctx, &tr->emitter, g->n_tri, sizeof(size_t), "emitter table")))
         return st;
-    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     double total = 0;
     for (size_t t = 0; t < g->n_tri; t++) {
         const float *v = g->vert + 9 * t;
@@ -238,10 +237,6 @@ static lrr_status tracer_init(const lrr_scene *scene, tracer *tr)
         for (int j = 0; j < 3; j++) {
             e1[j] = (double)v[3 + j] - v[j];
             e2[j] = (double)v[6 + j] - v[j];
-            for (int k = 0; k < 3; k++) {
-                lo[j] = fmin(lo[j], v[3 * k + j]);
-                hi[j] = fmax(hi[j], v[3 * k + j]);
-            }
         }
         lrr__cross3(e1, e2, tr->normal + 3 * t);
         lrr__normalize3(tr->normal + 3 * t);
@@ -253,8 +248,7 @@ static lrr_status tracer_init(const lrr_scene *scene, tracer *tr)
             tr->emitter[tr->n_emit++] = t;
         }
     }
-    double dd[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
-    tr->eps = 1e-5 * sqrt(lrr__dot3(dd, dd));
+    tr->eps = 1e-5 * lrr__geometry_bounds(g, NULL, NULL);
     return LRR_OK;
 }
 

@@ -75,6 +75,9 @@ size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i);
 void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9]);
 /* Per-subpatch centre (n×3), unit normal (n×3) and area (n); any may be NULL. */
 void lrr__subpatch_frames(const lrr__geometry *g, float *centre, float *normal, float *area);
+/* The bounding box lo, hi of g's input triangles (all 0 when it has none); returns its
+ * diagonal, the length scale of ray offsets and tolerances. lo and hi may be NULL. */
+double lrr__geometry_bounds(const lrr__geometry *g, double lo[3], double hi[3]);
 
 /* Area of triangle v (9 floats), in double. */
 static inline double lrr__tri_area(const float *v)

@@ -281,3 +281,22 @@ void lrr__subpatch_frames(const lrr__geometry *g, float *centre, float *normal, 
         if (area) area[i] = (float)(0.5 * len);
     }
 }
+
+double lrr__geometry_bounds(const lrr__geometry *g, double lo[3], double hi[3])
+{
+    double l[3] = {INFINITY, INFINITY, INFINITY}, h[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < 9 * g->n_tri; i++) {
+        int j = (int)(i % 3);
+        l[j] = fmin(l[j], g->vert[i]);
+        h[j] = fmax(h[j], g->vert[i]);
+    }
+    if (g->n_tri == 0)
+        for (int j = 0; j < 3; j++)
+            l[j] = h[j] = 0;
+    for (int j = 0; j < 3 && lo && hi; j++) {
+        lo[j] = l[j];
+        hi[j] = h[j];
+    }
+    return sqrt((h[0] - l[0]) * (h[0] - l[0]) + (h[1] - l[1]) * (h[1] - l[1]) +
+                (h[2] - l[2]) * (h[2] - l[2]));
+}
