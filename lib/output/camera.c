@@ -3,8 +3,10 @@
  * bounds from the side that shows more front faces. */
 #include "config.h"
 #include "output/render_internal.h"
+#include "scene/bvh.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 /* Default vertical fields of view (degrees) of the eye/inside and the framing cameras. */
@@ -61,52 +63,41 @@ static void sphere_dir(int k, int n, double d[3])
     d[2] = r * sin(phi);
 }
 
-/* Möller–Trumbore: distance along d to triangle v (three float corners), or INFINITY;
- * *front: the triangle faces the ray's origin (counter-clockwise seen from it). */
-static double ray_triangle(const double o[3], const double d[3], const float *v, int *front)
-{
-    double e1[3], e2[3], s[3], p[3], q[3];
-    for (int j = 0; j < 3; j++) {
-        e1[j] = (double)v[3 + j] - v[j];
-        e2[j] = (double)v[6 + j] - v[j];
-        s[j] = o[j] - v[j];
-    }
-    lrr__cross3(d, e2, p);
-    double det = lrr__dot3(e1, p);
-    if (det == 0)
-        return INFINITY;
-    double u = lrr__dot3(s, p) / det;
-    if (u < 0 || u > 1)
-        return INFINITY;
-    lrr__cross3(s, e1, q);
-    double w = lrr__dot3(d, q) / det;
-    if (w < 0 || u + w > 1)
-        return INFINITY;
-    double t = lrr__dot3(e2, q) / det;
-    *front = det > 0; /* det = −(e1 × e2)·d > 0: the normal points back at the origin */
-    return t > 0 ? t : INFINITY;
-}
-
 /* Whether p is enclosed: INSIDE_ENCLOSED of the rays from p first meet a triangle facing p
- * (inside a room, not outside it, in a wall or in a piece of furniture). */
-static int enclosed(const lrr__geometry *g, const double p[3])
+ * (inside a room, not outside it, in a wall or in a piece of furniture). Rays go through the
+ * scene's shared Embree BVH (scene/bvh.c), so the test costs ∝ log T per ray. */
+static int enclosed(const lrr__bvh *bvh, const lrr__geometry *g, const double p[3])
 {
-    int hits = 0;
-    #pragma omp parallel for reduction(+ : hits) schedule(dynamic, 4) \
-        if (INSIDE_RAYS * g->n_tri > LRR__PARALLEL_MIN)
+    int hits = 0; /* 128 rays through a BVH: microseconds, less than waking a thread team */
     for (int k = 0; k < INSIDE_RAYS; k++) {
-        double d[3], best = INFINITY;
-        int front = 0;
+        double d[3];
         sphere_dir(k, INSIDE_RAYS, d);
-        for (size_t t = 0; t < g->n_tri; t++) {
-            int f = 0;
-            double dist = ray_triangle(p, d, g->vert + 9 * t, &f);
-            if (dist < best) {
-                best = dist;
-                front = f;
-            }
+        struct RTCIntersectContext ictx;
+        rtcInitIntersectContext(&ictx);
+        struct RTCRayHit rh;
+        memset(&rh, 0, sizeof rh);
+        rh.ray.org_x = (float)p[0];
+        rh.ray.org_y = (float)p[1];
+        rh.ray.org_z = (float)p[2];
+        rh.ray.dir_x = (float)d[0];
+        rh.ray.dir_y = (float)d[1];
+        rh.ray.dir_z = (float)d[2];
+        rh.ray.tnear = 0.0f;
+        rh.ray.tfar = INFINITY;
+        rh.ray.mask = UINT32_MAX;
+        rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+        rtcIntersect1(bvh->scene, &ictx, &rh);
+        if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID)
+            continue;
+        /* the triangle faces p when its normal (v1 − v0) × (v2 − v0) points back along d */
+        const float *v = g->vert + 9 * (size_t)rh.hit.primID;
+        double e1[3], e2[3], n[3];
+        for (int j = 0; j < 3; j++) {
+            e1[j] = (double)v[3 + j] - v[j];
+            e2[j] = (double)v[6 + j] - v[j];
         }
-        hits += front;
+        lrr__cross3(e1, e2, n);
+        hits += lrr__dot3(n, d) < 0;
     }
     return hits >= INSIDE_ENCLOSED * INSIDE_RAYS;
 }
@@ -151,11 +142,18 @@ static double lit_in_view(const lrr_operator *op, const float *radiosity, const 
  * (else at the centre), looking horizontally along a towards the other end; of the enclosed
  * candidates, the one that shows more lit area. Returns 0 (cam unset) when the scene emits
  * nothing or no candidate is enclosed. */
-static int inside_camera(lrr__camera *cam, const lrr_operator *op, const float *radiosity,
-                         const double lo[3], const double hi[3])
+static lrr_status inside_camera(lrr__camera *cam, const lrr_operator *op,
+                                const float *radiosity, const double lo[3], const double hi[3],
+                                int *found)
 {
+    *found = 0;
     if (!emits_light(op))
-        return 0;
+        return LRR_OK;
+    lrr__bvh bvh;
+    lrr_status st = lrr__bvh_build(op->ctx, &op->geom, RTC_BUILD_QUALITY_LOW, 1,
+                                   "lrr_render (inside camera)", &bvh);
+    if (st)
+        return st;
     int a = hi[0] - lo[0] >= hi[2] - lo[2] ? 0 : 2;
     static const double back[2] = {0.1, 0.5};
     for (int f = 0; f < 2; f++) {
@@ -171,7 +169,7 @@ static int inside_camera(lrr__camera *cam, const lrr_operator *op, const float *
             double fwd[3] = {0, 0, 0};
             fwd[a] = s == 0 ? 1 : -1;
             camera_orient(&cand, fwd, world_up);
-            if (!enclosed(&op->geom, cand.eye))
+            if (!enclosed(&bvh, &op->geom, cand.eye))
                 continue;
             double lit = lit_in_view(op, radiosity, &cand);
             if (lit > best) {
@@ -179,10 +177,14 @@ static int inside_camera(lrr__camera *cam, const lrr_operator *op, const float *
                 memcpy(cam, &cand, sizeof cand);
             }
         }
-        if (best >= 0)
-            return 1;
+        if (best >= 0) {
+            *found = 1;
+            break;
+        }
     }
-    return 0;
+    st = lrr__bvh_status(op->ctx, &bvh, "ray query");
+    lrr__bvh_release(&bvh);
+    return st;
 }
 
 /* ------------------------------------------------------------------ the camera */
@@ -228,8 +230,9 @@ static void framing_camera(lrr__camera *cam, const lrr_operator *op, const doubl
     cam->near = fmax(0.5 * (dist - r), 1e-6 * r);
 }
 
-void lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op, const float *radiosity,
-                              const lrr_render_options *o, unsigned width, unsigned height)
+lrr_status lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op,
+                                    const float *radiosity, const lrr_render_options *o,
+                                    unsigned width, unsigned height)
 {
     double aspect = (double)width / height;
     double lo[3], hi[3];
@@ -255,21 +258,24 @@ void lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op, const fl
             cam->tan_y = 12.5 / 35.0;
             cam->tan_x = cam->tan_y * aspect;
         }
-        return;
+        return LRR_OK;
     }
     if (o->use_eye) {
         set_fov(cam, o->fov_degrees > 0 ? o->fov_degrees : EYE_FOV, aspect);
         eye_camera(cam, o);
-        return;
+        return LRR_OK;
     }
     if (o->use_cornell_camera == -1) {
         set_fov(cam, o->fov_degrees > 0 ? o->fov_degrees : EYE_FOV, aspect);
-        if (inside_camera(cam, op, radiosity, lo, hi))
-            return;
+        int inside;
+        lrr_status st = inside_camera(cam, op, radiosity, lo, hi, &inside);
+        if (st || inside)
+            return st;
     }
     set_fov(cam, o->fov_degrees > 0 ? o->fov_degrees : FRAMING_FOV, aspect);
     double c[3];
     for (int j = 0; j < 3; j++)
         c[j] = 0.5 * (lo[j] + hi[j]);
     framing_camera(cam, op, c, 0.5 * diag);
+    return LRR_OK;
 }

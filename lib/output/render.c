@@ -375,8 +375,10 @@ static lrr_status render_framebuffer(const lrr_operator *op, const float *radios
                                      const lrr_render_options *o, render_buffers *b)
 {
     lrr__camera cam;
-    lrr__render_camera_setup(&cam, op, radiosity, o, b->fb.width, b->fb.height);
-    lrr_status st = render_alloc(op->ctx, op->n, b);
+    lrr_status st = lrr__render_camera_setup(&cam, op, radiosity, o, b->fb.width,
+                                             b->fb.height);
+    if (!st)
+        st = render_alloc(op->ctx, op->n, b);
     if (!st)
         st = shade_vertices(op, radiosity, b);
     if (!st)

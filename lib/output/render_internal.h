@@ -39,8 +39,9 @@ typedef struct lrr__framebuffer {
 /* The camera of a width×height picture of op with radiosity (n×3) under options o (checked):
  * the eye/target camera, the Cornell box's published one, one inside a lit closed scene or
  * one framing the scene's bounding sphere (lrr.h lrr_render_png says which when). */
-void lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op, const float *radiosity,
-                              const lrr_render_options *o, unsigned width, unsigned height);
+lrr_status lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op,
+                                    const float *radiosity, const lrr_render_options *o,
+                                    unsigned width, unsigned height);
 
 /* weld.c */
 /* corner_vertex (3n): per subpatch corner (pos, 9 per subpatch) a welded vertex;

@@ -1,6 +1,7 @@
 /* The scene's input triangles as an Embree 3 BVH (one geometry, primitive id = triangle
  * index): the one setup every ray caster of lrr shares (the ray-cast hemicube, the
- * path-traced reference, the probes' shadow rays). Embree reports errors through a callback;
+ * path-traced reference, the probes' shadow rays, the scene check, the render camera's
+ * closed-scene test). Embree reports errors through a callback;
  * the first is kept in the struct, which therefore must stay where it is while it lives. */
 #ifndef LRR_SCENE_BVH_H
 #define LRR_SCENE_BVH_H
