@@ -268,6 +268,22 @@ typedef struct lrr_build_options {
                                      through the same pixel centres: ∝ log triangles). Either
                                      works with both backends; other values
                                      LRR_ERR_INVALID_ARG */
+    /* --- appended after ABI 1 (a caller passing ABI 1's size gets 0 here) --- */
+    int hierarchy;                /* what a patch may be, with adaptive_patches = K > 0:
+                                     LRR_HIERARCHY_QUADTREE (0): a node of one input
+                                     triangle's quadtree (so k >= the triangle count);
+                                     LRR_HIERARCHY_CLUSTER: a cluster of subpatches across
+                                     triangles, for scenes with many triangles: spatially
+                                     compact, every normal within 30° of the cluster's mean
+                                     (two sides of a wall, or faces at right angles, never
+                                     share one), k about K for any K >= 1 (more only where
+                                     the normal rule forces splits). adaptive_split chooses
+                                     which cluster splits next (variance: where the sampled
+                                     form-factor columns differ most from the area-weighted
+                                     model; area: the largest). The subpatches are then
+                                     renumbered cluster by cluster (patch-major):
+                                     lrr_operator_scene_order maps per-subpatch values back
+                                     to the scene's order. Other values LRR_ERR_INVALID_ARG */
 } lrr_build_options;
 static inline lrr_build_options lrr_build_options_defaults(void)
 {
@@ -287,6 +303,9 @@ enum { LRR_SPLIT_VARIANCE = 0, LRR_SPLIT_AREA = 1 };
 /* lrr_build_options.formfactor_method: the same five faces, pixel centres, multiplier map
  * and per-receiver rotation either way; rows agree to the pixels on triangle edges. */
 enum { LRR_FORMFACTOR_AUTO = 0, LRR_FORMFACTOR_RASTER = 1, LRR_FORMFACTOR_RAYCAST = 2 };
+
+/* lrr_build_options.hierarchy, lrr_operator_info.hierarchy. */
+enum { LRR_HIERARCHY_QUADTREE = 0, LRR_HIERARCHY_CLUSTER = 1 };
 
 /* Builds F̄ by one hemicube per subpatch, then M_c = (I_k - Vᵀ diag(rho_c) F̄)^{-1} per
  * channel in double precision (LAPACKE dgetrf/dgetri, dgecon condition estimates), stored in
@@ -369,6 +388,12 @@ typedef struct lrr_operator_info {
     double back_face_share;
     size_t worst_back_face_triangle[LRR_BACK_FACE_WORST];
     double worst_back_face_share[LRR_BACK_FACE_WORST];
+    /* --- appended after ABI 1 --- */
+    int hierarchy;              /* LRR_HIERARCHY_CLUSTER when patches are clusters across
+                                   triangles (subpatches renumbered: lrr_operator_scene_order);
+                                   else LRR_HIERARCHY_QUADTREE */
+    double formfactor_seconds;  /* the hemicubes' share of build_seconds (0 after a load) */
+    double smw_seconds;         /* the factorisation's share of build_seconds (0 after a load) */
 } lrr_operator_info;
 /* info_size = sizeof *info (see Conventions). */
 LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info,
@@ -387,6 +412,14 @@ LRR_API const float *lrr_operator_normal(const lrr_operator *op) LRR_NONNULL(1);
 /* k+1 offsets: patch p holds subpatches offsets[p] .. offsets[p+1]-1 (p·d in a uniform
  * hierarchy; varying in an adaptive one). Valid for the operator's life. */
 LRR_API const size_t *lrr_operator_patch_offsets(const lrr_operator *op) LRR_NONNULL(1);
+/* Copies per-subpatch triples (n×3: radiosity, emission, reflectance) from the operator's
+ * subpatch order (that of lrr_solve, lrr_operator_area, …) into the scene's (that of
+ * lrr_scene_subpatch_at, lrr_scene_subpatches and the reference solvers). The two differ
+ * only for LRR_HIERARCHY_CLUSTER, whose subpatches are numbered cluster by cluster; the
+ * copy is then a permutation, else a plain copy. in and out must not overlap. Thread
+ * safety: any thread. */
+LRR_API void lrr_operator_scene_order(const lrr_operator *op, const float *in, float *out)
+    LRR_NONNULL(1, 2, 3);
 
 /* ---------------------------------------------------------------- solver */
 typedef enum lrr_backend {
