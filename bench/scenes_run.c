@@ -500,41 +500,62 @@ static double dist2(const float *a, const float *b, const float *e)
     return s;
 }
 
+/* Sums over a set of triangles (A the area, d = op - ref, RGB norms). */
+typedef struct sc_acc {
+    double num, num16, den, den_refl, noise, area, max_rel;
+    size_t count;
+} sc_acc;
+
+static void acc_add(sc_acc *s, double a, const float *em, const float *op, const float *op16,
+                    const float *ref, const float *se)
+{
+    static const float zero[3] = {0, 0, 0};
+    const double d2 = dist2(op, ref, NULL), r2 = dist2(ref, zero, NULL);
+    s->num += a * d2;
+    s->num16 += a * dist2(op16, ref, NULL);
+    s->den += a * r2;
+    s->den_refl += a * dist2(ref, zero, em);
+    s->noise += a * dist2(se, zero, NULL);
+    s->area += a;
+    s->max_rel = fmax(s->max_rel, isfinite(d2) ? sqrt(d2 / r2) : INFINITY);
+    s->count++;
+}
+
+static double ratio_sqrt(double num, double den)
+{
+    return den > 0 ? sqrt(num / den) : NAN;
+}
+
 /* Over triangles with lum(se) < 1% of lum(ref) (lum(se) bounds the luminance's standard
  * error from above whatever the channels' correlation): area-weighted relative L2 of op
  * against ref (RGB), the same for the reflected part (emission taken off both), the
  * reference's own relative error bar (the same formula with se for the difference), the
- * largest per-triangle relative error, the count and area share used. */
+ * largest per-triangle relative error, the count and area share used; and rel_l2 and the
+ * error bar over every lit triangle (lum(ref) > 0), whatever its noise. */
 static void compare_tris(size_t T, const float *area, const float *em, const float *op,
                          const float *op16, const float *ref, const float *se, sc_result *r)
 {
-    double num = 0, num16 = 0, den = 0, den_refl = 0, noise = 0, a_used = 0, a_all = 0,
-           mr = 0;
-    static const float zero[3] = {0, 0, 0};
-    size_t used = 0;
+    sc_acc used = {0}, lit = {0};
+    double a_all = 0;
     for (size_t t = 0; t < T; t++) {
-        const double a = area[t];
         const float *R = ref + 3 * t;
-        a_all += a;
-        if (!(lum(R) > 0) || !(lum(se + 3 * t) < SC_SE_LIMIT * lum(R)) || !(a > 0))
+        a_all += area[t];
+        if (!(lum(R) > 0) || !(area[t] > 0))
             continue;
-        used++;
-        a_used += a;
-        const double d2 = dist2(op + 3 * t, R, NULL), r2 = dist2(R, zero, NULL);
-        num += a * d2;
-        num16 += a * dist2(op16 + 3 * t, R, NULL);
-        den += a * r2;
-        den_refl += a * dist2(R, zero, em + 3 * t);
-        noise += a * dist2(se + 3 * t, zero, NULL);
-        mr = fmax(mr, isfinite(d2) ? sqrt(d2 / r2) : INFINITY);
+        acc_add(&lit, area[t], em + 3 * t, op + 3 * t, op16 + 3 * t, R, se + 3 * t);
+        if (lum(se + 3 * t) < SC_SE_LIMIT * lum(R))
+            acc_add(&used, area[t], em + 3 * t, op + 3 * t, op16 + 3 * t, R, se + 3 * t);
     }
-    r->tris_used = used;
-    r->area_share = a_all > 0 ? a_used / a_all : NAN;
-    r->rel_l2 = den > 0 ? sqrt(num / den) : NAN;
-    r->rel_l2_f16 = den > 0 ? sqrt(num16 / den) : NAN;
-    r->rel_l2_reflected = den_refl > 0 ? sqrt(num / den_refl) : NAN;
-    r->ref_se = den > 0 ? sqrt(noise / den) : NAN;
-    r->max_rel = used ? mr : NAN;
+    r->tris_used = used.count;
+    r->area_share = a_all > 0 ? used.area / a_all : NAN;
+    r->rel_l2 = ratio_sqrt(used.num, used.den);
+    r->rel_l2_f16 = ratio_sqrt(used.num16, used.den);
+    r->rel_l2_reflected = ratio_sqrt(used.num, used.den_refl);
+    r->ref_se = ratio_sqrt(used.noise, used.den);
+    r->max_rel = used.count ? used.max_rel : NAN;
+    r->tris_lit = lit.count;
+    r->rel_l2_lit = ratio_sqrt(lit.num, lit.den);
+    r->ref_se_lit = ratio_sqrt(lit.noise, lit.den);
 }
 
 /* ------------------------------------------------------------------ one scene */
@@ -548,7 +569,8 @@ static void result_init(sc_result *r, const char *scene)
         &r->f32.median,  &r->f32.q1,    &r->f32.q3,       &r->f16.median,   &r->f16.q1,
         &r->f16.q3,      &r->bandwidth, &r->floor_f32,    &r->floor_f16,    &r->ratio_f32,
         &r->ratio_f16,   &r->reference_s, &r->reference_peak_mib, &r->rel_l2,
-        &r->rel_l2_reflected, &r->rel_l2_f16, &r->max_rel, &r->ref_se, &r->area_share};
+        &r->rel_l2_reflected, &r->rel_l2_f16, &r->max_rel, &r->ref_se, &r->area_share,
+        &r->rel_l2_lit, &r->ref_se_lit};
     for (size_t i = 0; i < sizeof nan_fields / sizeof nan_fields[0]; i++)
         *nan_fields[i] = NAN;
     snprintf(r->kernel, sizeof r->kernel, "-");
@@ -612,9 +634,10 @@ int sc_run_scene(const sc_args *a, const char *scene, sc_result *r)
     if (!rc && take_op(&b, r, arr) != 0)
         rc = bench_fail("%s: the operator child sent too little", r->label);
     free(b.p);
-    if (rc)
+    if (rc) {
         snprintf(r->failed, sizeof r->failed, "operator pipeline");
-    else if (!(rc = run_reference(a, &c, r, ref)))
+        r->peak_mib = NAN; /* of a pipeline that did not finish */
+    } else if (!(rc = run_reference(a, &c, r, ref)))
         compare_tris(r->triangles, arr[0], arr[1], arr[2], arr[3], ref[0], ref[1], r);
     for (int i = 0; i < 4; i++)
         free(arr[i]);
