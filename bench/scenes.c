@@ -442,10 +442,17 @@ static int write_md(const sc_args *a, const char *cmdline, const char *cpu, doub
     char date[64];
     time_t t = time(NULL);
     strftime(date, sizeof date, "%Y-%m-%d %H:%M %Z", gmtime(&t));
+    double l1 = NAN, l5 = NAN, l15 = NAN; /* a busy machine slows the frames: say how busy */
+    FILE *la = fopen("/proc/loadavg", "r");
+    if (!la || fscanf(la, "%lf %lf %lf", &l1, &l5, &l15) != 3)
+        l1 = l5 = l15 = NAN;
+    if (la)
+        fclose(la);
     fprintf(f, "# lrr-bench scenes\n\nCommand: `%s`\n\n", cmdline);
     fprintf(f, "CPU: %s; threads %d; read bandwidth %.2f GB/s (measured in this run); "
-               "lrr %s; %s.\n\n",
-            cpu, count ? rows[0].threads : 0, bw / 1e9, lrr_version_string(), date);
+               "lrr %s; %s; load average at the end %.2f %.2f %.2f.\n\n",
+            cpu, count ? rows[0].threads : 0, bw / 1e9, lrr_version_string(), date, l1, l5,
+            l15);
     fprintf(f, "Settings: K = %zu (cluster hierarchy, %s split), hemicube %u, %zu path-traced "
                "samples per subpatch, seed %llu; frames forced to one pass over F̄; ms = "
                "median (IQR) per RGB frame; floor = n·k·bytes / bandwidth; errors over the "
