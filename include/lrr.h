@@ -420,6 +420,10 @@ LRR_API const size_t *lrr_operator_patch_offsets(const lrr_operator *op) LRR_NON
  * safety: any thread. */
 LRR_API void lrr_operator_scene_order(const lrr_operator *op, const float *in, float *out)
     LRR_NONNULL(1, 2, 3);
+/* The map behind it, for data of other widths: n entries, the scene-order index of each
+ * operator subpatch (valid for the operator's life); NULL when the orders coincide (every
+ * hierarchy but LRR_HIERARCHY_CLUSTER). */
+LRR_API const size_t *lrr_operator_subpatch_origin(const lrr_operator *op) LRR_NONNULL(1);
 
 /* ---------------------------------------------------------------- solver */
 typedef enum lrr_backend {

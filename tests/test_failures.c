@@ -52,8 +52,9 @@ static double sum(const float *x, size_t len)
 }
 
 /* The whole sequence on a fresh context with the N-th allocation failing (0: none); with
- * adaptive, the operator is an adaptive hierarchy (the selection's sampled rows, radiosity
- * weights, greedy heap and exchanges, and a version-2 file) with ray-cast form factors. */
+ * adaptive = 1, the operator is an adaptive hierarchy (the selection's sampled rows, radiosity
+ * weights, greedy heap and exchanges, and a version-2 file) with ray-cast form factors; with
+ * adaptive = 2 a cluster hierarchy (its tree, sample, cut and a version-3 file). */
 static run_result run_sequence(unsigned long fail_at, int adaptive)
 {
     run_result res = {0, LRR_OK, NULL, 0, 0, 0};
@@ -73,6 +74,11 @@ static run_result run_sequence(unsigned long fail_at, int adaptive)
         bo.adaptive_patches = 90;
         bo.adaptive_samples = 48;
         bo.formfactor_method = LRR_FORMFACTOR_RAYCAST; /* and the ray caster's allocations */
+    }
+    if (adaptive == 2) {
+        bo.size = sizeof bo; /* hierarchy came after ABI 1 */
+        bo.hierarchy = LRR_HIERARCHY_CLUSTER;
+        bo.adaptive_patches = 40;
     }
     lrr_status st;
 
@@ -94,8 +100,10 @@ static run_result run_sequence(unsigned long fail_at, int adaptive)
     STEP("lrr_operator_load", lrr_operator_load(ctx, path, &loaded));
     lrr_operator_info info;
     lrr_operator_get_info(loaded, &info, sizeof info);
-    if (adaptive) /* variable patch sizes: d = 0, d_min < d_max */
+    if (adaptive == 1) /* variable patch sizes: d = 0, d_min < d_max */
         assert_true(info.d == 0 && info.d_min < info.d_max && info.k <= 90 && info.k > 87);
+    if (adaptive == 2)
+        assert_true(info.hierarchy == LRR_HIERARCHY_CLUSTER && info.k == 40);
     B = malloc(info.n * 3 * sizeof *B);
     assert_non_null(B);
     STEP("lrr_solver_create", lrr_solver_create(loaded, LRR_BACKEND_CPU, &solver));
@@ -216,6 +224,12 @@ static void test_sweep_adaptive(void **state)
     sweep(1);
 }
 
+static void test_sweep_clusters(void **state)
+{
+    (void)state;
+    sweep(2);
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -238,6 +252,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_sweep),
         cmocka_unit_test(test_sweep_adaptive),
+        cmocka_unit_test(test_sweep_clusters),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
 }

@@ -99,6 +99,11 @@ void cli_outfile_abort(cli_outfile *out);
 int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const size_t *first,
                            const float *area, const float *centre, const float *normal,
                            const float *radiosity);
+/* The same for an operator's data in its order: origin (n, NULL = the scene's order) maps
+ * operator subpatch i to the scene's row origin[i]; rows come out in the scene's order. */
+int cli_write_subpatch_csv_order(const char *path, size_t n, size_t d, const size_t *first,
+                                 const size_t *origin, const float *area, const float *centre,
+                                 const float *normal, const float *radiosity);
 /* The same for a solved operator, with its stored geometry. */
 int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const float *radiosity);
 

@@ -75,7 +75,7 @@ int subdiv_finish(subdiv_args *s, const char *prog)
         cli_usage_error(prog, "--max-patch-area and --patches exclude each other");
         return CLI_EXIT_USAGE;
     }
-    if (!s->have_area && !s->have_patches)
+    if (!s->have_area && !s->have_patches && !s->clusters)
         s->sub.target_patches = DEFAULT_PATCHES;
     return 0;
 }
@@ -133,7 +133,8 @@ int build_option(build_args *b, const char *prog, int c, const char *arg)
 lrr_build_options build_start(const build_args *b, cli_progress *bar)
 {
     cli_progress_init(bar, "hemicubes", b->force_progress || isatty(STDERR_FILENO));
-    lrr_build_options bo = {.hemicube_resolution = b->hemicube,
+    lrr_build_options bo = {.size = sizeof bo, /* the whole struct: hierarchy came after ABI 1 */
+                            .hemicube_resolution = b->hemicube,
                             .seed = b->seed,
                             .threads = (int)b->threads,
                             .progress = cli_progress_cb,

@@ -37,7 +37,14 @@ int open_subdivided_scene(lrr_context *ctx, const char *name, const subdiv_args 
     int rc = open_scene(ctx, name, scene);
     if (rc != CLI_EXIT_OK)
         return rc;
-    lrr_status s = lrr_scene_subdivide(*scene, &sa->sub);
+    lrr_subdivision sub = sa->sub;
+    if (sa->clusters && !sa->have_area && !sa->have_patches) {
+        /* one subpatch per small triangle, and about 16 per cluster on the large ones */
+        lrr_scene_info si;
+        lrr_scene_get_info(*scene, &si, sizeof si);
+        sub.target_patches = si.triangles + 16 * sa->clusters;
+    }
+    lrr_status s = lrr_scene_subdivide(*scene, &sub);
     if (s != LRR_OK) {
         rc = cli_lib_error(ctx, s);
         lrr_scene_destroy(*scene);
@@ -80,7 +87,9 @@ void print_operator_info(const lrr_operator *op)
     printf("n: %zu\n", oi.n);
     printf("k: %zu\n", oi.k);
     printf("d: %zu\n", oi.d);
-    if (oi.d == 0) { /* adaptive hierarchy */
+    printf("hierarchy: %s\n", oi.hierarchy == LRR_HIERARCHY_CLUSTER ? "clusters"
+                              : oi.d ? "uniform" : "adaptive");
+    if (oi.d == 0) { /* adaptive or cluster hierarchy */
         printf("d_min: %zu\n", oi.d_min);
         printf("d_max: %zu\n", oi.d_max);
         printf("selection_seconds: %.3f\n", oi.selection_seconds);
@@ -88,6 +97,8 @@ void print_operator_info(const lrr_operator *op)
     printf("hemicube: %u\n", oi.hemicube_resolution);
     printf("seed: %llu\n", (unsigned long long)oi.seed);
     printf("build_seconds: %.3f\n", oi.build_seconds);
+    printf("formfactor_seconds: %.3f\n", oi.formfactor_seconds);
+    printf("smw_seconds: %.3f\n", oi.smw_seconds);
     printf("cond_r: %.6g\n", oi.condition[0]);
     printf("cond_g: %.6g\n", oi.condition[1]);
     printf("cond_b: %.6g\n", oi.condition[2]);

@@ -236,9 +236,59 @@ void cli_outfile_abort(cli_outfile *out)
     out->f = NULL;
 }
 
+static int write_rows(const char *path, size_t n, size_t d, const size_t *first,
+                      const size_t *row, const size_t *patch_of, const float *area,
+                      const float *centre, const float *normal, const float *radiosity);
+
 int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const size_t *first,
                            const float *area, const float *centre, const float *normal,
                            const float *radiosity)
+{
+    return cli_write_subpatch_csv_order(path, n, d, first, NULL, area, centre, normal,
+                                        radiosity);
+}
+
+/* Row j is subpatch j of the scene's order; with origin (clusters), the data are in the
+ * operator's order and row origin[i] takes its entry i. */
+static size_t *scene_rows(size_t n, const size_t *origin)
+{
+    size_t *row = malloc((n ? n : 1) * sizeof *row);
+    if (!row) {
+        cli_fail(LRR_ERR_NOMEM, "cannot allocate %zu row indices", n);
+        return NULL;
+    }
+    for (size_t i = 0; i < n; i++)
+        row[origin[i]] = i;
+    return row;
+}
+
+int cli_write_subpatch_csv_order(const char *path, size_t n, size_t d, const size_t *first,
+                                 const size_t *origin, const float *area, const float *centre,
+                                 const float *normal, const float *radiosity)
+{
+    size_t *row = origin ? scene_rows(n, origin) : NULL;
+    if (origin && !row)
+        return CLI_EXIT_FAIL;
+    if (d == 0)
+        d = 1;
+    size_t *patch = NULL;
+    if (origin && first && (patch = malloc((n ? n : 1) * sizeof *patch)))
+        for (size_t p = 0; first[p] < n; p++)
+            for (size_t i = first[p]; i < first[p + 1]; i++)
+                patch[i] = p;
+    if (origin && !patch) {
+        free(row);
+        return cli_fail(LRR_ERR_NOMEM, "cannot allocate %zu patch indices", n);
+    }
+    int rc = write_rows(path, n, d, first, row, patch, area, centre, normal, radiosity);
+    free(row);
+    free(patch);
+    return rc;
+}
+
+static int write_rows(const char *path, size_t n, size_t d, const size_t *first,
+                      const size_t *row, const size_t *patch_of, const float *area,
+                      const float *centre, const float *normal, const float *radiosity)
 {
     if (d == 0)
         d = 1;
@@ -248,13 +298,14 @@ int cli_write_subpatch_csv(const char *path, size_t n, size_t d, const size_t *f
         return cli_fail(LRR_ERR_IO, "cannot create a temporary file for '%s': %s", path,
                         strerror(errno));
     fputs(CLI_CSV_HEADER "\n", out.f);
-    for (size_t i = 0; i < n; i++) {
+    for (size_t j = 0; j < n; j++) {
+        const size_t i = row ? row[j] : j;
         const float *c = centre + 3 * i, *nr = normal + 3 * i, *b = radiosity + 3 * i;
-        if (first)
+        if (first && !patch_of)
             while (first[patch + 1] <= i)
                 patch++;
-        if (fprintf(out.f, "%zu,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", i,
-                    first ? patch : i / d, (double)area[i], (double)c[0], (double)c[1], (double)c[2],
+        if (fprintf(out.f, "%zu,%zu,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g\n", j,
+                    patch_of ? patch_of[i] : first ? patch : i / d, (double)area[i], (double)c[0], (double)c[1], (double)c[2],
                     (double)nr[0], (double)nr[1], (double)nr[2], (double)b[0], (double)b[1],
                     (double)b[2]) < 0)
             break; /* the error sticks in ferror(); commit reports it */
@@ -274,8 +325,9 @@ int cli_write_radiosity_csv(const char *path, const lrr_operator *op, const floa
     if (!area || !centre || !normal)
         return cli_fail(LRR_ERR_INVALID_ARG, "%s: the operator has no per-subpatch geometry",
                         path);
-    return cli_write_subpatch_csv(path, info.n, info.d, lrr_operator_patch_offsets(op), area,
-                                  centre, normal, radiosity);
+    return cli_write_subpatch_csv_order(path, info.n, info.d, lrr_operator_patch_offsets(op),
+                                        lrr_operator_subpatch_origin(op), area, centre,
+                                        normal, radiosity);
 }
 
 /* ------------------------------------------------------------------ misc */

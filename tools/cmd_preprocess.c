@@ -41,6 +41,15 @@ static const char preprocess_help[] =
     "                       K is between the triangle count and the subpatch count; the\n"
     "                       count reached can be up to 2 less (a split adds 3). Prints\n"
     "                       d_min, d_max and selection_seconds (part of build_seconds)\n"
+    "  --clusters K         cluster hierarchy, for scenes with many triangles: patches\n"
+    "                       are about K clusters of subpatches across triangles (compact,\n"
+    "                       every normal within 30 degrees of the cluster's mean, so the\n"
+    "                       two sides of a wall never share one), any K >= 1; more where\n"
+    "                       the normal rule forces splits. The subpatches default to\n"
+    "                       --levels 0 and about T + 16·K of them (T triangles: one per\n"
+    "                       small triangle, large ones split); --adaptive-split and\n"
+    "                       --adaptive-samples choose the splits as for --adaptive.\n"
+    "                       Prints hierarchy: clusters, d_min, d_max, selection_seconds\n"
     "  --adaptive-samples S receivers sampled to estimate the variance (default 2048,\n"
     "                       rendered at a quarter of the hemicube resolution)\n"
     "  --adaptive-split X   variance (default) or area: area splits the largest patch first,\n"
@@ -54,7 +63,7 @@ typedef struct preprocess_args {
     build_args ba;
     lrr_storage storage;
     int on_device;
-    size_t adaptive, adaptive_samples;
+    size_t adaptive, adaptive_samples, clusters;
     int adaptive_split, adaptive_only;
     size_t budget;
 } preprocess_args;
@@ -79,6 +88,8 @@ static int preprocess_option(preprocess_args *a, int c, const char *arg)
     }
     case OPT_ADAPTIVE:
         return cli_parse_size(prog, "--adaptive", arg, 1, SIZE_MAX, &a->adaptive) != 0 ? -1 : 1;
+    case OPT_CLUSTERS:
+        return cli_parse_size(prog, "--clusters", arg, 1, SIZE_MAX, &a->clusters) != 0 ? -1 : 1;
     case OPT_ADAPTIVE_SAMPLES:
         a->adaptive_only = 1;
         return cli_parse_size(prog, "--adaptive-samples", arg, 1, (size_t)1 << 20,
@@ -112,18 +123,27 @@ static int preprocess_finish(preprocess_args *a, int argc, char *argv[])
         fprintf(stderr, "Try '%s --help'.\n", prog);
         return CLI_EXIT_USAGE;
     }
+    if (a->adaptive && a->clusters) {
+        cli_usage_error(prog, "--adaptive and --clusters exclude each other");
+        return CLI_EXIT_USAGE;
+    }
+    a->sa.clusters = a->clusters;
     int rc = subdiv_finish(&a->sa, prog);
     if (rc)
         return rc;
+    if (a->clusters)
+        a->adaptive = a->clusters; /* K, as lrr_build_options.adaptive_patches */
     if (a->adaptive_only && !a->adaptive) {
-        cli_usage_error(prog, "--adaptive-samples and --adaptive-split need --adaptive K");
+        cli_usage_error(prog, "--adaptive-samples and --adaptive-split need --adaptive K or "
+                              "--clusters K");
         return CLI_EXIT_USAGE;
     }
     if (a->adaptive && !a->sa.have_levels)
         a->sa.sub.levels = 0;
     if (a->adaptive && a->sa.sub.levels != 0) {
-        cli_usage_error(prog, "--adaptive: the patches become the subpatches, so give "
-                              "--levels 0 (not %u)", a->sa.sub.levels);
+        cli_usage_error(prog, "--%s: the patches become the subpatches, so give "
+                              "--levels 0 (not %u)", a->clusters ? "clusters" : "adaptive",
+                        a->sa.sub.levels);
         return CLI_EXIT_USAGE;
     }
     return CLI_RUN;
@@ -137,6 +157,7 @@ static int parse_preprocess(preprocess_args *a, int argc, char *argv[])
         {"storage", required_argument, NULL, OPT_STORAGE},
         {"backend", required_argument, NULL, OPT_BACKEND},
         {"adaptive", required_argument, NULL, OPT_ADAPTIVE},
+        {"clusters", required_argument, NULL, OPT_CLUSTERS},
         {"adaptive-samples", required_argument, NULL, OPT_ADAPTIVE_SAMPLES},
         {"adaptive-split", required_argument, NULL, OPT_ADAPTIVE_SPLIT},
         {"memory-budget", required_argument, NULL, OPT_MEMORY_BUDGET},
@@ -213,6 +234,7 @@ static int build_and_save(lrr_context *ctx, const preprocess_args *a, const lrr_
     lrr_build_options bo = build_start(&a->ba, &bar);
     bo.backend = a->on_device ? LRR_BACKEND_OPENCL : LRR_BACKEND_CPU;
     bo.adaptive_patches = a->adaptive;
+    bo.hierarchy = a->clusters ? LRR_HIERARCHY_CLUSTER : LRR_HIERARCHY_QUADTREE;
     bo.adaptive_samples = a->adaptive_samples;
     bo.adaptive_split = a->adaptive_split;
     bo.memory_budget = a->budget;

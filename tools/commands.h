@@ -86,6 +86,7 @@ enum {
     OPT_PROBE_SCALE,
     OPT_NO_SCENE_EMISSION,
     OPT_ADAPTIVE,
+    OPT_CLUSTERS,
     OPT_ADAPTIVE_SAMPLES,
     OPT_ADAPTIVE_SPLIT,
     OPT_SAMPLES,
@@ -154,6 +155,8 @@ const char *one_positional(const char *prog, const char *what, int argc, char *c
 typedef struct subdiv_args {
     lrr_subdivision sub;
     int have_area, have_patches, have_levels;
+    size_t clusters;  /* --clusters K: without --patches / --max-patch-area, the subpatches
+                         default to about T + 16·K (T triangles): open_subdivided_scene */
 } subdiv_args;
 
 void subdiv_init(subdiv_args *s);

@@ -17,6 +17,7 @@
 
 #define FILE_VERSION 1u          /* uniform hierarchy */
 #define FILE_VERSION_ADAPTIVE 2u /* adds PATCHES */
+#define FILE_VERSION_CLUSTER 3u  /* adds CLUSTERS */
 #define ENDIAN_MARK 0x01020304u
 #define HEADER_SIZE 64u
 #define ENTRY_SIZE 32u
@@ -32,11 +33,12 @@ static const char MAGIC[8] = {'L', 'R', 'R', 'O', 'P', 'E', 'R', '\0'};
 
 enum {
     SEC_GEOMETRY = 1, SEC_RHO, SEC_EMISSION, SEC_FBAR, SEC_M, SEC_INFO, SEC_ROWSCALE,
-    SEC_PATCHES,
+    SEC_PATCHES, SEC_CLUSTERS,
     SEC_COUNT = 6,     /* sections every file has */
-    SEC_KNOWN = 8      /* sections this reader knows */
+    SEC_KNOWN = 9      /* sections this reader knows */
 };
 #define PATCHES_PREFIX 8u
+#define CLUSTERS_PREFIX 8u
 
 /* One entry of the section table; data is the payload being saved (NULL when loading). */
 struct section {

@@ -18,7 +18,8 @@
 static const char *section_name(uint32_t id)
 {
     static const char *const names[] = {"?",    "GEOMETRY", "RHO",      "EMISSION", "FBAR",
-                                        "M",    "INFO",     "ROWSCALE", "PATCHES"};
+                                        "M",    "INFO",     "ROWSCALE", "PATCHES",
+                                        "CLUSTERS"};
     return id >= 1 && id <= SEC_KNOWN ? names[id] : "unknown";
 }
 
@@ -93,7 +94,8 @@ static lrr_status expect_size(struct reader *r, const struct section *s, uint64_
 struct header {
     uint32_t version, count, dtype;
     uint64_t n, k, d;
-    bool adaptive;
+    bool adaptive;  /* d = 0: version 2 (PATCHES) or 3 (CLUSTERS) */
+    bool clusters;  /* version 3 */
 };
 
 /* Reads the header into h and checks that it is one this library reads: magic, version and
@@ -113,11 +115,12 @@ static lrr_status read_header(struct reader *r, unsigned char h[HEADER_SIZE])
                           "file %s: truncated: the header needs bytes 0..%u, file has %" PRIu64,
                           r->path, HEADER_SIZE, r->file_size);
     uint32_t version = get32(h + 8), mark = get32(h + 12);
-    if (version != FILE_VERSION && version != FILE_VERSION_ADAPTIVE)
+    if (version != FILE_VERSION && version != FILE_VERSION_ADAPTIVE &&
+        version != FILE_VERSION_CLUSTER)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
                           "file %s: format version %" PRIu32 ", this library reads versions "
-                          "%u and %u",
-                          r->path, version, FILE_VERSION, FILE_VERSION_ADAPTIVE);
+                          "%u to %u",
+                          r->path, version, FILE_VERSION, FILE_VERSION_CLUSTER);
     if (mark == 0x04030201u)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
                           "file %s: written with the other byte order (big-endian)", r->path);
@@ -155,12 +158,14 @@ static lrr_status check_header(struct reader *r, const unsigned char h[HEADER_SI
                           "file %s: element type %" PRIu32 " (this library reads 0 = float32, "
                           "1 = binary16, 2 = bfloat16)",
                           r->path, hd->dtype);
-    /* version 2: the adaptive hierarchy, d = 0 and patch sizes from PATCHES */
-    hd->adaptive = hd->version == FILE_VERSION_ADAPTIVE;
+    /* versions 2 and 3: adaptive or cluster hierarchy, d = 0, patch sizes from PATCHES or
+     * CLUSTERS */
+    hd->adaptive = hd->version != FILE_VERSION;
+    hd->clusters = hd->version == FILE_VERSION_CLUSTER;
     if (hd->adaptive != (hd->d == 0))
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: version %" PRIu32 " with d = %" PRIu64 " (version 1 has "
-                          "d > 0, version 2 d = 0)", r->path, hd->version, hd->d);
+                          "d > 0, versions 2 and 3 d = 0)", r->path, hd->version, hd->d);
     if (hd->count < SEC_COUNT || hd->count > MAX_SECTIONS)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: %" PRIu32 " sections (expected %d..%u)", r->path, hd->count,
@@ -172,7 +177,7 @@ static lrr_status check_header(struct reader *r, const unsigned char h[HEADER_SI
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: implausible sizes n = %" PRIu64 ", k = %" PRIu64
                           ", d = %" PRIu64 " (need n = k·d > 0, or 0 < k <= n with d = 0 in "
-                          "version 2)",
+                          "versions 2 and 3)",
                           r->path, hd->n, hd->k, hd->d);
     return LRR_OK;
 }
@@ -207,7 +212,8 @@ static lrr_status find_sections(struct reader *r, const struct header *hd,
         const unsigned char *e = table + i * ENTRY_SIZE;
         struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24)};
         if (s.id < 1 || s.id > SEC_KNOWN || (s.id == SEC_ROWSCALE && hd->dtype == DTYPE_F32) ||
-            (s.id == SEC_PATCHES && !hd->adaptive))
+            (s.id == SEC_PATCHES && (!hd->adaptive || hd->clusters)) ||
+            (s.id == SEC_CLUSTERS && !hd->clusters))
             continue; /* a later minor addition, or a section this file's kind ignores */
         if (seen[s.id - 1])
             return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s appears twice",
@@ -229,7 +235,8 @@ static lrr_status find_sections(struct reader *r, const struct header *hd,
     }
     for (int i = 0; i < SEC_KNOWN; i++)
         if (!seen[i] && (i < SEC_COUNT || (i == SEC_ROWSCALE - 1 && hd->dtype != DTYPE_F32) ||
-                         (i == SEC_PATCHES - 1 && hd->adaptive)))
+                         (i == SEC_PATCHES - 1 && hd->adaptive && !hd->clusters) ||
+                         (i == SEC_CLUSTERS - 1 && hd->clusters)))
             return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s is missing",
                               r->path, section_name((uint32_t)i + 1));
     return LRR_OK;
@@ -261,8 +268,10 @@ static lrr_status check_section_sizes(struct reader *r, const struct header *hd,
         (dtype != DTYPE_F32 &&
          (st = expect_size(r, &sec[SEC_ROWSCALE - 1], n, sizeof(float), "n floats"))) ||
         (st = expect_size(r, &sec[SEC_M - 1], kk_elems, 3 * sizeof(float), "3·k·k floats")) ||
-        (hd->adaptive && (st = expect_size(r, &sec[SEC_PATCHES - 1], k + PATCHES_PREFIX, 1,
-                                           "8 + k bytes"))))
+        (hd->adaptive && !hd->clusters &&
+         (st = expect_size(r, &sec[SEC_PATCHES - 1], k + PATCHES_PREFIX, 1, "8 + k bytes"))) ||
+        (hd->clusters && (st = expect_size(r, &sec[SEC_CLUSTERS - 1], k + n + 2, 8,
+                                           "8 + 8·(k + 1 + n) bytes"))))
         return st;
     if (sec[SEC_GEOMETRY - 1].size < GEOM_PREFIX)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
@@ -273,7 +282,8 @@ static lrr_status check_section_sizes(struct reader *r, const struct header *hd,
 
 /* Reads and validates header and section table into sec[SEC_KNOWN] (indexed by id-1). */
 static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64_t *d,
-                              uint32_t *dtype_out, struct section sec[SEC_KNOWN])
+                              uint32_t *dtype_out, bool *clusters,
+                              struct section sec[SEC_KNOWN])
 {
     unsigned char h[HEADER_SIZE];
     unsigned char table[MAX_SECTIONS * ENTRY_SIZE + 8];
@@ -289,6 +299,7 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
     *k = hd.k;
     *d = hd.d;
     *dtype_out = hd.dtype;
+    *clusters = hd.clusters;
     return LRR_OK;
 }
 
@@ -368,6 +379,46 @@ static lrr_status parse_patches(struct reader *r, const struct section *ps, uint
     lrr__geometry_free(g);
     *g = a;
     return LRR_OK;
+}
+
+/* Version 3: replaces the uniform g by the cluster hierarchy the CLUSTERS payload gives. */
+static lrr_status parse_clusters(struct reader *r, const struct section *cs, uint64_t k,
+                                 lrr__geometry *g, double *selection_seconds)
+{
+    const size_t n = g->n, kk = (size_t)k; /* k <= n, checked with the header */
+    unsigned char *buf;
+    size_t *first = NULL, *origin = NULL;
+    lrr_status st = lrr__calloc(r->ctx, &buf, (size_t)cs->size, 1, "CLUSTERS section");
+    if (st || (st = read_section(r, cs, buf)) ||
+        (st = lrr__calloc(r->ctx, &first, kk + 1, sizeof(size_t), "cluster offsets")) ||
+        (st = lrr__calloc(r->ctx, &origin, n ? n : 1, sizeof(size_t), "cluster origin")))
+        goto done;
+    memcpy(selection_seconds, buf, 8);
+    if (!(*selection_seconds >= 0) || isinf(*selection_seconds)) {
+        st = lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section CLUSTERS: selection time "
+                        "%g s", r->path, *selection_seconds);
+        goto done;
+    }
+    for (size_t p = 0; p <= kk; p++) {
+        uint64_t v = get64(buf + CLUSTERS_PREFIX + 8 * p);
+        first[p] = v > n ? SIZE_MAX : (size_t)v; /* out of range: refused below */
+    }
+    for (size_t i = 0; i < n; i++) {
+        uint64_t v = get64(buf + CLUSTERS_PREFIX + 8 * (kk + 1 + i));
+        origin[i] = v >= n ? SIZE_MAX : (size_t)v;
+    }
+    char where[64 + 4096];
+    snprintf(where, sizeof where, "file %s: section CLUSTERS", r->path);
+    lrr__geometry c;
+    if ((st = lrr__geometry_clusters(r->ctx, g, origin, first, kk, where, LRR_ERR_CORRUPT, &c)))
+        goto done;
+    lrr__geometry_free(g);
+    *g = c;
+done:
+    lrr_aligned_free(buf);
+    lrr_aligned_free(first);
+    lrr_aligned_free(origin);
+    return st;
 }
 
 static lrr_status check_values(struct reader *r, const lrr_operator *op)
@@ -474,6 +525,7 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     uint64_t n = 0, k = 0, d = 0;
     struct section sec[SEC_KNOWN];
     uint32_t dtype = 0;
+    bool clusters = false;
     unsigned char *geom_buf = NULL;
     lrr__geometry g;
     memset(&g, 0, sizeof g);
@@ -482,14 +534,17 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     int builtin = 0;
     double selection_seconds = 0;
 
-    lrr_status st = read_layout(&r, &n, &k, &d, &dtype, sec);
+    lrr_status st = read_layout(&r, &n, &k, &d, &dtype, &clusters, sec);
     if (st)
         goto done;
     const struct section *gs = &sec[SEC_GEOMETRY - 1];
     if ((st = lrr__calloc(ctx, &geom_buf, (size_t)gs->size, 1, "GEOMETRY section")) ||
         (st = read_section(&r, gs, geom_buf)) ||
         (st = parse_geometry(&r, geom_buf, gs->size, n, k, d, &g, &builtin)) ||
-        (d == 0 && (st = parse_patches(&r, &sec[SEC_PATCHES - 1], k, &g, &selection_seconds))) ||
+        (d == 0 && !clusters &&
+         (st = parse_patches(&r, &sec[SEC_PATCHES - 1], k, &g, &selection_seconds))) ||
+        (clusters &&
+         (st = parse_clusters(&r, &sec[SEC_CLUSTERS - 1], k, &g, &selection_seconds))) ||
         (st = read_section(&r, &sec[SEC_INFO - 1], info)))
         goto done;
     if ((st = lrr__operator_new(ctx, &g, (lrr_storage)dtype, &op)))

@@ -1,22 +1,24 @@
 /* The versioned binary operator file (.lrr): lrr_operator_save here, lrr_operator_load in
  * load.c; the constants and helpers both share are in format.h.
  *
- * Format, versions 1 and 2. All integers and floats are little-endian (IEEE 754); offsets and
+ * Format, versions 1 to 3. All integers and floats are little-endian (IEEE 754); offsets and
  * sizes are in bytes from the start of the file. Version 2 adds the adaptive hierarchy
- * (d = 0 and a PATCHES section); uniform operators are still written as version 1, so
- * readers that know only version 1 keep reading them.
+ * (d = 0 and a PATCHES section), version 3 the cluster hierarchy (d = 0 and a CLUSTERS
+ * section); uniform operators are still written as version 1 and adaptive ones as version
+ * 2, so readers that know only those keep reading them.
  *
  *   Header, 64 bytes at offset 0
  *      0  magic        8 bytes  "LRROPER\0"
- *      8  version      u32      1 (uniform) or 2 (adaptive)
+ *      8  version      u32      1 (uniform), 2 (adaptive) or 3 (clusters)
  *     12  endianness   u32      0x01020304 (reads 0x04030201 on a byte-swapped file)
  *     16  header_size  u32      64
  *     20  sections     u32      number of entries in the section table (6, plus ROWSCALE
- *                               and PATCHES where present)
+ *                               and PATCHES or CLUSTERS where present)
  *     24  n            u64      subpatches
  *     32  k            u64      patches
  *     40  d            u64      subpatches per patch (n = k·d, d = 4^levels); 0 in
- *                               version 2: patch sizes vary, given by PATCHES
+ *                               versions 2 and 3: patch sizes vary, given by PATCHES
+ *                               or CLUSTERS
  *     48  dtype        u32      storage of FBAR: 0 = float32, 1 = binary16, 2 = bfloat16
  *                               (RHO, EMISSION, M and ROWSCALE are float32 always)
  *     52  reserved     u32      0
@@ -48,6 +50,12 @@
  *                 the quadtree depth of each patch within its triangle, in patch order;
  *                 GEOMETRY then has levels 0 and its depths are the subpatch depths, and
  *                 the nodes must tile every triangle (size 8 + k)
+ *     9 CLUSTERS  (version 3, cluster hierarchy only) selection_seconds f64, then k+1 u64
+ *                 (first: patch p holds the patch-major subpatches first[p] ..
+ *                 first[p+1]-1; 0, ascending, n), then n u64 (origin: the triangle-order
+ *                 subpatch at each patch-major position, a permutation of 0..n-1); RHO,
+ *                 EMISSION and the rows of FBAR are in patch-major order; GEOMETRY has
+ *                 levels 0 and its depths are the subpatch depths (size 16 + 8·(k + n))
  *   Centres, normals and areas are not stored: they are recomputed from the geometry.
  *   (dtype 1 and 2 came after the first files: a reader that knows only float32 refuses them
  *   by their dtype, so the version stayed 1.)
@@ -130,8 +138,8 @@ static void w_pad_to(struct writer *w, uint64_t offset)
     }
 }
 
-/* The payloads built for saving: GEOMETRY into *geom_out, PATCHES (adaptive only) into
- * *patches_out, allocated in that order (the caller frees both), and INFO into info. */
+/* The payloads built for saving: GEOMETRY into *geom_out, PATCHES (adaptive = 1) or
+ * CLUSTERS (adaptive = 2) into *patches_out, allocated in that order (the caller frees both), and INFO into info. */
 static lrr_status build_payloads(const lrr_operator *op, uint64_t geom_size, int adaptive,
                                  unsigned char **geom_out, unsigned char **patches_out,
                                  unsigned char info[INFO_SIZE])
@@ -149,15 +157,26 @@ static lrr_status build_payloads(const lrr_operator *op, uint64_t geom_size, int
     memcpy(geom + GEOM_PREFIX, g->vert, g->n_tri * 9 * sizeof(float));
     memcpy(geom + GEOM_PREFIX + g->n_tri * 9 * sizeof(float), g->depth, g->n_tri);
 
-    /* adaptive: PATCHES holds the node depths; its buffer is freed with geom's by the caller */
+    /* adaptive: PATCHES holds the node depths; clusters: CLUSTERS the offsets and origins;
+     * the buffer is freed with geom's by the caller */
     unsigned char *patches = NULL;
-    if (adaptive) {
+    if (adaptive == 1) {
         if ((st = lrr__calloc(ctx, &patches, op->k + PATCHES_PREFIX, 1, "PATCHES section"))) {
             lrr_aligned_free(geom);
             return st;
         }
         memcpy(patches, &op->selection_seconds, 8);
         memcpy(patches + PATCHES_PREFIX, g->node, op->k);
+    } else if (adaptive == 2) {
+        if ((st = lrr__calloc(ctx, &patches, op->k + 1 + op->n + 1, 8, "CLUSTERS section"))) {
+            lrr_aligned_free(geom);
+            return st;
+        }
+        memcpy(patches, &op->selection_seconds, 8);
+        for (size_t p = 0; p <= op->k; p++)
+            put64(patches + CLUSTERS_PREFIX + 8 * p, g->first[p]);
+        for (size_t i = 0; i < op->n; i++)
+            put64(patches + CLUSTERS_PREFIX + 8 * (op->k + 1 + i), g->origin[i]);
     }
 
     for (int c = 0; c < 3; c++)
@@ -192,7 +211,8 @@ static size_t lay_out(const lrr_operator *op, int adaptive, struct section *sec,
           lrr__file_checksum(table, (size_t)count * ENTRY_SIZE));
 
     memcpy(header, MAGIC, 8);
-    put32(header + 8, adaptive ? FILE_VERSION_ADAPTIVE : FILE_VERSION);
+    put32(header + 8, adaptive == 2 ? FILE_VERSION_CLUSTER
+                      : adaptive  ? FILE_VERSION_ADAPTIVE : FILE_VERSION);
     put32(header + 12, ENDIAN_MARK);
     put32(header + 16, HEADER_SIZE);
     put32(header + 20, (uint32_t)count);
@@ -251,7 +271,12 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "file %s: section sizes overflow 64 bits",
                           path);
 
-    const int adaptive = g->node != NULL;
+    const int adaptive = g->origin ? 2 : g->node != NULL; /* 1: PATCHES, 2: CLUSTERS */
+    uint64_t clusters_size = 0;
+    if (g->origin && (!bytes_of((uint64_t)op->k + op->n + 1, 8, &clusters_size) ||
+                      __builtin_add_overflow(clusters_size, CLUSTERS_PREFIX, &clusters_size)))
+        return lrr__error(ctx, LRR_ERR_OVERFLOW, "file %s: section sizes overflow 64 bits",
+                          path);
     unsigned char *geom = NULL, *patches = NULL;
     unsigned char info[INFO_SIZE] = {0};
     lrr_status st = build_payloads(op, geom_size, adaptive, &geom, &patches, info);
@@ -265,12 +290,13 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         {SEC_M, op->m, m_size, 0, 0},           {SEC_INFO, info, INFO_SIZE, 0, 0},
         {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0},
         {SEC_PATCHES, patches, (uint64_t)op->k + PATCHES_PREFIX, 0, 0},
+        {SEC_CLUSTERS, patches, clusters_size, 0, 0},
     };
     int count = SEC_COUNT;
     if (half)
         count++;
     if (adaptive)
-        sec[count++] = sec[SEC_PATCHES - 1];
+        sec[count++] = sec[adaptive == 2 ? SEC_CLUSTERS - 1 : SEC_PATCHES - 1];
     unsigned char table[SEC_KNOWN * ENTRY_SIZE + 8] = {0};
     unsigned char header[HEADER_SIZE] = {0};
     const size_t tsize = lay_out(op, adaptive, sec, count, table, header);

@@ -362,8 +362,11 @@ static void receiver_frame(const lrr__geometry *g, size_t i, uint64_t seed, int 
     lrr__cross3(helper, N, U0);
     lrr__normalize3(U0);
     lrr__cross3(N, U0, V0);
+    /* drawn from the subpatch's scene-order index, so a cluster hierarchy's renumbering
+     * leaves every receiver's hemicube as it was */
+    const size_t id = g->origin ? g->origin[i] : i;
     double theta =
-        rotate ? 2 * M_PI * (double)(lrr__splitmix64(seed ^ lrr__splitmix64(i)) >> 11) *
+        rotate ? 2 * M_PI * (double)(lrr__splitmix64(seed ^ lrr__splitmix64(id)) >> 11) *
                      0x1.0p-53
                : 0;
     double ct = cos(theta), st = sin(theta);
@@ -452,6 +455,14 @@ lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_op
     if (o->threads < 0)
         return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG, "threads = %d: must be >= 0",
                           o->threads);
+    if (o->hierarchy != LRR_HIERARCHY_QUADTREE && o->hierarchy != LRR_HIERARCHY_CLUSTER)
+        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG,
+                          "hierarchy = %d: must be LRR_HIERARCHY_QUADTREE or _CLUSTER",
+                          o->hierarchy);
+    if (o->hierarchy == LRR_HIERARCHY_CLUSTER && o->adaptive_patches == 0)
+        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG,
+                          "hierarchy = LRR_HIERARCHY_CLUSTER needs adaptive_patches (the "
+                          "cluster count K) > 0");
     int method = LRR_FORMFACTOR_RASTER;
     return lrr__formfactor_method(scene->ctx, &scene->geom, o, &method);
 }

@@ -20,6 +20,7 @@ void lrr_operator_destroy(lrr_operator *op)
     lrr_aligned_free(op->rho);
     lrr_aligned_free(op->emission);
     lrr_aligned_free(op->area);
+    lrr_aligned_free(op->weight);
     lrr_aligned_free(op->centre);
     lrr_aligned_free(op->normal);
     lrr_aligned_free(op->fbar);
@@ -54,6 +55,7 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
     if ((st = lrr__calloc(ctx, &op->rho, g->n, 3 * sizeof(float), "reflectances (n×3)")) ||
         (st = lrr__calloc(ctx, &op->emission, g->n, 3 * sizeof(float), "emission (n×3)")) ||
         (st = lrr__calloc(ctx, &op->area, g->n, sizeof(float), "subpatch areas")) ||
+        (st = lrr__calloc(ctx, &op->weight, g->n, sizeof(float), "Vᵀ weights")) ||
         (st = lrr__calloc(ctx, &op->centre, g->n, 3 * sizeof(float), "subpatch centres")) ||
         (st = lrr__calloc(ctx, &op->normal, g->n, 3 * sizeof(float), "subpatch normals")) ||
         (st = lrr__calloc(ctx, &op->m, kk, 3 * sizeof(float), "M (3×k×k floats)")))
@@ -67,6 +69,7 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
     if (st)
         goto fail;
     lrr__subpatch_frames(&op->geom, op->centre, op->normal, op->area);
+    lrr__patch_weights(&op->geom, op->weight);
     *out = op;
     return LRR_OK;
 fail:
@@ -86,8 +89,8 @@ static void back_face_summary(lrr_operator *op, const double *back)
     for (size_t t = 0; t < g->n_tri; t++) {
         size_t i0 = g->sub0[t], i1 = g->sub0[t + 1];
         double s = 0;
-        for (size_t i = i0; i < i1; i++)
-            s += back[i];
+        for (size_t j = i0; j < i1; j++)
+            s += back[lrr__subpatch_id(g, j)];
         s = i1 > i0 ? s / (double)(i1 - i0) : 0;
         /* insertion into the sorted list; ties keep the lower triangle first */
         int w = LRR_BACK_FACE_WORST;
@@ -102,6 +105,74 @@ static void back_face_summary(lrr_operator *op, const double *back)
         op->worst_share[w] = s;
         op->worst_tri[w] = t;
     }
+}
+
+/* The operator's reflectances and emission, in its subpatch order. */
+static lrr_status scene_materials(const lrr_scene *scene, lrr_operator *op)
+{
+    const size_t *origin = op->geom.origin;
+    if (!origin)
+        return lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission);
+    float *rho, *emission;
+    lrr_status st;
+    if ((st = lrr__calloc(op->ctx, &rho, op->n, 3 * sizeof(float), "subpatch reflectances")))
+        return st;
+    if ((st = lrr__calloc(op->ctx, &emission, op->n, 3 * sizeof(float), "subpatch emission")) ||
+        (st = lrr_scene_subpatches(scene, NULL, NULL, NULL, rho, emission))) {
+        lrr_aligned_free(rho);
+        lrr_aligned_free(emission);
+        return st;
+    }
+    for (size_t i = 0; i < op->n; i++)
+        for (int c = 0; c < 3; c++) {
+            op->rho[3 * i + c] = rho[3 * origin[i] + c];
+            op->emission[3 * i + c] = emission[3 * origin[i] + c];
+        }
+    lrr_aligned_free(rho);
+    lrr_aligned_free(emission);
+    return LRR_OK;
+}
+
+/* The grouping of the scene's patches the options ask for: the scene's own (uniform), an
+ * adaptive quadtree selection or clusters (both over the scene's patches as subpatches),
+ * and an operator allocated for it. */
+static lrr_status new_for_hierarchy(const lrr_scene *scene, const lrr_build_options *o,
+                                    lrr_operator **out)
+{
+    lrr_context *ctx = scene->ctx;
+    if (!o->adaptive_patches)
+        return lrr__operator_new(ctx, &scene->geom, LRR_STORAGE_F32, out);
+    const size_t n = scene->geom.n;
+    const int cluster = o->hierarchy == LRR_HIERARCHY_CLUSTER;
+    lrr__geometry hg;
+    memset(&hg, 0, sizeof hg);
+    float *rho = NULL, *emission = NULL, *area = NULL, *centre = NULL, *normal = NULL;
+    lrr_status st;
+    if (!(st = lrr__calloc(ctx, &rho, n, 3 * sizeof(float), "subpatch reflectances")) &&
+        !(st = lrr__calloc(ctx, &emission, n, 3 * sizeof(float), "subpatch emission")) &&
+        !(st = lrr__calloc(ctx, &area, n, sizeof(float), "subpatch areas")) &&
+        (!cluster ||
+         (!(st = lrr__calloc(ctx, &centre, n, 3 * sizeof(float), "subpatch centres")) &&
+          !(st = lrr__calloc(ctx, &normal, n, 3 * sizeof(float), "subpatch normals")))) &&
+        !(st = lrr_scene_subpatches(scene, centre, normal, area, rho, emission)))
+        st = cluster ? lrr__cluster_select(ctx, &scene->geom, rho, emission, centre, normal,
+                                           area, o,
+                                           lrr__hemicube_sample_rows, &hg)
+                     : lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, NULL, o,
+                                            lrr__hemicube_sample_rows, &hg, NULL);
+    lrr_aligned_free(rho);
+    lrr_aligned_free(emission);
+    lrr_aligned_free(area);
+    lrr_aligned_free(centre);
+    lrr_aligned_free(normal);
+    /* the normal rule may have made more clusters than asked: check the budget anew */
+    if (st || (st = lrr__operator_budget_check(ctx, hg.n_tri, hg.n, hg.k, LRR_STORAGE_F32, o))) {
+        lrr__geometry_free(&hg);
+        return st;
+    }
+    st = lrr__operator_new(ctx, &hg, LRR_STORAGE_F32, out);
+    lrr__geometry_free(&hg);
+    return st;
 }
 
 lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *opts,
@@ -120,47 +191,27 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
                                       : sg->k;
     if ((st = lrr__operator_budget_check(ctx, sg->n_tri, sg->n, k_max, LRR_STORAGE_F32, &o)))
         return st;
-    double t0 = lrr__now(), selection = 0;
+    double t0 = lrr__now();
     lrr_operator *op;
-    if (o.adaptive_patches) {
-        /* the scene's patches are the subpatches; choose the grouping first */
-        lrr__geometry ag;
-        float *rho = NULL, *emission = NULL, *area = NULL;
-        const size_t n = scene->geom.n;
-        if (!(st = lrr__calloc(ctx, &rho, n, 3 * sizeof(float), "subpatch reflectances")) &&
-            !(st = lrr__calloc(ctx, &emission, n, 3 * sizeof(float), "subpatch emission")) &&
-            !(st = lrr__calloc(ctx, &area, n, sizeof(float), "subpatch areas")) &&
-            !(st = lrr_scene_subpatches(scene, NULL, NULL, area, rho, emission)))
-            st = lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, NULL, &o,
-                                     lrr__hemicube_sample_rows, &ag, NULL);
-        lrr_aligned_free(rho);
-        lrr_aligned_free(emission);
-        lrr_aligned_free(area);
-        if (st)
-            return st;
-        selection = lrr__now() - t0;
-        st = lrr__operator_new(ctx, &ag, LRR_STORAGE_F32, &op);
-        lrr__geometry_free(&ag);
-    } else {
-        st = lrr__operator_new(ctx, &scene->geom, LRR_STORAGE_F32, &op);
-    }
-    if (st)
+    if ((st = new_for_hierarchy(scene, &o, &op)))
         return st;
+    double selection = lrr__now() - t0;
     op->selection_seconds = selection;
     op->builtin = scene->builtin;
     op->hemicube_resolution = o.hemicube_resolution;
     op->seed = o.seed;
     op->no_rotation = o.no_rotation != 0;
-    double *back = NULL;
+    double *back = NULL, t1 = 0;
     if ((st = lrr__formfactor_method(ctx, &op->geom, &o, &op->formfactor_method)) ||
-        (st = lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission)) ||
+        (st = scene_materials(scene, op)) ||
         (st = lrr__calloc(ctx, &back, op->n, sizeof(double), "back-face shares")) ||
-        (st = lrr__hemicube_fbar(ctx, &op->geom, &o, op->fbar, back)) ||
-        (st = lrr__smw_factor(op))) {
+        (t1 = lrr__now(), st = lrr__hemicube_fbar(ctx, &op->geom, &o, op->fbar, back)) ||
+        (op->formfactor_seconds = lrr__now() - t1, t1 = lrr__now(), st = lrr__smw_factor(op))) {
         lrr_aligned_free(back);
         lrr_operator_destroy(op);
         return st;
     }
+    op->smw_seconds = lrr__now() - t1;
     back_face_summary(op, back);
     lrr_aligned_free(back);
     op->build_seconds = lrr__now() - t0;
@@ -219,6 +270,9 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_
     if (op->k == 0)
         info->d_min = 0;
     info->selection_seconds = op->selection_seconds;
+    info->formfactor_seconds = op->formfactor_seconds;
+    info->smw_seconds = op->smw_seconds;
+    info->hierarchy = op->geom.origin ? LRR_HIERARCHY_CLUSTER : LRR_HIERARCHY_QUADTREE;
     info->triangles = op->geom.n_tri;
     memcpy(info->condition, op->cond, sizeof op->cond);
     info->build_seconds = op->build_seconds;
@@ -232,7 +286,8 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_
     info->storage = op->storage;
     info->bytes = op->n * op->k * (op->storage == LRR_STORAGE_F32 ? sizeof(float) : 2) +
                   (op->row_scale ? op->n * sizeof(float) : 0) +
-                  3 * op->k * op->k * sizeof(float) + op->n * 13 * sizeof(float);
+                  3 * op->k * op->k * sizeof(float) + op->n * 14 * sizeof(float) +
+                  (op->geom.origin ? 2 * op->n * sizeof(size_t) : 0);
     lrr__info_write(out, out_size, info, sizeof *info);
 }
 
@@ -244,3 +299,17 @@ const float *lrr_operator_area(const lrr_operator *op) { return op->area; }
 const float *lrr_operator_centre(const lrr_operator *op) { return op->centre; }
 const float *lrr_operator_normal(const lrr_operator *op) { return op->normal; }
 const size_t *lrr_operator_patch_offsets(const lrr_operator *op) { return op->geom.first; }
+
+void lrr_operator_scene_order(const lrr_operator *op, const float *in, float *out)
+{
+    const size_t *origin = op->geom.origin;
+    if (!origin) {
+        memcpy(out, in, op->n * 3 * sizeof(float));
+        return;
+    }
+    for (size_t i = 0; i < op->n; i++)
+        for (int c = 0; c < 3; c++)
+            out[3 * origin[i] + c] = in[3 * i + c];
+}
+
+const size_t *lrr_operator_subpatch_origin(const lrr_operator *op) { return op->geom.origin; }

@@ -13,6 +13,8 @@ struct lrr_operator {
     float *rho;                /* n×3 */
     float *emission;           /* n×3, the scene's own emission */
     float *area;               /* n */
+    float *weight;             /* n: Vᵀ's weights w_j = d_p A_j / A_p (1 unless clusters),
+                                  derived from geom (lrr__patch_weights) */
     float *centre, *normal;    /* n×3, derived from geom (not stored in files) */
     lrr_storage storage;       /* which of fbar / fbar16 holds F̄ */
     float *fbar;               /* n×k row-major, 64-byte aligned: F̄_ip = F_{i→p}/d (F32) */
@@ -21,7 +23,8 @@ struct lrr_operator {
     float *m;                  /* 3×k×k row-major: M_c = G_c^{-1} */
     double cond[3];            /* dgecon estimates (1-norm) of G_c */
     double build_seconds;
-    double selection_seconds;  /* adaptive selection's part of build_seconds */
+    double selection_seconds;  /* adaptive selection's (clustering's) part of build_seconds */
+    double formfactor_seconds, smw_seconds; /* the hemicubes' and the factorisation's */
     unsigned hemicube_resolution;
     uint64_t seed;
     int no_rotation;           /* built with lrr_build_options.no_rotation */
@@ -33,7 +36,7 @@ struct lrr_operator {
 
 /* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, m and
  * F̄ in the given storage (fbar, or fbar16 + row_scale) are allocated (zeroed);
- * area/centre/normal are filled from the geometry. */
+ * area/centre/normal/weight are filled from the geometry. */
 lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
                              lrr_operator **out);
 

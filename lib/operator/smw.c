@@ -1,7 +1,9 @@
 /* The low-rank operator's factorisation: per colour channel c, the Sherman–Morrison–Woodbury
  * matrices of F̄ (docs/METHOD.md "Low-rank model" and "Condition")
  *
- *     G_c = I_k - Vᵀ diag(rho_c) F̄        G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq
+ *     G_c = I_k - Vᵀ diag(rho_c) F̄        G_pq = δ_pq - Σ_{i∈p} w_i rho_ic F̄_iq
+ *
+ * (w_i = d_p A_i / A_p: Vᵀ's area weights, 1 for quadtree patches; docs/METHOD.md "Clusters")
  *     M_c = G_c^{-1}
  *
  * so that B_c = E_c + rho_c ∘ (F̄ · (M_c · (Vᵀ E_c))) solves (I - diag(rho_c) F̄ Vᵀ) B_c = E_c.
@@ -49,7 +51,7 @@ lrr_status lrr__smw_factor(lrr_operator *op)
             for (size_t q = 0; q < k; q++)
                 gp[q] = 0;
             for (size_t i = first[p]; i < first[p + 1]; i++) {
-                double r = op->rho[3 * i + c];
+                double r = (double)op->weight[i] * op->rho[3 * i + c];
                 if (r == 0)
                     continue; /* black subpatches reflect nothing */
                 const float *fi = op->fbar ? op->fbar + i * k : scratch;

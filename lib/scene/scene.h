@@ -20,7 +20,14 @@
  * levels = 0 and d = 0, and the patches are quadtree nodes of varying depth node[p] <=
  * depth[t]: patch p holds the 4^(depth[t] - node[p]) subpatches first[p] .. first[p+1]-1.
  * first and sub0 exist in both cases (uniform: first[p] = p·d, sub0[t] = patch0[t]·d), so
- * code that walks patches' subpatches need not know which hierarchy it has. */
+ * code that walks patches' subpatches need not know which hierarchy it has.
+ *
+ * Cluster hierarchy (origin != NULL, hierarchy/cluster.c): depth[t] is the subpatch depth,
+ * levels = 0, d = 0, node = patch0 = NULL, and a patch is any group of subpatches, across
+ * triangles. Subpatches are numbered patch-major (patch p holds first[p] .. first[p+1]-1);
+ * the triangle order j (sub0[t] + the quadtree index, the scene's order) maps to it by
+ * order[j], and back by origin[i]. Code that walks a triangle's subpatches goes through
+ * lrr__subpatch_id. */
 typedef struct lrr__geometry {
     size_t n_tri;
     float *vert;        /* n_tri×9 */
@@ -29,6 +36,8 @@ typedef struct lrr__geometry {
     size_t *sub0;       /* n_tri+1: first subpatch of each triangle */
     size_t *first;      /* k+1: first subpatch of each patch */
     uint8_t *node;      /* k: quadtree depth of each patch (adaptive only, else NULL) */
+    size_t *order;      /* n: triangle order → patch-major index (clusters only, else NULL) */
+    size_t *origin;     /* n: patch-major → triangle order (clusters only, else NULL) */
     unsigned levels;
     size_t d, k, n;     /* d = 4^levels (0 if adaptive), k patches, n subpatches */
 } lrr__geometry;
@@ -48,6 +57,22 @@ lrr_status lrr__geometry_index(lrr_context *ctx, lrr__geometry *g, size_t max_su
 lrr_status lrr__geometry_adaptive(lrr_context *ctx, const lrr__geometry *src,
                                   const uint8_t *node, size_t k, const char *where,
                                   lrr_status bad, lrr__geometry *dst);
+/* dst = src's subpatches (src with levels = 0 and no clusters) grouped into the k clusters
+ * given by origin (n: the triangle-order subpatch at each patch-major position; a
+ * permutation) and first (k+1: each cluster's first position, first[0] = 0, first[k] = n,
+ * ascending). Both are copied and checked; errors (status `bad`) name `where`. */
+lrr_status lrr__geometry_clusters(lrr_context *ctx, const lrr__geometry *src,
+                                 const size_t *origin, const size_t *first, size_t k,
+                                 const char *where, lrr_status bad, lrr__geometry *dst);
+/* The patch-major index of the subpatch at triangle order j (sub0[t] + local index). */
+static inline size_t lrr__subpatch_id(const lrr__geometry *g, size_t j)
+{
+    return g->order ? g->order[j] : j;
+}
+/* Vᵀ's weights w (n floats, patch-major): patch p's radiosity is the area-weighted mean
+ * Σ_{j∈p} (A_j / A_p) B_j = Σ_{j∈p} w_j B_j / d_p, so w_j = d_p A_j / A_p, exactly 1 where a
+ * patch's subpatches have equal areas (every quadtree patch; docs/METHOD.md "Clusters"). */
+void lrr__patch_weights(const lrr__geometry *g, float *w);
 /* Subpatches in patch p. */
 static inline size_t lrr__patch_size(const lrr__geometry *g, size_t p)
 {

@@ -16,6 +16,8 @@ void lrr__geometry_free(lrr__geometry *g)
     lrr_aligned_free(g->sub0);
     lrr_aligned_free(g->first);
     lrr_aligned_free(g->node);
+    lrr_aligned_free(g->order);
+    lrr_aligned_free(g->origin);
     memset(g, 0, sizeof *g);
 }
 
@@ -33,20 +35,30 @@ lrr_status lrr__geometry_copy(lrr_context *ctx, lrr__geometry *dst, const lrr__g
     dst->n = src->n;
     if (src->depth) {
         if ((st = lrr__calloc(ctx, &dst->depth, src->n_tri, 1, "patch depths")) ||
-            (st = lrr__calloc(ctx, &dst->patch0, src->n_tri + 1, sizeof(size_t), "patch index")) ||
+            (src->patch0 && (st = lrr__calloc(ctx, &dst->patch0, src->n_tri + 1, sizeof(size_t),
+                                              "patch index"))) ||
             (st = lrr__calloc(ctx, &dst->sub0, src->n_tri + 1, sizeof(size_t),
                               "subpatch index")) ||
             (st = lrr__calloc(ctx, &dst->first, src->k + 1, sizeof(size_t), "patch offsets")) ||
-            (src->node && (st = lrr__calloc(ctx, &dst->node, src->k, 1, "patch node depths")))) {
+            (src->node && (st = lrr__calloc(ctx, &dst->node, src->k, 1, "patch node depths"))) ||
+            (src->order && (st = lrr__calloc(ctx, &dst->order, src->n, sizeof(size_t),
+                                             "cluster order"))) ||
+            (src->origin && (st = lrr__calloc(ctx, &dst->origin, src->n, sizeof(size_t),
+                                              "cluster origin")))) {
             lrr__geometry_free(dst);
             return st;
         }
         memcpy(dst->depth, src->depth, src->n_tri);
-        memcpy(dst->patch0, src->patch0, (src->n_tri + 1) * sizeof(size_t));
+        if (src->patch0)
+            memcpy(dst->patch0, src->patch0, (src->n_tri + 1) * sizeof(size_t));
         memcpy(dst->sub0, src->sub0, (src->n_tri + 1) * sizeof(size_t));
         memcpy(dst->first, src->first, (src->k + 1) * sizeof(size_t));
         if (src->node)
             memcpy(dst->node, src->node, src->k);
+        if (src->order)
+            memcpy(dst->order, src->order, src->n * sizeof(size_t));
+        if (src->origin)
+            memcpy(dst->origin, src->origin, src->n * sizeof(size_t));
     }
     return LRR_OK;
 }
@@ -164,6 +176,81 @@ lrr_status lrr__geometry_adaptive(lrr_context *ctx, const lrr__geometry *src,
     return LRR_OK;
 }
 
+lrr_status lrr__geometry_clusters(lrr_context *ctx, const lrr__geometry *src,
+                                 const size_t *origin, const size_t *first, size_t k,
+                                 const char *where, lrr_status bad, lrr__geometry *dst)
+{
+    memset(dst, 0, sizeof *dst);
+    if (!src->depth || src->levels != 0 || src->origin || src->node)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "%s: clusters need the subpatches as a uniform subdivision with "
+                          "levels = 0", where);
+    const size_t n = src->n;
+    if (k < 1 || k > n || first[0] != 0 || first[k] != n)
+        return lrr__error(ctx, bad, "%s: %zu clusters over %zu subpatches (between 1 and n, "
+                          "offsets from 0 to n)", where, k, n);
+    for (size_t p = 0; p < k; p++)
+        if (first[p + 1] <= first[p])
+            return lrr__error(ctx, bad, "%s: cluster %zu is empty or its offsets descend",
+                              where, p);
+    lrr__geometry g;
+    lrr_status st = lrr__geometry_copy(ctx, &g, src);
+    if (st)
+        return st;
+    lrr_aligned_free(g.first);
+    lrr_aligned_free(g.patch0);
+    g.first = NULL;
+    g.patch0 = NULL;
+    if ((st = lrr__calloc(ctx, &g.first, k + 1, sizeof(size_t), "patch offsets")) ||
+        (st = lrr__calloc(ctx, &g.order, n, sizeof(size_t), "cluster order")) ||
+        (st = lrr__calloc(ctx, &g.origin, n, sizeof(size_t), "cluster origin"))) {
+        lrr__geometry_free(&g);
+        return st;
+    }
+    memcpy(g.first, first, (k + 1) * sizeof(size_t));
+    for (size_t j = 0; j < n; j++)
+        g.order[j] = SIZE_MAX;
+    for (size_t i = 0; i < n; i++) {
+        size_t j = origin[i];
+        if (j >= n || g.order[j] != SIZE_MAX) {
+            st = lrr__error(ctx, bad, "%s: subpatch %zu is %s", where, j >= n ? i : j,
+                            j >= n ? "out of range" : "in two clusters");
+            lrr__geometry_free(&g);
+            return st;
+        }
+        g.order[j] = i;
+        g.origin[i] = j;
+    }
+    g.k = k;
+    g.d = 0;
+    *dst = g;
+    return LRR_OK;
+}
+
+void lrr__patch_weights(const lrr__geometry *g, float *w)
+{
+    if (!g->origin) { /* quadtree patches: equal subpatch areas */
+        for (size_t i = 0; i < g->n; i++)
+            w[i] = 1.0f;
+        return;
+    }
+    #pragma omp parallel for schedule(dynamic, 64)
+    for (size_t p = 0; p < g->k; p++) {
+        /* the modelled area of a subpatch: its triangle's over 4^depth (equal within one) */
+        double sum = 0;
+        for (size_t i = g->first[p]; i < g->first[p + 1]; i++) {
+            size_t t = lrr__subpatch_triangle(g, i);
+            sum += lrr__tri_area(g->vert + 9 * t) * ldexp(1.0, -2 * g->depth[t]);
+        }
+        const double dp = (double)(g->first[p + 1] - g->first[p]);
+        for (size_t i = g->first[p]; i < g->first[p + 1]; i++) {
+            size_t t = lrr__subpatch_triangle(g, i);
+            double a = lrr__tri_area(g->vert + 9 * t) * ldexp(1.0, -2 * g->depth[t]);
+            w[i] = sum > 0 ? (float)(dp * a / sum) : 1.0f;
+        }
+    }
+}
+
 /* Index of the last entry of a[lo..hi) that is <= x (a ascending, a[lo] <= x). */
 static size_t bsearch_le(const size_t *a, size_t lo, size_t hi, size_t x)
 {
@@ -210,6 +297,10 @@ size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2)
 {
     double b0;
     clamp_bary(&b1, &b2, &b0);
+    if (g->origin) {
+        size_t j = g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t]);
+        return bsearch_le(g->first, 0, g->k, g->order[j]);
+    }
     if (g->node) {
         size_t i = g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t]);
         return bsearch_le(g->first, g->patch0[t], g->patch0[t + 1], i);
@@ -221,12 +312,12 @@ size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2)
 {
     double b0;
     clamp_bary(&b1, &b2, &b0);
-    return g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t] + g->levels);
+    return lrr__subpatch_id(g, g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t] + g->levels));
 }
 
 size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i)
 {
-    return bsearch_le(g->sub0, 0, g->n_tri, i);
+    return bsearch_le(g->sub0, 0, g->n_tri, g->origin ? g->origin[i] : i);
 }
 
 static void child_vertices(const double v[9], unsigned c, double out[9])
@@ -252,7 +343,7 @@ static void child_vertices(const double v[9], unsigned c, double out[9])
 void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9])
 {
     size_t t = lrr__subpatch_triangle(g, i);
-    size_t local = i - g->sub0[t];
+    size_t local = (g->origin ? g->origin[i] : i) - g->sub0[t];
     unsigned depth = g->depth[t] + g->levels;
     for (int j = 0; j < 9; j++)
         v[j] = g->vert[9 * t + j];

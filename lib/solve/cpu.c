@@ -251,13 +251,13 @@ static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
         int changed = 0;
         for (size_t i = first[p]; i < first[p + 1]; i++)
             for (int c = 0; c < 3; c++) {
-                float e = E[3 * i + c];
+                float e = E[3 * i + c], v = op->weight[i];
                 if (!(e >= 0.0f) || !isfinite(e))
                     bad = bad < 3 * i + c ? bad : 3 * i + c;
-                acc[c] += e;
+                acc[c] += v * e;
                 if (prev && e != prev[3 * i + c]) {
                     changed = 1;
-                    dacc[c] += (double)e - prev[3 * i + c];
+                    dacc[c] += v * ((double)e - prev[3 * i + c]);
                 }
             }
         for (int c = 0; c < 3; c++) {
@@ -464,7 +464,7 @@ static lrr_status batch_gemm(lrr_solver *s, size_t count, const float *E, float 
             double acc[3] = {0, 0, 0};
             for (size_t i = first[p]; i < first[p + 1]; i++)
                 for (int c = 0; c < 3; c++)
-                    acc[c] += e[3 * i + c];
+                    acc[c] += op->weight[i] * e[3 * i + c];
             for (int c = 0; c < 3; c++)
                 s->bw[((size_t)c * k + p) * count + f] = (float)acc[c];
         }

@@ -71,7 +71,7 @@ struct lrr__cl_solver {
     cl_command_queue queue;
     cl_program program;
     cl_kernel segsum, smw, rows, groups;
-    cl_mem fbar, scale, m, rho, e, w, z, b, first;
+    cl_mem fbar, scale, m, rho, e, w, z, b, first, vw; /* vw: Vᵀ's weights (n) */
     size_t group_size;
     int use_groups;      /* fbar_groups (GPUs) rather than fbar_rows (CPU devices) */
     char name[160];      /* "opencl:<device name>" */
@@ -82,7 +82,8 @@ void lrr__cl_destroy(lrr__cl_solver *cl)
 {
     if (!cl)
         return;
-    cl_mem mems[] = {cl->fbar, cl->scale, cl->m, cl->rho, cl->e, cl->w, cl->z, cl->b, cl->first};
+    cl_mem mems[] = {cl->fbar, cl->scale, cl->m, cl->rho, cl->e, cl->w, cl->z, cl->b, cl->first,
+                     cl->vw};
     for (size_t i = 0; i < sizeof mems / sizeof mems[0]; i++)
         if (mems[i])
             clReleaseMemObject(mems[i]);
@@ -181,6 +182,7 @@ static lrr_status set_args(lrr__cl_solver *cl)
         {cl->segsum, 1, sizeof uk, &uk, "segsum k"},
         {cl->segsum, 2, sizeof(cl_mem), &cl->first, "segsum first"},
         {cl->segsum, 3, sizeof(cl_mem), &cl->w, "segsum w"},
+        {cl->segsum, 4, sizeof(cl_mem), &cl->vw, "segsum Vᵀ weights"},
         {cl->smw, 0, sizeof(cl_mem), &cl->m, "smw M"},
         {cl->smw, 1, sizeof(cl_mem), &cl->w, "smw w"},
         {cl->smw, 2, sizeof uk, &uk, "smw k"},
@@ -290,6 +292,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
         (st = new_buffer(cl, CL_MEM_WRITE_ONLY, 3 * n * 4, NULL, "B (n×3)", &cl->b)) ||
         (st = new_buffer(cl, ro, (k + 1) * sizeof(cl_uint), first, "patch offsets (k+1)",
                          &cl->first)) ||
+        (st = new_buffer(cl, ro, n * 4, op->weight, "Vᵀ weights (n)", &cl->vw)) ||
         (st = set_args(cl))) {
         free(first);
         lrr__cl_destroy(cl);

@@ -1,5 +1,6 @@
 /* The real-time step on an OpenCL device (lib/solve/opencl.c), per frame and channel c:
- *     w_c = V^T E_c                     segsum: one work-item per patch
+ *     w_c = V^T E_c                     segsum: one work-item per patch (weights vw,
+ *                                       1 unless patches are clusters)
  *     z_c = M_c w_c                     smw: one work-item per row of M_c and channel
  *     B_c = E_c + rho_c * (Fbar z_c)    fbar_rows / fbar_groups: Fbar read once for all
  *                                       three channels, the epilogue fused
@@ -35,7 +36,7 @@
  * d_p in an adaptive hierarchy). The host validated E. Compensated (Kahan) float sums stand
  * in for the CPU's double accumulators: doubles are optional in OpenCL 1.2. */
 __kernel void segsum(__global const float *E, uint k, __global const uint *first,
-                     __global float *w)
+                     __global float *w, __global const float *vw)
 {
     const uint p = get_global_id(0);
     if (p >= k)
@@ -43,7 +44,7 @@ __kernel void segsum(__global const float *E, uint k, __global const uint *first
     float s[3] = {0, 0, 0}, comp[3] = {0, 0, 0};
     for (uint i = first[p]; i < first[p + 1]; i++)
         for (int c = 0; c < 3; c++) {
-            float y = E[3 * i + c] - comp[c];
+            float y = vw[i] * E[3 * i + c] - comp[c];
             float t = s[c] + y;
             comp[c] = (t - s[c]) - y;
             s[c] = t;

@@ -136,8 +136,12 @@ static void test_first_sizes(void **state)
 {
     (void)state;
     assert_int_equal(LRR__FIRST_SIZE(lrr_subdivision, levels), sizeof(lrr_subdivision));
-    assert_int_equal(LRR__FIRST_SIZE(lrr_build_options, formfactor_method),
-                     sizeof(lrr_build_options));
+    /* lrr_build_options: ABI 1 ends at formfactor_method; hierarchy was appended after */
+    assert_true(LRR__FIRST_SIZE(lrr_build_options, formfactor_method) <
+                sizeof(lrr_build_options));
+    assert_true(offsetof(lrr_build_options, hierarchy) >=
+                LRR__FIRST_SIZE(lrr_build_options, formfactor_method));
+    assert_int_equal(LRR__FIRST_SIZE(lrr_build_options, hierarchy), sizeof(lrr_build_options));
     assert_int_equal(LRR__FIRST_SIZE(lrr_render_options, use_eye), sizeof(lrr_render_options));
     assert_int_equal(LRR__FIRST_SIZE(lrr_fit_options, history_len), sizeof(lrr_fit_options));
     assert_int_equal(LRR__FIRST_SIZE(lrr_path_trace_options, progress_user),
