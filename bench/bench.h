@@ -404,6 +404,7 @@ typedef struct sc_result {
     double reference_s, reference_peak_mib;
     double rel_l2, rel_l2_reflected, rel_l2_f16, max_rel, ref_se, area_share;
     size_t tris_used;
+    double ref_se_reflected;       /* ref_se against the reflected part */
     double rel_l2_lit, ref_se_lit; /* over every lit triangle, whatever its noise */
     size_t tris_lit;
 } sc_result;

@@ -552,6 +552,7 @@ static void compare_tris(size_t T, const float *area, const float *em, const flo
     r->rel_l2_f16 = ratio_sqrt(used.num16, used.den);
     r->rel_l2_reflected = ratio_sqrt(used.num, used.den_refl);
     r->ref_se = ratio_sqrt(used.noise, used.den);
+    r->ref_se_reflected = ratio_sqrt(used.noise, used.den_refl);
     r->max_rel = used.count ? used.max_rel : NAN;
     r->tris_lit = lit.count;
     r->rel_l2_lit = ratio_sqrt(lit.num, lit.den);
@@ -570,7 +571,7 @@ static void result_init(sc_result *r, const char *scene)
         &r->f16.q3,      &r->bandwidth, &r->floor_f32,    &r->floor_f16,    &r->ratio_f32,
         &r->ratio_f16,   &r->reference_s, &r->reference_peak_mib, &r->rel_l2,
         &r->rel_l2_reflected, &r->rel_l2_f16, &r->max_rel, &r->ref_se, &r->area_share,
-        &r->rel_l2_lit, &r->ref_se_lit};
+        &r->rel_l2_lit, &r->ref_se_lit, &r->ref_se_reflected};
     for (size_t i = 0; i < sizeof nan_fields / sizeof nan_fields[0]; i++)
         *nan_fields[i] = NAN;
     snprintf(r->kernel, sizeof r->kernel, "-");
