@@ -442,6 +442,11 @@ static void md_targets(FILE *f, const sc_result *rows, size_t count)
                 verdict(r->rel_l2, SC_TARGET_REL_L2), 100 * r->rel_l2_reflected,
                 100 * r->ref_se, 100 * r->ref_se_reflected, r->tris_lit, 100 * r->rel_l2_lit,
                 100 * r->ref_se_lit);
+        if (r->ratio_f32 < 1 || r->ratio_f16 < 1) /* a frame cannot read F̄ faster */
+            fprintf(f, "- warning: %s ran below its floor (f32 %.2f, f16 %.2f x the floor): "
+                       "the bandwidth measured first (%.2f GB/s) was too low, e.g. the "
+                       "machine was busier then\n",
+                    r->label, r->ratio_f32, r->ratio_f16, r->bandwidth / 1e9);
     }
 }
 
