@@ -275,10 +275,7 @@ static lrr_status take_sample(lrr_context *ctx, scorer *sc, const lrr__geometry 
     lrr_build_options so = *opts;
     unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
     so.hemicube_resolution = R / 4 < 16 ? (R < 16 ? R : 16) : (R / 4) & ~1u; /* as adaptive.c */
-    size_t count = opts->adaptive_samples ? opts->adaptive_samples
-                                          : LRR__ADAPTIVE_DEFAULT_SAMPLES;
-    const size_t cap = LRR__CLUSTER_SAMPLE_BYTES / (sizeof(float) * (g->n ? g->n : 1));
-    count = count > cap ? (cap ? cap : 1) : count;
+    const size_t count = lrr__cluster_samples(g->n, opts->adaptive_samples);
     lrr_status st = lrr__ffsample_take(ctx, g, rho, &so, render, count, &sc->s);
     float *row;
     if (st || (emission && (st = lrr__radiosity_weights(ctx, g, rho, emission, area, &so,
@@ -379,6 +376,31 @@ static int cmp_size(const void *a, const void *b)
 {
     size_t x = *(const size_t *)a, y = *(const size_t *)b;
     return (x > y) - (x < y);
+}
+
+size_t lrr__cluster_samples(size_t n, size_t samples)
+{
+    size_t S = samples ? samples : LRR__ADAPTIVE_DEFAULT_SAMPLES;
+    const size_t cap = LRR__CLUSTER_SAMPLE_BYTES / (sizeof(float) * (n ? n : 1));
+    S = S > cap ? (cap ? cap : 1) : S;
+    return S < n ? S : n;
+}
+
+bool lrr__cluster_bytes(size_t n, size_t samples, int split, size_t *out)
+{
+    /* the tree (2n nodes), sort keys, stack, order, heap, offsets, areas, emitter flags */
+    const size_t per = 2 * sizeof(cnode) + sizeof(keyed) + 4 * sizeof(size_t) +
+                       sizeof(double) + 1;
+    size_t b, rows = 0;
+    if (!lrr__mul_size(n, per, &b))
+        return false;
+    if (split == LRR_SPLIT_VARIANCE) { /* the sample, the emitters' rows, the weights ×2 */
+        size_t S = lrr__cluster_samples(n, samples) + LRR__ADAPTIVE_MAX_EMITTER_ROWS + 1;
+        if (!lrr__mul_size(S, n, &rows) || !lrr__mul_size(rows, sizeof(float), &rows) ||
+            __builtin_add_overflow(rows, n * 6 * sizeof(double), &rows))
+            return false;
+    }
+    return !__builtin_add_overflow(b, rows, out);
 }
 
 static lrr_status check_args(lrr_context *ctx, const lrr__geometry *g,

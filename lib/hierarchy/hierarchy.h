@@ -62,5 +62,10 @@ lrr_status lrr__cluster_select(lrr_context *ctx, const lrr__geometry *g, const f
                                const float *normal, const float *area,
                                const lrr_build_options *opts, lrr__rows_fn rows,
                                lrr__geometry *out);
+/* The sampled rows the cluster selection takes for n subpatches (adaptive_samples, capped
+ * so they hold at most 512 MiB), and the bytes it holds besides the scene's per-subpatch
+ * copies (false on overflow): for the memory budget. */
+size_t lrr__cluster_samples(size_t n, size_t samples);
+bool lrr__cluster_bytes(size_t n, size_t samples, int split, size_t *out);
 
 #endif

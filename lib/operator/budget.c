@@ -4,8 +4,9 @@
  *
  * What lrr_operator_build holds at its peak:
  *   kept       F̄ (n×k in its storage; 16-bit storage adds n row scales), M (3×k×k floats),
- *              13 floats per subpatch (rho, emission, centre, normal n×3 each, area n) and the
- *              copied geometry (36 + 1 bytes per input triangle, n_tri+1 patch offsets);
+ *              14 floats per subpatch (rho, emission, centre, normal n×3 each, area and Vᵀ
+ *              weight n), the copied geometry (36 + 1 bytes per input triangle, n_tri+1
+ *              patch offsets) and for clusters the renumbering (2 size_t per subpatch);
  *   working    the larger of the two phases, which never overlap:
  *                hemicubes  multiplier map (R² + R²/2 doubles), triangle table
  *                           (LRR__HEMICUBE_TRI_BYTES per triangle) and per thread a depth
@@ -16,7 +17,9 @@
  *                factor     G (k×k doubles) and k pivots (plus one decoded row of F̄ per
  *                           thread with 16-bit storage);
  *                selection  (adaptive hierarchy) the sampled and emitters' rows of F, the
- *                           radiosity weights and the greedy split's error rows.
+ *                           radiosity weights and the greedy split's error rows; (clusters)
+ *                           the tree and the sample (lrr__cluster_bytes) and the scene's
+ *                           per-subpatch copies (13 floats per subpatch).
  * Allocator overhead (64-byte alignment, headers) and third-party memory (OpenMP stacks,
  * LAPACK workspace, the OpenCL runtime) are not counted. */
 #include "config.h"
@@ -66,7 +69,9 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
     bool ok = add3(&out->fbar, n, k, half ? sizeof(uint16_t) : sizeof(float)) &&
               (!half || add3(&out->fbar, n, 1, sizeof(float))) &&
               add3(&out->m, 3 * sizeof(float), k, k) &&
-              add3(&out->per_subpatch, n, 13, sizeof(float)) &&
+              add3(&out->per_subpatch, n, 14, sizeof(float)) &&
+              (o->hierarchy != LRR_HIERARCHY_CLUSTER ||
+               add3(&out->per_subpatch, n, 2, sizeof(size_t))) &&
               add3(&out->per_subpatch, n_tri, 1, 9 * sizeof(float) + 1) &&
               add3(&out->per_subpatch, n_tri, 1, sizeof(size_t)) &&
               add3(&out->per_subpatch, 1, 1, sizeof(size_t)) &&
@@ -88,7 +93,10 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
      * per-subpatch copies, and per sampled row 3 doubles for every node in the heap and
      * every merge candidate of the exchanges (and 3 more per node), 3 more such rows */
     size_t select = 0;
-    if (ok && o->adaptive_patches) {
+    if (ok && o->adaptive_patches && o->hierarchy == LRR_HIERARCHY_CLUSTER) {
+        ok = lrr__cluster_bytes(n, o->adaptive_samples, o->adaptive_split, &select) &&
+             add3(&select, n, 13, sizeof(float));
+    } else if (ok && o->adaptive_patches) {
         size_t S = o->adaptive_samples ? o->adaptive_samples : LRR__ADAPTIVE_DEFAULT_SAMPLES;
         S = S < n ? S : n;
         size_t em = n < LRR__ADAPTIVE_MAX_EMITTER_ROWS ? n : LRR__ADAPTIVE_MAX_EMITTER_ROWS;
