@@ -3,8 +3,9 @@
  * scenes, timing, cache size and read bandwidth, the real-time steps that the benchmarks
  * compare (lrr_solve, the paper's method, plain sgemv), comparison of radiosities and
  * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c,
- * probes.c, adaptive.c; three of them measure in a second file (table_cell.c,
- * realtime_cell.c, adaptive_scene.c), and what the two files share is declared at the end.
+ * probes.c, adaptive.c, scenes.c; four of them measure in a second file (table_cell.c,
+ * realtime_cell.c, adaptive_scene.c, scenes_run.c), and what the two files share is declared
+ * at the end.
  */
 #ifndef LRR_BENCH_H
 #define LRR_BENCH_H
@@ -59,6 +60,7 @@ int cmd_hemicube(int argc, char *argv[]);
 int cmd_realtime(int argc, char *argv[]);
 int cmd_probes(int argc, char *argv[]);
 int cmd_adaptive(int argc, char *argv[]);
+int cmd_scenes(int argc, char *argv[]);
 
 /* ------------------------------------------------------------------ messages */
 /* "lrr-bench: <message>" on stderr; returns CLI_EXIT_FAIL. */
@@ -367,5 +369,52 @@ int adaptive_scene_open(lrr_context *ctx, const adaptive_args *a, const char *na
 int adaptive_scene_rows(lrr_context *ctx, const adaptive_args *a, const adaptive_scene *sc,
                         adaptive_row *rows, size_t *count);
 void adaptive_scene_free(adaptive_scene *sc);
+
+/* ----------------------------------------------------------------- scenes.c, scenes_run.c */
+#define SC_MAX_SCENES 16
+#define SC_SE_LIMIT 0.01 /* triangles compared: reference relative standard error below 1% */
+
+typedef struct sc_args {
+    char scenes[SC_MAX_SCENES][1024]; /* resolved paths or built-in names */
+    size_t n_scenes;
+    size_t patches, samples;          /* K (adaptive_patches), path-traced samples */
+    unsigned hemicube, repeat;
+    int split, threads, quick;
+    uint64_t seed;
+    const char *csv, *md, *plot;
+} sc_args;
+
+/* median and quartiles of the timed frames, ms */
+typedef struct sc_quart {
+    double median, q1, q3;
+    size_t runs;
+} sc_quart;
+
+/* One scene's row: every number nan until measured. */
+typedef struct sc_result {
+    char label[64];
+    char failed[96];  /* the step that failed, "" when all went through */
+    size_t triangles, emitters, n, k, d_min, d_max;
+    int threads, hierarchy;
+    double subdivide_s, build_s, clustering_s, formfactor_s, smw_s, preprocess_s;
+    double op_mib, peak_mib, back_face_share;
+    sc_quart f32, f16;
+    char kernel[32];
+    double bandwidth, floor_f32, floor_f16, ratio_f32, ratio_f16;
+    double reference_s, reference_peak_mib;
+    double rel_l2, rel_l2_reflected, rel_l2_f16, max_rel, ref_se, area_share;
+    size_t tris_used;
+    double ref_se_reflected;       /* ref_se against the reflected part */
+    double rel_l2_lit, ref_se_lit; /* over every lit triangle, whatever its noise */
+    size_t tris_lit;
+} sc_result;
+
+/* The read bandwidth (bytes/s, 0 on failure) measured in a child process, so that its
+ * buffer counts in no scene's peak memory. Returns 0 or the exit status, having said why. */
+int sc_measure_bandwidth(const sc_args *a, double *bandwidth);
+/* One scene: the operator pipeline in one child process (its peak memory is the scene's),
+ * the path-traced reference in another, then the comparison per triangle. r->failed names
+ * the step that failed (the message is printed); returns 0 or the exit status. */
+int sc_run_scene(const sc_args *a, const char *scene, sc_result *r);
 
 #endif /* LRR_BENCH_H */

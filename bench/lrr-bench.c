@@ -18,6 +18,9 @@
  *   lrr-bench adaptive  the adaptive patch hierarchy against uniform subdivision at the same
  *                       patch budget and subpatches: error against the n×n solution,
  *                       preprocessing, selection and real-time step (adaptive.c)
+ *   lrr-bench scenes    the real scenes end to end: preprocessing split, peak memory, ms per
+ *                       frame (f32, f16) against the bandwidth floor, error per triangle
+ *                       against a path-traced reference (scenes.c, scenes_run.c)
  * What they share (messages, options, timing, bandwidth, the baselines) is in common.c.
  *
  * Results go to stdout ('key: value' lines and aligned tables), progress to stderr. Exit
@@ -47,6 +50,10 @@ static const char main_help[] =
     "             against the number of sources (2..256), time per method\n"
     "  adaptive   adaptive patch hierarchy against uniform subdivision at the same patch\n"
     "             budget: error against the n×n solution, selection and build time\n"
+    "  scenes     the real scenes (FZK-Haus, bunny room) end to end: preprocessing\n"
+    "             (clustering, form factors, SMW), peak memory, ms per frame in f32 and f16\n"
+    "             against the bandwidth floor, error per triangle against a path-traced\n"
+    "             reference with its own error bar\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help (COMMAND --help: help on a command)\n"
@@ -66,7 +73,8 @@ int main(int argc, char *argv[])
                     {"hemicube", cmd_hemicube},
                     {"realtime", cmd_realtime},
                     {"probes", cmd_probes},
-                    {"adaptive", cmd_adaptive}};
+                    {"adaptive", cmd_adaptive},
+                    {"scenes", cmd_scenes}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;

@@ -429,6 +429,30 @@ else
     fail "adaptive --plot: signature '$sig'"
 fi
 
+# ---------------------------------------------------------------- scenes
+# The end-to-end command of the real scenes, smoke-tested on the closed Cornell box (the real
+# scenes take minutes): it runs, writes its CSV, Markdown and plot. No time thresholds.
+help_mentions scenes --scenes --data-dir --patches --split --hemicube --samples --seed \
+    --threads --repeat --quick --csv --md --plot ratio_f16_to_floor ref_se
+run scenes --split foo
+if [ "$rc" -eq 2 ] && grep -q -- '--split' "$T/err"; then pass "scenes --split foo: exit 2"; else fail "scenes --split foo: exit $rc"; fi
+run scenes --scenes no-such-scene
+if [ "$rc" -eq 2 ] && grep -q 'no-such-scene' "$T/err"; then pass "scenes: an unknown scene: exit 2"; else fail "scenes --scenes no-such-scene: exit $rc"; fi
+SCCSV="$T/scenes.csv"
+run scenes --quick --scenes cornell-closed --repeat 5 --csv "$SCCSV" --md "$T/scenes.md" \
+    --plot "$T/scenes.png"
+scheader='scene,cpu,threads,T,n,k,R,clustering_s,formfactor_s,smw_s,preprocess_s,peak_mib,ms_f32,ms_f32_iqr,ms_f16,ms_f16_iqr,floor_ms_f16,ratio_f16_to_floor,bandwidth_gbs,nk,rel_l2,max_rel,ref_se,tris_used,samples'
+if [ "$rc" -eq 0 ] && [ -f "$SCCSV" ] && head -n 1 "$SCCSV" | grep -q "^$scheader," &&
+    awk -F, 'NR == 2 && $5 > 0 && $6 > 0 && $12 > 0 && $13 > 0 && $15 > 0 &&
+        $21 ~ /^[0-9.eE+-]+$/ { ok = 1 } END { exit !ok }' "$SCCSV" &&
+    grep -q '^Command: `lrr-bench scenes' "$T/scenes.md" && grep -q '^CPU: ' "$T/scenes.md" &&
+    [ "$(od -An -tx1 -N8 "$T/scenes.png" 2>/dev/null | tr -d ' \n')" = 89504e470d0a1a0a ]; then
+    pass "scenes --quick on cornell-closed: CSV row, Markdown report, PNG plot"
+else
+    fail "scenes --quick on cornell-closed: exit $rc"
+    show_err
+fi
+
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then
     rm -rf "$T"
