@@ -789,6 +789,60 @@ LRR_API LRR_NODISCARD lrr_status lrr_probe_direct_light(const lrr_operator *op,
                                                         const lrr_light *lights, size_t count,
                                                         float *emission) LRR_NONNULL(1, 4);
 
+/* ---------------------------------------------------------------- lights */
+/* Lights that move: each frame the reflected direct light E_i = rho_i ∘ H_i (H_i the
+ * irradiance at subpatch i's centre, one-sided: nothing reaches a subpatch from behind,
+ * shadowed by Embree occlusion rays) is computed for any set of lights, then lrr_solve(E)
+ * adds the interreflections (the direct-to-indirect pipeline; docs/METHOD.md "Lights").
+ * Units follow the scene's emission (radiosity, W/m²-like per channel):
+ *   LRR_LIGHT_POINT  at position, radiant intensity rgb (per steradian):
+ *                    H = rgb · max(0, n·ω) / r²  (ω towards the light, r its distance)
+ *   LRR_LIGHT_SPOT   the same, times a cone factor of the angle θ between −ω and
+ *                    direction: 1 for θ <= cone_angle − cone_softness, 0 for θ >=
+ *                    cone_angle, smoothstep in θ between
+ *   LRR_LIGHT_AREA   a one-sided rectangle, centre position, edges u and v (corners
+ *                    position ± u/2 ± v/2), emitting on the side of u × v with radiosity
+ *                    rgb (as a scene emitter's E): H = rgb · F(x → rectangle), estimated
+ *                    with `samples` stratified, jittered points (rounded up to a square;
+ *                    0 = 16, at most 1024), each with its own shadow ray
+ *   LRR_LIGHT_SUN    at infinity towards direction (any length), irradiance rgb on a
+ *                    surface facing it: H = rgb · max(0, n·ω̂)  (lrr_light's meaning)
+ * Lights are not part of the scene: they cast no shadow and receive no light. */
+enum { LRR_LIGHT_POINT = 1, LRR_LIGHT_SPOT = 2, LRR_LIGHT_AREA = 3, LRR_LIGHT_SUN = 4 };
+typedef struct lrr_light_source {
+    int kind;              /* LRR_LIGHT_* */
+    float position[3];     /* point, spot, area (its centre) */
+    float direction[3];    /* spot: where its axis points; sun: towards the sun */
+    float u[3], v[3];      /* area: its edges */
+    float rgb[3];          /* finite, >= 0; meaning per kind (above) */
+    float cone_angle;      /* spot: half-angle in radians, in (0, π) */
+    float cone_softness;   /* spot: width of the soft edge in radians, in [0, cone_angle] */
+    unsigned samples;      /* area: points per receiver (0 = 16, at most 1024) */
+} lrr_light_source;
+
+/* The plan for lighting one operator (FFTW style): the BVH of its input triangles is built
+ * once here and reused by every lrr_lighting_direct. The operator must outlive it. Errors:
+ * LRR_ERR_NOMEM / LRR_ERR_UNSUPPORTED from Embree. Thread safety: one thread at a time per
+ * lighting; several lightings of one operator may run at once. */
+typedef struct lrr_lighting lrr_lighting;
+LRR_API LRR_NODISCARD lrr_status lrr_lighting_create(const lrr_operator *op,
+                                                     lrr_lighting **out) LRR_NONNULL(1, 2);
+LRR_API void lrr_lighting_destroy(lrr_lighting *lighting);
+/* emission (n×3, the operator's subpatch order) = Σ over the lights of rho ∘ H (above).
+ * A light identical (byte for byte, at the same index) to the one of the previous call is
+ * not traced again: its irradiance is kept, so moving one light of many costs one light's
+ * rays. Bad lights (unknown kind, non-finite or negative values, a zero direction or
+ * rectangle, a cone outside its range, more than 1024 samples) give LRR_ERR_INVALID_ARG
+ * naming the light and the field, emission untouched; a direct light beyond float's range
+ * gives LRR_ERR_INVALID_ARG with emission zeroed. count 0 gives E = 0. OpenMP over
+ * subpatches. */
+LRR_API LRR_NODISCARD lrr_status lrr_lighting_direct(lrr_lighting *lighting,
+                                                     const lrr_light_source *lights,
+                                                     size_t count, float *emission)
+    LRR_NONNULL(1, 4);
+/* Shadow rays cast by the last lrr_lighting_direct (unchanged lights cast none). */
+LRR_API uint64_t lrr_lighting_rays(const lrr_lighting *lighting) LRR_NONNULL(1);
+
 /* ---------------------------------------------------------------- memory */
 /* 64-byte aligned allocation for SIMD and device buffers; size 0 gives NULL. */
 LRR_API void *lrr_aligned_alloc(size_t size);

@@ -1060,6 +1060,35 @@ run preprocess cornell -o "$CLFILE" --clusters 0
 expect_rc 2 "--clusters 0 is rejected"
 run preprocess cornell -o "$CLFILE" --clusters 40 --levels 1
 expect_rc 2 "--clusters with --levels 1 is rejected"
+# ---------------------------------------------------------------- moving lights
+LTFILE="$T/lights.lrr"
+run preprocess cornell -o "$LTFILE" --patches 100 --levels 1 --hemicube 16
+# a point light near the left wall (x = 0) lights the left half more than the right
+run solve "$LTFILE" --light 'point pos=60,300,279 rgb=20000' --no-scene-emission \
+    --csv "$T/light-left.csv" --repeat 1
+if [ "$rc" -eq 0 ] && [ "$(value lights)" = 1 ] && [ -n "$(value direct_light_seconds)" ] &&
+    awk -F, 'NR > 1 { if ($4 < 278) l += $3 * $10; else r += $3 * $10 }
+             END { exit !(l > 1.5 * r && r > 0) }' "$T/light-left.csv"; then
+    pass "solve --light point near the left wall: the left half gets more light"
+else
+    fail "solve --light (exit $rc)"; show_err
+fi
+run solve "$LTFILE" --light 'spot pos=278,500,279 dir=0,-1,0 angle=20 soft=5 rgb=1e5' \
+    --light 'sun dir=0,1,0 rgb=1' --light 'area pos=278,540,279 u=100,0,0 v=0,0,100 rgb=5'
+if [ "$rc" -eq 0 ] && [ "$(value lights)" = 3 ]; then
+    pass "solve with a spot, a sun and an area light"
+else
+    fail "solve with three lights (exit $rc)"; show_err
+fi
+run solve "$LTFILE" --light 'lamp pos=1,2,3'
+expect_rc 2 "--light with an unknown kind is rejected"
+run solve "$LTFILE" --light 'point pos=1,2'
+expect_rc 2 "--light with a two-component position is rejected"
+run solve "$LTFILE" --no-scene-emission
+expect_rc 2 "--no-scene-emission without --probe or --light is rejected"
+run solve "$LTFILE" --light 'spot pos=0,0,0 dir=0,0,0'
+expect_rc 1 "--light spot with a zero direction is an error"
+if grep -q "direction" "$T/err"; then pass "the error names the field"; else fail "no field in: $(cat "$T/err")"; fi
 # ---------------------------------------------------------------- valgrind
 if [ -n "$VG_LOGS" ]; then
     dirty=""

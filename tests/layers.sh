@@ -16,7 +16,8 @@ allowed() {
         solve) echo "core scene operator solve" ;;
         file) echo "core scene operator file" ;;
         reference) echo "core scene formfactor" ;;
-        probe) echo "core scene operator probe" ;;
+        light) echo "core scene operator light" ;;
+        probe) echo "core scene operator light probe" ;;
         output) echo "core scene operator output" ;;
         *) echo "" ;;
     esac

@@ -167,7 +167,9 @@ int parse_operator_budget(const char *prog, const char *arg, size_t *bytes)
 /* ------------------------------------------------------------------ probe lighting */
 void probe_args_init(probe_args *p)
 {
-    *p = (probe_args){NULL, PROBE_DEFAULT_SOURCES, 0, 1.0, 0, 0};
+    memset(p, 0, sizeof *p);
+    p->sources = PROBE_DEFAULT_SOURCES;
+    p->scale = 1.0;
 }
 
 int probe_option(probe_args *p, const char *prog, int c, const char *arg)
@@ -196,9 +198,14 @@ int probe_option(probe_args *p, const char *prog, int c, const char *arg)
         return cli_parse_double(prog, "--probe-scale", arg, 0.0, 0, 1e300, &p->scale) != 0 ? -1
                                                                                          : 1;
     case OPT_NO_SCENE_EMISSION:
-        p->probe_only_given = 1;
         p->no_scene_emission = 1;
         return 1;
+    case OPT_LIGHT:
+        if (p->lights == CLI_MAX_LIGHTS) {
+            cli_usage_error(prog, "--light: at most %d lights", CLI_MAX_LIGHTS);
+            return -1;
+        }
+        return cli_parse_light(prog, arg, &p->light[p->lights++]) != 0 ? -1 : 1;
     default:
         return 0;
     }
@@ -211,9 +218,11 @@ int probe_finish(const probe_args *p, const char *prog)
         return -1;
     }
     if (!p->path && p->probe_only_given) {
-        cli_usage_error(prog,
-                        "--sources, --probe-method, --probe-scale and --no-scene-emission "
-                        "need --probe");
+        cli_usage_error(prog, "--sources, --probe-method and --probe-scale need --probe");
+        return -1;
+    }
+    if (!p->path && !p->lights && p->no_scene_emission) {
+        cli_usage_error(prog, "--no-scene-emission needs --probe or --light");
         return -1;
     }
     return 0;

@@ -150,16 +150,13 @@ int scaled_emission(const lrr_operator *op, double scale, float **out)
     return CLI_EXIT_OK;
 }
 
-int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *p, float *e,
-                    double *seconds)
+/* direct (n×3) += the probe's fitted lights' direct light. */
+static int probe_direct(lrr_context *ctx, const lrr_operator *op, const probe_args *p,
+                        float *direct, double *seconds)
 {
-    lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi, sizeof oi);
     lrr_probe *probe = NULL;
     lrr_light *lights = calloc(p->sources, sizeof *lights);
-    float *direct = cli_alloc_rgb(oi.n);
-    int rc = CLI_EXIT_OK;
-    lrr_status st = lights && direct ? lrr_probe_load(ctx, p->path, &probe) : LRR_ERR_NOMEM;
+    lrr_status st = lights ? lrr_probe_load(ctx, p->path, &probe) : LRR_ERR_NOMEM;
     if (st == LRR_OK) {
         if (p->median_cut) {
             st = lrr_probe_median_cut(probe, p->sources, lights);
@@ -175,24 +172,54 @@ int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *
                 lights[l].rgb[c] = (float)(lights[l].rgb[c] * p->scale);
         double t0 = cli_now();
         st = lrr_probe_direct_light(op, lights, p->sources, direct);
-        *seconds = cli_now() - t0;
+        *seconds += cli_now() - t0;
     }
-    if (st != LRR_OK) {
-        rc = cli_lib_error(st == LRR_ERR_NOMEM && !probe ? NULL : ctx, st);
-    } else {
-        for (size_t i = 0; i < 3 * oi.n; i++) {
-            e[i] = p->no_scene_emission ? direct[i] : e[i] + direct[i];
-            if (!isfinite(e[i])) {
-                rc = cli_fail(LRR_ERR_INVALID_ARG,
-                              "--probe-scale %g: the emission of subpatch %zu overflows",
-                              p->scale, i / 3);
-                break;
-            }
-        }
-    }
-    free(direct);
+    int rc = st == LRR_OK ? CLI_EXIT_OK : cli_lib_error(st == LRR_ERR_NOMEM && !probe ? NULL : ctx, st);
     free(lights);
     lrr_probe_destroy(probe);
+    return rc;
+}
+
+/* direct (n×3) += the --light sources' direct light (lrr_lighting_direct). */
+static int sources_direct(lrr_context *ctx, const lrr_operator *op, const probe_args *p,
+                          float *direct, size_t n, double *seconds)
+{
+    float *add = cli_alloc_rgb(n);
+    lrr_lighting *lt = NULL;
+    if (!add)
+        return CLI_EXIT_FAIL;
+    double t0 = cli_now();
+    lrr_status st = lrr_lighting_create(op, &lt);
+    if (st == LRR_OK)
+        st = lrr_lighting_direct(lt, p->light, p->lights, add);
+    *seconds += cli_now() - t0;
+    lrr_lighting_destroy(lt);
+    for (size_t i = 0; st == LRR_OK && i < 3 * n; i++)
+        direct[i] += add[i];
+    free(add);
+    return st == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, st);
+}
+
+int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *p, float *e,
+                    double *seconds)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi, sizeof oi);
+    float *direct = cli_alloc_rgb(oi.n);
+    *seconds = 0;
+    int rc = direct ? CLI_EXIT_OK : CLI_EXIT_FAIL;
+    if (rc == CLI_EXIT_OK && p->path)
+        rc = probe_direct(ctx, op, p, direct, seconds);
+    if (rc == CLI_EXIT_OK && p->lights)
+        rc = sources_direct(ctx, op, p, direct, oi.n, seconds);
+    for (size_t i = 0; rc == CLI_EXIT_OK && i < 3 * oi.n; i++) {
+        e[i] = p->no_scene_emission ? direct[i] : e[i] + direct[i];
+        if (!isfinite(e[i]))
+            rc = cli_fail(LRR_ERR_INVALID_ARG,
+                          "the emission of subpatch %zu overflows (--probe-scale %g, --light)",
+                          i / 3, p->scale);
+    }
+    free(direct);
     return rc;
 }
 

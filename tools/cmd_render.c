@@ -42,7 +42,17 @@ static const char render_help[] =
     "  --probe-method M     --probe: irradiance (default; fitted by Levenberg-Marquardt) or\n"
     "                       median-cut\n"
     "  --probe-scale S      --probe: multiply the lights by S (finite, >= 0; default 1)\n"
-    "  --no-scene-emission  --probe: leave out the stored emission (probe light only)\n"
+    "  --light SPEC         a light (repeatable, up to 16): its direct light on every\n"
+    "                       subpatch, shadowed by Embree occlusion rays, is added to the\n"
+    "                       emission (lrr_lighting_direct). SPEC: a kind and fields,\n"
+    "                         'point pos=X,Y,Z rgb=R,G,B'    (rgb: intensity per sr)\n"
+    "                         'spot pos=.. dir=X,Y,Z angle=DEG soft=DEG rgb=..'\n"
+    "                         'area pos=.. u=X,Y,Z v=X,Y,Z samples=N rgb=..' (a rectangle\n"
+    "                           pos ± u/2 ± v/2 emitting on the side of u × v; rgb: its\n"
+    "                           radiosity)\n"
+    "                         'sun dir=X,Y,Z rgb=..'        (dir: towards the sun)\n"
+    "                       rgb=V sets all three channels\n"
+    "  --no-scene-emission  --probe, --light: leave out the stored emission\n"
     "  -h, --help           show this help\n";
 
 enum { FORMAT_NONE, FORMAT_PNG, FORMAT_EXR };
@@ -258,7 +268,7 @@ static int run_render(const render_args *a)
     int rc = load_operator(ctx, a->file, &op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(op, a->scale, &e);
-    if (rc == CLI_EXIT_OK && a->pa.path)
+    if (rc == CLI_EXIT_OK && (a->pa.path || a->pa.lights))
         rc = add_probe_light(ctx, op, &a->pa, e, &direct_s);
     if (rc == CLI_EXIT_OK) {
         lrr_operator_info oi;

@@ -37,12 +37,22 @@ static const char solve_help[] =
     "  --probe-method M     --probe: irradiance (default; fitted by Levenberg-Marquardt) or\n"
     "                       median-cut\n"
     "  --probe-scale S      --probe: multiply the lights by S (finite, >= 0; default 1)\n"
-    "  --no-scene-emission  --probe: leave out the stored emission (probe light only)\n"
+    "  --light SPEC         a light (repeatable, up to 16): its direct light on every\n"
+    "                       subpatch, shadowed by Embree occlusion rays, is added to the\n"
+    "                       emission (lrr_lighting_direct). SPEC: a kind and fields,\n"
+    "                         'point pos=X,Y,Z rgb=R,G,B'    (rgb: intensity per sr)\n"
+    "                         'spot pos=.. dir=X,Y,Z angle=DEG soft=DEG rgb=..'\n"
+    "                         'area pos=.. u=X,Y,Z v=X,Y,Z samples=N rgb=..' (a rectangle\n"
+    "                           pos ± u/2 ± v/2 emitting on the side of u × v; rgb: its\n"
+    "                           radiosity)\n"
+    "                         'sun dir=X,Y,Z rgb=..'        (dir: towards the sun)\n"
+    "                       rgb=V sets all three channels\n"
+    "  --no-scene-emission  --probe, --light: leave out the stored emission\n"
     "  -h, --help           show this help\n"
     "Also prints storage (of F̄), backend, path (that the last run took) and kernel (the\n"
     "SIMD variant, whose choice the environment variable LRR_SIMD=c|avx2|avx512 forces, or\n"
-    "opencl:<device name>); with --probe also probe, sources and direct_light_seconds (the\n"
-    "shadow rays).\n";
+    "opencl:<device name>); with --probe also probe, probe_method and sources, with --light\n"
+    "lights, and with either direct_light_seconds (the shadow rays).\n";
 
 static const char *const path_names[] = {"auto", "full", "sparse", "incremental"};
 
@@ -155,8 +165,11 @@ static void print_solve(const solve_args *a, const lrr_operator *op, const float
         printf("probe: %s\n", a->pa.path);
         printf("probe_method: %s\n", a->pa.median_cut ? "median-cut" : "irradiance");
         printf("sources: %zu\n", a->pa.sources);
-        printf("direct_light_seconds: %.6f\n", r->direct_s);
     }
+    if (a->pa.lights)
+        printf("lights: %zu\n", a->pa.lights);
+    if (a->pa.path || a->pa.lights)
+        printf("direct_light_seconds: %.6f\n", r->direct_s);
     print_solution_summary(op, b);
     if (a->csv)
         printf("csv: %s\n", a->csv);
@@ -175,7 +188,7 @@ static int run_solve(const solve_args *a)
     int rc = load_operator(ctx, a->file, &op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(op, a->scale, &e);
-    if (rc == CLI_EXIT_OK && a->pa.path)
+    if (rc == CLI_EXIT_OK && (a->pa.path || a->pa.lights))
         rc = add_probe_light(ctx, op, &a->pa, e, &r.direct_s);
     if (rc == CLI_EXIT_OK) {
         lrr_operator_info oi;

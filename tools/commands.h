@@ -85,6 +85,7 @@ enum {
     OPT_PROBE_METHOD,
     OPT_PROBE_SCALE,
     OPT_NO_SCENE_EMISSION,
+    OPT_LIGHT,
     OPT_ADAPTIVE,
     OPT_CLUSTERS,
     OPT_ADAPTIVE_SAMPLES,
@@ -145,7 +146,8 @@ int bad_option(const char *prog, int c, char *const argv[]);
     {"sources", required_argument, NULL, OPT_SOURCES},                                        \
     {"probe-method", required_argument, NULL, OPT_PROBE_METHOD},                              \
     {"probe-scale", required_argument, NULL, OPT_PROBE_SCALE},                                \
-    {"no-scene-emission", no_argument, NULL, OPT_NO_SCENE_EMISSION}
+    {"no-scene-emission", no_argument, NULL, OPT_NO_SCENE_EMISSION},                         \
+    {"light", required_argument, NULL, OPT_LIGHT}
 
 void start_getopt(void);
 
@@ -186,7 +188,8 @@ size_t physical_memory_bytes(void);
 /* --memory-budget MB of preprocess and demo: 0 = no limit. */
 int parse_operator_budget(const char *prog, const char *arg, size_t *bytes);
 
-/* The --probe options of solve and render. */
+/* The --probe and --light options of solve and render. */
+#define CLI_MAX_LIGHTS 16
 typedef struct probe_args {
     const char *path;        /* --probe; NULL: none */
     size_t sources;
@@ -194,7 +197,11 @@ typedef struct probe_args {
     double scale;            /* --probe-scale */
     int no_scene_emission;
     int probe_only_given;    /* an option that needs --probe was given */
+    lrr_light_source light[CLI_MAX_LIGHTS]; /* --light SPEC, repeatable */
+    size_t lights;
 } probe_args;
+/* --light SPEC (tools/cli_lights.c) into l; 0, or -1 after a usage message. */
+int cli_parse_light(const char *prog, const char *spec, lrr_light_source *l);
 
 void probe_args_init(probe_args *p);
 /* 1: handled, 0: not a probe option, -1: usage error (reported). */
@@ -220,8 +227,9 @@ int check_writable_dir(const char *path);
 int load_operator(lrr_context *ctx, const char *path, lrr_operator **op);
 /* E = S × (stored emission); fails if scaling makes a value overflow to infinity. */
 int scaled_emission(const lrr_operator *op, double scale, float **out);
-/* e (n×3, the scaled stored emission) += the probe's direct light, or = it with
- * --no-scene-emission; *seconds the time of lrr_probe_direct_light. */
+/* e (n×3, the scaled stored emission) += the direct light of the probe and of the --light
+ * sources, or = it with --no-scene-emission; *seconds the time of lrr_probe_direct_light and
+ * lrr_lighting_direct. */
 int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *p, float *e,
                     double *seconds);
 

@@ -1,0 +1,144 @@
+/* The lighting plan: the operator's triangles as an Embree BVH built once, and per light the
+ * irradiance of the previous call, so that only lights that changed cast new shadow rays
+ * (docs/METHOD.md "Lights"). */
+#include "config.h"
+#include "light/light.h"
+#include "scene/bvh.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct lrr_lighting {
+    const lrr_operator *op;
+    lrr_context *ctx;
+    lrr__bvh bvh;
+    float eps;                /* ray offset: 1e-5 × the scene's bounding-box diagonal */
+    size_t count, cap;        /* lights cached, slots allocated */
+    lrr_light_source *light;  /* cap: the lights of the previous call */
+    float *H;                 /* cap × n × 3: their irradiance */
+    uint64_t rays;            /* shadow rays of the last call */
+};
+
+lrr_status lrr_lighting_create(const lrr_operator *op, lrr_lighting **out)
+{
+    *out = NULL;
+    lrr_context *ctx = op->ctx;
+    lrr_lighting *lt = lrr__zalloc(ctx, sizeof *lt);
+    if (!lt)
+        return lrr__error(ctx, LRR_ERR_NOMEM, "lrr_lighting_create: out of memory");
+    lt->op = op;
+    lt->ctx = lrr__context_retain(ctx);
+    lt->eps = (float)(1e-5 * lrr__geometry_bounds(&op->geom, NULL, NULL));
+    lrr_status st = lrr__bvh_build(ctx, &op->geom, RTC_BUILD_QUALITY_MEDIUM, 0,
+                                   "lrr_lighting_create", &lt->bvh);
+    if (st) {
+        lrr__context_release(lt->ctx);
+        free(lt);
+        return st;
+    }
+    *out = lt;
+    return LRR_OK;
+}
+
+void lrr_lighting_destroy(lrr_lighting *lt)
+{
+    if (!lt)
+        return;
+    lrr__bvh_release(&lt->bvh);
+    lrr_aligned_free(lt->light);
+    lrr_aligned_free(lt->H);
+    lrr__context_release(lt->ctx);
+    free(lt);
+}
+
+uint64_t lrr_lighting_rays(const lrr_lighting *lt) { return lt->rays; }
+
+/* Room for count lights' irradiance (the cache is dropped when it must grow). */
+static lrr_status reserve(lrr_lighting *lt, size_t count)
+{
+    if (count <= lt->cap)
+        return LRR_OK;
+    size_t n3;
+    if (!lrr__mul_size(lt->op->n, 3, &n3))
+        return lrr__error(lt->ctx, LRR_ERR_OVERFLOW, "lrr_lighting_direct: n×3 overflows");
+    lrr_light_source *light = NULL;
+    float *H = NULL;
+    lrr_status st;
+    if ((st = lrr__calloc(lt->ctx, &light, count, sizeof *light, "cached lights")) ||
+        (st = lrr__calloc(lt->ctx, &H, count, n3 * sizeof(float),
+                          "per-light irradiance (lights × n × 3 floats)"))) {
+        lrr_aligned_free(light);
+        return st;
+    }
+    lrr_aligned_free(lt->light);
+    lrr_aligned_free(lt->H);
+    lt->light = light;
+    lt->H = H;
+    lt->cap = count;
+    lt->count = 0;
+    return LRR_OK;
+}
+
+/* Traces light l (checked as s) into its cache slot. */
+static void trace(lrr_lighting *lt, const lrr__source *s, size_t l)
+{
+    const lrr_operator *op = lt->op;
+    float *H = lt->H + l * op->n * 3;
+    uint64_t rays = 0;
+    #pragma omp parallel for schedule(dynamic, 64) reduction(+ : rays)
+    for (size_t i = 0; i < op->n; i++)
+        lrr__source_irradiance(s, lt->bvh.scene, i, op->centre + 3 * i, op->normal + 3 * i,
+                               lt->eps, H + 3 * i, &rays);
+    lt->rays += rays;
+}
+
+lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights, size_t count,
+                               float *emission)
+{
+    if (count > 0 && !lights)
+        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG,
+                          "lrr_lighting_direct: lights is NULL with count %zu", count);
+    lrr__source *src = NULL;
+    lrr_status st = LRR_OK;
+    if (count && (st = lrr__calloc(lt->ctx, &src, count, sizeof *src, "checked lights")))
+        return st;
+    for (size_t l = 0; l < count && !st; l++)
+        st = lrr__source_check(lt->ctx, &lights[l], l, &src[l]);
+    if (st || (st = reserve(lt, count))) {
+        lrr_aligned_free(src);
+        return st;
+    }
+    lt->rays = 0;
+    for (size_t l = 0; l < count; l++) {
+        if (l < lt->count && memcmp(&lt->light[l], &lights[l], sizeof *lights) == 0)
+            continue; /* unchanged: its irradiance is still in the cache */
+        trace(lt, &src[l], l);
+        lt->light[l] = lights[l];
+    }
+    lt->count = count;
+    st = lrr__bvh_status(lt->ctx, &lt->bvh, "occlusion query");
+    lrr_aligned_free(src);
+    if (st) {
+        lt->count = 0; /* the traced irradiance is not to be trusted */
+        return st;
+    }
+    /* E = rho ∘ Σ_l H_l, summed in light order (float, as lrr_probe_direct_light) */
+    const lrr_operator *op = lt->op;
+    const size_t n3 = op->n * 3;
+    int overflow = 0;
+    #pragma omp parallel for schedule(static) reduction(| : overflow)
+    for (size_t j = 0; j < n3; j++) {
+        float sum = 0.0f;
+        for (size_t l = 0; l < count; l++)
+            sum += lt->H[l * n3 + j];
+        emission[j] = op->rho[j] * sum;
+        overflow |= !isfinite(emission[j]);
+    }
+    if (overflow) {
+        memset(emission, 0, n3 * sizeof(float));
+        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG,
+                          "lrr_lighting_direct: the direct light overflows a float");
+    }
+    return LRR_OK;
+}
