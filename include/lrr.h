@@ -412,6 +412,11 @@ LRR_API const float *lrr_operator_normal(const lrr_operator *op) LRR_NONNULL(1);
 /* k+1 offsets: patch p holds subpatches offsets[p] .. offsets[p+1]-1 (p·d in a uniform
  * hierarchy; varying in an adaptive one). Valid for the operator's life. */
 LRR_API const size_t *lrr_operator_patch_offsets(const lrr_operator *op) LRR_NONNULL(1);
+/* The corners of every subpatch (n×9 floats: x0 y0 z0 x1 … z2, counter-clockwise seen from
+ * its front, in the operator's order): what a viewer or an exporter draws with the
+ * radiosity of lrr_solve. Thread safety: any thread. */
+LRR_API void lrr_operator_subpatch_vertices(const lrr_operator *op, float *out)
+    LRR_NONNULL(1, 2);
 /* Copies per-subpatch triples (n×3: radiosity, emission, reflectance) from the operator's
  * subpatch order (that of lrr_solve, lrr_operator_area, …) into the scene's (that of
  * lrr_scene_subpatch_at, lrr_scene_subpatches and the reference solvers). The two differ

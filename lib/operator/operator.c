@@ -313,3 +313,14 @@ void lrr_operator_scene_order(const lrr_operator *op, const float *in, float *ou
 }
 
 const size_t *lrr_operator_subpatch_origin(const lrr_operator *op) { return op->geom.origin; }
+
+void lrr_operator_subpatch_vertices(const lrr_operator *op, float *out)
+{
+    #pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < op->n; i++) {
+        double v[9];
+        lrr__subpatch_vertices(&op->geom, i, v);
+        for (int j = 0; j < 9; j++)
+            out[9 * i + j] = (float)v[j];
+    }
+}

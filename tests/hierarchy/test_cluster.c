@@ -174,6 +174,15 @@ static void test_every_subpatch_is_exact(void **state)
     lrr_operator_get_info(op, &oi, sizeof oi);
     assert_int_equal(oi.k, si.subpatches);
     assert_int_equal(oi.d_max, 1);
+    /* the corners follow the renumbering: each subpatch's centre is its corners' mean */
+    float *corner = malloc(oi.n * 9 * sizeof(float));
+    lrr_operator_subpatch_vertices(op, corner);
+    const float *ce = lrr_operator_centre(op);
+    for (size_t i = 0; i < oi.n; i++)
+        for (int j = 0; j < 3; j++)
+            ASSERT_NEAR((corner[9 * i + j] + corner[9 * i + 3 + j] + corner[9 * i + 6 + j]) / 3,
+                        ce[3 * i + j], 1e-4, "subpatch %zu", i);
+    free(corner);
     const size_t *origin = lrr_operator_subpatch_origin(op);
     size_t moved = 0;
     for (size_t i = 0; i < oi.n; i++)
