@@ -3,7 +3,7 @@
  * scenes, timing, cache size and read bandwidth, the real-time steps that the benchmarks
  * compare (lrr_solve, the paper's method, plain sgemv), comparison of radiosities and
  * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c,
- * probes.c, adaptive.c, scenes.c; four of them measure in a second file (table_cell.c,
+ * probes.c, adaptive.c, scenes.c, lights.c; four of them measure in a second file (table_cell.c,
  * realtime_cell.c, adaptive_scene.c, scenes_run.c), and what the two files share is declared
  * at the end.
  */
@@ -61,6 +61,7 @@ int cmd_realtime(int argc, char *argv[]);
 int cmd_probes(int argc, char *argv[]);
 int cmd_adaptive(int argc, char *argv[]);
 int cmd_scenes(int argc, char *argv[]);
+int cmd_lights(int argc, char *argv[]);
 
 /* ------------------------------------------------------------------ messages */
 /* "lrr-bench: <message>" on stderr; returns CLI_EXIT_FAIL. */

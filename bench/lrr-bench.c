@@ -54,6 +54,8 @@ static const char main_help[] =
     "             (clustering, form factors, SMW), peak memory, ms per frame in f32 and f16\n"
     "             against the bandwidth floor, error per triangle against a path-traced\n"
     "             reference with its own error bar\n"
+    "  lights     moving point lights: ms per frame of the direct light and its shadow rays\n"
+    "             per second, all lights moving or one, against Embree's occlusion rate\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help (COMMAND --help: help on a command)\n"
@@ -74,7 +76,8 @@ int main(int argc, char *argv[])
                     {"realtime", cmd_realtime},
                     {"probes", cmd_probes},
                     {"adaptive", cmd_adaptive},
-                    {"scenes", cmd_scenes}};
+                    {"scenes", cmd_scenes},
+                    {"lights", cmd_lights}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;

@@ -1,0 +1,240 @@
+/* lrr-bench lights: the direct light of moving point lights (lrr_lighting_direct) per frame,
+ * its shadow rays per second, and Embree's own occlusion rate on the same rays as the
+ * baseline (a plain OpenMP loop of rtcOccluded1 over a BVH of the same triangles). */
+#include "bench.h"
+
+#include <embree3/rtcore.h>
+#include <getopt.h>
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const char lights_help[] =
+    "Usage: lrr-bench lights [OPTIONS]\n"
+    "The direct light of N moving point lights on an operator's subpatches\n"
+    "(lrr_lighting_direct: shadow rays against the operator's input triangles) per frame, in\n"
+    "two cases: every light moves each frame (all traced), and one of them moves (the others\n"
+    "come from the cache). Reports ms per frame (median, min, max), rays per frame and rays\n"
+    "per second, against Embree's occlusion rate on the same rays (an OpenMP loop of\n"
+    "rtcOccluded1 over a BVH of the same triangles, nothing else per ray).\n\n"
+    "Options:\n"
+    "  --operator FILE.lrr  the operator (default: the built-in Cornell box, --patches 216\n"
+    "                       --levels 2, hemicube 32, built here)\n"
+    "  --lights N           point lights (1..64, default 4)\n"
+    "  --repeat R           timed frames (default: at least 20 and 0.5 s)\n"
+    "  -h, --help           show this help\n"
+    "Threads: OMP_NUM_THREADS.\n";
+
+typedef struct lights_run {
+    lrr_lighting *lt;
+    lrr_light_source *light;
+    size_t count, moving; /* lights, how many move each frame */
+    float lo[3], hi[3];   /* the box the lights move in */
+    float *e;
+    unsigned long frame;
+    lrr_status status;
+} lights_run;
+
+/* Light l at frame f: on a slow circle inside the middle of the scene's box. */
+static void place(lights_run *r, size_t l, unsigned long f)
+{
+    double t = 0.05 * (double)f + 2 * M_PI * (double)l / (double)r->count;
+    for (int j = 0; j < 3; j++) {
+        double mid = 0.5 * (r->lo[j] + r->hi[j]), half = 0.25 * (r->hi[j] - r->lo[j]);
+        r->light[l].position[j] = (float)(mid + half * (j == 1 ? 0.5 : j == 0 ? cos(t) : sin(t)));
+    }
+}
+
+static int lights_step(void *user)
+{
+    lights_run *r = user;
+    r->frame++;
+    for (size_t l = 0; l < r->moving; l++)
+        place(r, l, r->frame);
+    r->status = lrr_lighting_direct(r->lt, r->light, r->count, r->e);
+    return r->status != LRR_OK;
+}
+
+/* Embree alone: the rays of one frame with every light traced (from each centre, off the
+ * surface, to each light in front), over a BVH of the subpatch triangles. */
+static double embree_rate(const lrr_operator *op, size_t n, const lights_run *r, double *rays)
+{
+    float *tri = malloc(n * 9 * sizeof(float));
+    if (!tri)
+        return 0;
+    lrr_operator_subpatch_vertices(op, tri);
+    RTCDevice dev = rtcNewDevice(NULL);
+    RTCScene sc = rtcNewScene(dev);
+    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                        3 * sizeof(float), 3 * n);
+    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                           3 * sizeof(unsigned), n);
+    memcpy(vb, tri, n * 9 * sizeof(float));
+    for (size_t i = 0; i < 3 * n; i++)
+        ib[i] = (unsigned)i;
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(sc, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(sc);
+    const float *ce = lrr_operator_centre(op), *nr = lrr_operator_normal(op);
+    double best = 0, count = 0;
+    for (int pass = 0; pass < 5; pass++) {
+        double t0 = omp_get_wtime(), cnt = 0;
+        #pragma omp parallel for schedule(dynamic, 64) reduction(+ : cnt)
+        for (size_t i = 0; i < n; i++) {
+            struct RTCIntersectContext ictx;
+            rtcInitIntersectContext(&ictx);
+            for (size_t l = 0; l < r->count; l++) {
+                const float *p = r->light[l].position, *x = ce + 3 * i, *nv = nr + 3 * i;
+                float w[3] = {p[0] - x[0], p[1] - x[1], p[2] - x[2]};
+                float len = sqrtf(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+                if (!(nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2] > 0))
+                    continue;
+                struct RTCRay ray = {.org_x = x[0] + 1e-4f * nv[0], .org_y = x[1] + 1e-4f * nv[1],
+                                     .org_z = x[2] + 1e-4f * nv[2], .dir_x = w[0] / len,
+                                     .dir_y = w[1] / len, .dir_z = w[2] / len, .tfar = len,
+                                     .mask = UINT32_MAX};
+                rtcOccluded1(sc, &ictx, &ray);
+                cnt += 1;
+            }
+        }
+        double dt = omp_get_wtime() - t0;
+        if (cnt / dt > best)
+            best = cnt / dt;
+        count = cnt;
+    }
+    rtcReleaseScene(sc);
+    rtcReleaseDevice(dev);
+    free(tri);
+    *rays = count;
+    return best;
+}
+
+static int parse_lights(int argc, char *argv[], const char **file, size_t *count, unsigned *repeat)
+{
+    static const struct option longopts[] = {{"operator", required_argument, NULL, OPT_SCENE},
+                                             {"lights", required_argument, NULL, OPT_SOURCES},
+                                             {"repeat", required_argument, NULL, OPT_REPEAT},
+                                             {"help", no_argument, NULL, 'h'},
+                                             {NULL, 0, NULL, 0}};
+    const char *prog = "lrr-bench lights";
+    size_t rep = 0;
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        switch (c) {
+        case OPT_SCENE: *file = optarg; break;
+        case OPT_SOURCES:
+            if (cli_parse_size(prog, "--lights", optarg, 1, 64, count) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_REPEAT:
+            if (cli_parse_size(prog, "--repeat", optarg, 1, MAX_RUNS, &rep) != 0)
+                return CLI_EXIT_USAGE;
+            *repeat = (unsigned)rep;
+            break;
+        case 'h': fputs(lights_help, stdout); return CLI_EXIT_OK;
+        default: return bad_option(prog, c, argv);
+        }
+    }
+    return no_positional(prog, argc, argv) ? CLI_EXIT_USAGE : BENCH_RUN;
+}
+
+/* The operator: from the file, or the Cornell box built here. */
+static int get_operator(lrr_context *ctx, const char *file, lrr_operator **op)
+{
+    lrr_status s;
+    if (file)
+        return (s = lrr_operator_load(ctx, file, op)) ? lib_fail(ctx, s, file) : CLI_EXIT_OK;
+    lrr_scene *sc;
+    if ((s = lrr_scene_builtin(ctx, "cornell", &sc)))
+        return lib_fail(ctx, s, "cornell");
+    lrr_subdivision sd = lrr_subdivision_defaults();
+    sd.target_patches = 216;
+    sd.levels = 2;
+    lrr_build_options bo = lrr_build_options_defaults();
+    bo.hemicube_resolution = 32;
+    if (!(s = lrr_scene_subdivide(sc, &sd)))
+        s = lrr_operator_build(sc, &bo, op);
+    lrr_scene_destroy(sc);
+    return s ? lib_fail(ctx, s, "building the Cornell box") : CLI_EXIT_OK;
+}
+
+static void bounds(const lrr_operator *op, size_t n, float lo[3], float hi[3])
+{
+    const float *ce = lrr_operator_centre(op);
+    for (int j = 0; j < 3; j++)
+        lo[j] = hi[j] = ce[j];
+    for (size_t i = 0; i < n; i++)
+        for (int j = 0; j < 3; j++) {
+            lo[j] = fminf(lo[j], ce[3 * i + j]);
+            hi[j] = fmaxf(hi[j], ce[3 * i + j]);
+        }
+}
+
+static int measure(lights_run *r, size_t moving, unsigned repeat, const char *label)
+{
+    r->moving = moving;
+    timing t;
+    if (time_frames(lights_step, r, repeat, &t) != 0)
+        return bench_fail("%s: lrr_lighting_direct failed (%s)", label, lrr_strerror(r->status));
+    double rays = (double)lrr_lighting_rays(r->lt);
+    printf("%s_ms: %.4f (min %.4f, max %.4f, %zu frames)\n", label, t.median, t.min, t.max,
+           t.runs);
+    printf("%s_rays: %.0f\n", label, rays);
+    printf("%s_rays_per_s: %.4g\n", label, rays / (t.median * 1e-3));
+    return CLI_EXIT_OK;
+}
+
+int cmd_lights(int argc, char *argv[])
+{
+    const char *file = NULL;
+    size_t count = 4;
+    unsigned repeat = 0;
+    int rc = parse_lights(argc, argv, &file, &count, &repeat);
+    if (rc != BENCH_RUN)
+        return rc;
+    lrr_context *ctx;
+    if (lrr_context_create(&ctx) != LRR_OK)
+        return bench_fail("cannot create a context");
+    lrr_operator *op = NULL;
+    lights_run r = {.count = count};
+    rc = get_operator(ctx, file, &op);
+    lrr_operator_info oi = {0};
+    if (rc == CLI_EXIT_OK) {
+        lrr_operator_get_info(op, &oi, sizeof oi);
+        r.light = calloc(count, sizeof *r.light);
+        r.e = calloc(3 * oi.n, sizeof(float));
+        if (!r.light || !r.e)
+            rc = bench_fail("out of memory");
+    }
+    lrr_status s = LRR_OK;
+    if (rc == CLI_EXIT_OK && (s = lrr_lighting_create(op, &r.lt)))
+        rc = lib_fail(ctx, s, "lrr_lighting_create");
+    if (rc == CLI_EXIT_OK) {
+        print_machine();
+        printf("operator: %s\nn: %zu\ntriangles: %zu\nlights: %zu\n",
+               file ? file : "cornell (built here)", oi.n, oi.triangles, count);
+        bounds(op, oi.n, r.lo, r.hi);
+        for (size_t l = 0; l < count; l++) {
+            r.light[l].kind = LRR_LIGHT_POINT;
+            r.light[l].rgb[0] = r.light[l].rgb[1] = r.light[l].rgb[2] = 1.0f;
+            place(&r, l, 0);
+        }
+        rc = measure(&r, count, repeat, "all_moving");
+    }
+    if (rc == CLI_EXIT_OK)
+        rc = measure(&r, 1, repeat, "one_moving");
+    if (rc == CLI_EXIT_OK) {
+        double rays = 0, rate = embree_rate(op, oi.n, &r, &rays);
+        printf("embree_occluded1_rays: %.0f\nembree_occluded1_rays_per_s: %.4g\n", rays, rate);
+    }
+    lrr_lighting_destroy(r.lt);
+    free(r.light);
+    free(r.e);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+    return rc;
+}
