@@ -666,8 +666,8 @@ LRR_API LRR_NODISCARD lrr_status lrr_render_exr(const lrr_operator *op, const fl
  * What the colour holds: c = min(1, B × exposure), linear, per channel. glTF's COLOR_0 is
  * a multiplier on the base colour that viewers (three.js, Blender, the Khronos sample
  * viewer) bring to the display unchanged, and the Khronos validator rejects COLOR_0 values
- * outside [0, 1] (ACCESSOR_NON_CLAMPED, an error: measured with gltf-validator 2.0.0-dev.3.10 on an
- * emitter's B = 10), so they are clamped. The unclamped radiosity of each vertex is kept
+ * outside [0, 1] (ACCESSOR_NON_CLAMPED, an error: measured with gltf-validator
+ * 2.0.0-dev.3.10 on an emitter's B = 10), so they are clamped. The unclamped radiosity of each vertex is kept
  * beside it (glTF: the custom attribute _RADIOSITY, PLY: float properties): nothing is lost.
  *
  * Materials (glTF): one per distinct (reflectance, emission) of the input triangles (of
