@@ -657,6 +657,82 @@ LRR_API LRR_NODISCARD lrr_status lrr_render_exr(const lrr_operator *op, const fl
                                                 const lrr_render_options *opts,
                                                 const char *path) LRR_NONNULL(1, 2, 4);
 
+/* ---------------------------------------------------------------- export */
+/* The lit scene as a mesh for other programs: glTF 2.0 (binary .glb) or PLY.
+ *
+ * The mesh: the input triangles (or, with subpatches = 1, the subpatch mesh, T-junctions
+ * where neighbouring triangles are split to different depths), with a colour per vertex:
+ * the area-weighted mean radiosity of the subpatches touching that corner, the colours the
+ * renderer interpolates. Corners are shared where they coincide, face the same way and
+ * carry the same material; they are split at creases (normals differing, as in the
+ * renderer's weld) and at material edges, where averaging would bleed one surface's light
+ * into the other's.
+ *
+ * What the colour holds: c = min(1, B × exposure), linear, per channel. glTF's COLOR_0 is
+ * a multiplier on the base colour that viewers (three.js, Blender, the Khronos sample
+ * viewer) bring to the display unchanged, and the Khronos validator rejects COLOR_0 values
+ * outside [0, 1] (ACCESSOR_NON_CLAMPED, an error: measured with gltf-validator
+ * 2.0.0-dev.3.10 on an emitter's B = 10), so they are clamped. The unclamped radiosity of each vertex is kept
+ * beside it (glTF: the custom attribute _RADIOSITY, PLY: float properties): nothing is lost.
+ *
+ * Materials (glTF): one per distinct (reflectance, emission) of the input triangles (of
+ * the subpatches with subpatches = 1), in increasing order of (rho, E), each with
+ * KHR_materials_unlit and baseColorFactor (1, 1, 1, 1): the light is baked into COLOR_0,
+ * which already contains rho (B = E + rho H); a lit material with baseColorFactor = rho
+ * would apply rho a second time and light the scene again with the viewer's lamps. The
+ * material's own reflectance and emission are in its extras ("reflectance", "emission"),
+ * and its fallback for viewers without the extension is matte (metallic 0, roughness 1).
+ * The asset's extras record the exposure. */
+typedef struct lrr_export_options {
+    size_t size;     /* sizeof(lrr_export_options) (lrr_export_options_defaults) or 0 */
+    int subpatches;  /* 1: the subpatch mesh; 0: the input triangles (default) */
+    double exposure; /* colour = min(1, B × exposure); > 0, default 1 (B itself); 0 =
+                        automatic, as lrr_render_png: the area-weighted mean luminance of the
+                        non-emitting subpatches maps to 0.18 */
+} lrr_export_options;
+static inline lrr_export_options lrr_export_options_defaults(void)
+{
+    lrr_export_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    o.exposure = 1;
+    return o;
+}
+
+/* Writes the lit mesh of op with radiosity (n×3, operator order, finite and >= 0) as binary
+ * glTF 2.0 (.glb) to path, atomically (path is never a partial file). One mesh with one
+ * triangle primitive per material; attributes POSITION, NORMAL, COLOR_0 (float VEC4, alpha
+ * 1) and _RADIOSITY (float VEC3, B unclamped); 32-bit indices. opts may be NULL. Errors:
+ * LRR_ERR_INVALID_ARG (a bad option; a negative or non-finite radiosity, naming the
+ * subpatch), LRR_ERR_OVERFLOW (more than glTF's 32-bit counts and byte lengths hold),
+ * LRR_ERR_IO (naming the path and the step). Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_export_gltf(const lrr_operator *op, const float *radiosity,
+                                                 const lrr_export_options *opts,
+                                                 const char *path) LRR_NONNULL(1, 2, 4);
+/* The same mesh as binary little-endian PLY: per vertex float x, y, z, nx, ny, nz; uchar
+ * red, green, blue: the colour above sRGB-encoded, since PLY readers (MeshLab, Blender)
+ * take uchar colours as display colours and few read float ones; float radiosity_r,
+ * radiosity_g, radiosity_b: B unclamped. Per face a uchar/uint vertex_indices list and a
+ * uint material (its reflectance and emission in the header's comments). Same errors and
+ * atomicity as lrr_export_gltf. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_export_ply(const lrr_operator *op, const float *radiosity,
+                                                const lrr_export_options *opts,
+                                                const char *path) LRR_NONNULL(1, 2, 4);
+
+/* What an export holds (info_size = sizeof *info, see Conventions). */
+typedef struct lrr_export_info {
+    size_t vertices, triangles, materials;
+    double exposure;  /* the exposure applied (the automatic one resolved) */
+} lrr_export_info;
+/* Builds the mesh lrr_export_gltf / _ply would write (same checks and errors; path only
+ * names it in messages) and reports its sizes, writing nothing. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_export_get_info(const lrr_operator *op,
+                                                     const float *radiosity,
+                                                     const lrr_export_options *opts,
+                                                     const char *path, lrr_export_info *info,
+                                                     size_t info_size)
+    LRR_NONNULL(1, 2, 4, 5);
+
 /* ---------------------------------------------------------------- light probes */
 /* An environment map in the latitude–longitude layout: W×H pixels with W = 2H, row 0 at the
  * zenith (theta = 0), column 0 at phi = 0. Pixel (u, v) looks along

@@ -113,6 +113,8 @@ help_mentions solve --csv --emission-scale --repeat --path --backend LRR_OPENCL_
     --probe-method --probe-scale --no-scene-emission direct_light_seconds
 help_mentions render -o --width --height --exposure --emission-scale --probe --sources --probe-method \
     --eye --target --up --fov --format .exr linear
+help_mentions export -o --format --subpatches --exposure --emission-scale COLOR_0 KHR_materials_unlit \
+    radiosity_r
 help_mentions demo --out --memory-budget
 help_mentions reference --method jacobi gauss-seidel southwell direct path-trace --samples --tol --max-iterations \
     --memory-budget --csv --hemicube --seed --threads --progress --patches --levels
@@ -548,6 +550,48 @@ else
 fi
 run render "$LRRFILE" -o "$T/pic.jpg" --format tiff
 expect_rc 2 "render --format tiff is a usage error"
+
+# ---------------------------------------------------------------- export
+run export "$LRRFILE" -o "$T/lit.glb"
+sig=$(od -An -c -N4 "$T/lit.glb" 2>/dev/null | tr -d ' \n')
+if [ "$rc" -eq 0 ] && [ "$sig" = glTF ] && [ "$(value vertices)" -gt 0 ] &&
+    [ "$(value triangles)" -gt 0 ] && [ "$(value materials)" -gt 0 ] &&
+    [ "$(value output)" = "$T/lit.glb" ]; then
+    pass "export writes a .glb ($(value vertices) vertices, $(value triangles) triangles)"
+else
+    fail "export -o X.glb (exit $rc), signature '$sig'"
+    show_err
+fi
+tris=$(value triangles)
+run export "$LRRFILE" -o "$T/lit.ply" --subpatches --exposure auto
+if [ "$rc" -eq 0 ] && [ "$(head -c 4 "$T/lit.ply")" = ply ] &&
+    grep -aq "^element face $(value triangles)\$" "$T/lit.ply" && [ "$(value triangles)" -gt "$tris" ]; then
+    pass "export --subpatches -o X.ply writes the subpatch mesh as PLY"
+else
+    fail "export --subpatches -o X.ply (exit $rc)"
+    show_err
+fi
+# the Khronos validator, where it is installed (npm gltf-validator); skipped otherwise
+VALIDATOR_JS=""
+if command -v node >/dev/null 2>&1 && command -v npm >/dev/null 2>&1; then
+    npm_root=$(npm root -g 2>/dev/null)
+    [ -f "$npm_root/gltf-validator/package.json" ] && VALIDATOR_JS="$npm_root/gltf-validator"
+fi
+if [ -n "$VALIDATOR_JS" ]; then
+    errors=$(node -e "require('$VALIDATOR_JS').validateBytes(new Uint8Array(require('fs')
+        .readFileSync(process.argv[1]))).then(r => console.log(r.issues.numErrors))" "$T/lit.glb")
+    if [ "$errors" = 0 ]; then pass "gltf-validator: 0 errors"; else fail "gltf-validator: '$errors' errors"; fi
+else
+    echo "SKIP: gltf-validator (npm) is not installed"
+fi
+run export "$LRRFILE" -o "$T/lit.obj"
+expect_rc 2 "export -o X.obj without --format is a usage error"
+run export "$LRRFILE" -o "$T/lit.glb" --format fbx
+expect_rc 2 "export --format fbx is a usage error"
+run export "$LRRFILE" -o "$T/lit.glb" --exposure 0
+expect_rc 2 "export --exposure 0 is a usage error"
+run export "$LRRFILE"
+expect_rc 2 "export without -o is a usage error"
 
 # ---------------------------------------------------------------- damaged input
 size=$(wc -c <"$LRRFILE" | tr -d ' ')

@@ -22,6 +22,7 @@ int cmd_check(int argc, char *argv[]);
 int cmd_preprocess(int argc, char *argv[]);
 int cmd_solve(int argc, char *argv[]);
 int cmd_render(int argc, char *argv[]);
+int cmd_export(int argc, char *argv[]);
 int cmd_reference(int argc, char *argv[]);
 int cmd_compare(int argc, char *argv[]);
 int cmd_demo(int argc, char *argv[]);
@@ -91,7 +92,8 @@ enum {
     OPT_ADAPTIVE_SAMPLES,
     OPT_ADAPTIVE_SPLIT,
     OPT_SAMPLES,
-    OPT_FORMFACTOR
+    OPT_FORMFACTOR,
+    OPT_SUBPATCHES
 };
 
 /* ------------------------------------------------------------------ help fragments */

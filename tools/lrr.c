@@ -6,6 +6,7 @@
  *   lrr preprocess SCENE  build and save the operator (F̄, M_c)
  *   lrr solve FILE.lrr    solve for the stored emission, time it, write a CSV
  *   lrr render FILE.lrr   solve and draw a PNG
+ *   lrr export FILE.lrr   solve and write the lit mesh as glTF (.glb) or PLY
  *   lrr reference SCENE   the full n×n form factors and a classic solver, for comparison
  *   lrr compare A B       error measures of one radiosity CSV against another
  *   lrr demo              the Cornell box from start to picture
@@ -37,6 +38,7 @@ static const char main_help[] =
     "  preprocess SCENE     build the operator and save it to an .lrr file\n"
     "  solve FILE.lrr       solve for the stored emission, time it, optionally write a CSV\n"
     "  render FILE.lrr      solve and draw a PNG\n"
+    "  export FILE.lrr      solve and write the lit mesh as glTF (.glb) or PLY\n"
     "  reference SCENE      full n×n form factors and a classic solver, to measure against\n"
     "  compare A.csv B.csv  errors of the radiosity in A against the reference B\n"
     "  demo                 the Cornell box from scene to picture\n"
@@ -72,6 +74,7 @@ int lrr_cli_main(int argc, char *argv[], int parse_only)
                     {"preprocess", cmd_preprocess},
                     {"solve", cmd_solve},
                     {"render", cmd_render},
+                    {"export", cmd_export},
                     {"reference", cmd_reference},
                     {"compare", cmd_compare},
                     {"demo", cmd_demo},

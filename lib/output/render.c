@@ -62,6 +62,26 @@ static lrr_status auto_exposure(const lrr_operator *op, const float *radiosity,
     return LRR_OK;
 }
 
+double lrr__output_auto_exposure(const lrr_operator *op, const float *radiosity)
+{
+    double sum[2] = {0, 0}, area[2] = {0, 0}; /* [0] non-emitters, [1] all */
+    for (size_t i = 0; i < op->n; i++) {
+        const float *e = op->emission ? op->emission + 3 * i : NULL;
+        int emits = e && (e[0] > 0 || e[1] > 0 || e[2] > 0);
+        double a = op->area[i], l = luminance(radiosity + 3 * i);
+        if (!emits) {
+            sum[0] += a * l;
+            area[0] += a;
+        }
+        sum[1] += a * l;
+        area[1] += a;
+    }
+    double mean = area[0] > 0 && sum[0] > 0 ? sum[0] / area[0]
+                  : area[1] > 0            ? sum[1] / area[1]
+                                           : 0;
+    return mean > 0 && isfinite(mean) ? EXPOSURE_KEY / mean : 1.0;
+}
+
 /* sRGB 8-bit encoding by thresholds: code k is the first whose lower bound (the linear
  * value that encodes to k - 1/2) exceeds y. Exact rounding, with no pow() per pixel. */
 typedef struct srgb_table {
@@ -130,9 +150,9 @@ static void membuf_write(void *user, void *data, int size)
 }
 
 /* Writes data to path through the atomic writer (core/atomic_file.c), so that path never
- * holds a partial picture; its steps go through the context's I/O fault hook. */
-static lrr_status write_atomic(lrr_context *ctx, const char *path, const unsigned char *data,
-                               size_t len)
+ * holds a partial file; its steps go through the context's I/O fault hook. */
+lrr_status lrr__output_write_atomic(lrr_context *ctx, const char *path,
+                                    const unsigned char *data, size_t len)
 {
     lrr__atomic_io io;
     lrr__context_atomic_io(ctx, &io);
@@ -298,7 +318,8 @@ static lrr_status shade_vertices(const lrr_operator *op, const float *radiosity,
     #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < n; i++)
         lrr__subpatch_vertices(&op->geom, i, pos + 9 * i);
-    return lrr__render_weld_vertices(op, pos, radiosity, b->corner_vertex, &b->vcol);
+    return lrr__render_weld_vertices(op, pos, radiosity, NULL, b->corner_vertex, &b->vcol,
+                                     NULL);
 }
 
 /* b->tris: the clipped screen triangles of every subpatch, in subpatch order. */
@@ -365,7 +386,7 @@ static lrr_status write_png(lrr_context *ctx, const char *path, unsigned width,
         st = lrr__error(ctx, LRR_ERR_NOMEM, "render %s: PNG encoding of %u×%u pixels failed",
                         path, width, height);
     else
-        st = write_atomic(ctx, path, png.data, png.len);
+        st = lrr__output_write_atomic(ctx, path, png.data, png.len);
     free(png.data);
     return st;
 }
@@ -421,7 +442,7 @@ lrr_status lrr_render_exr(const lrr_operator *op, const float *radiosity,
     if (!st)
         st = lrr__render_encode_exr(op->ctx, path, width, height, b.fb.rgb, &data, &len);
     if (!st)
-        st = write_atomic(op->ctx, path, data, len);
+        st = lrr__output_write_atomic(op->ctx, path, data, len);
     lrr_aligned_free(data);
     render_free(&b);
     return st;

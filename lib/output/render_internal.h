@@ -1,6 +1,7 @@
-/* Shared by the files of the renderer (lib/output/ only; lrr.h declares lrr_render_png and
- * lrr_render_exr): render.c (the entry points, tone mapping, PNG output), exr.cpp (OpenEXR
- * output), camera.c (the camera of the
+/* Shared by the files of the renderer and the exporter (lib/output/ only; lrr.h declares
+ * lrr_render_png, lrr_render_exr, lrr_export_gltf and lrr_export_ply): render.c (the entry
+ * points, tone mapping, PNG output), exr.cpp (OpenEXR output), export.c, gltf.c and
+ * ply_out.c (the lit mesh as glTF 2.0 or PLY), camera.c (the camera of the
  * built-in scenes and of generic bounds), weld.c (subpatch corners welded into shared
  * vertices for smooth shading) and raster.c (clipping, triangle setup, the z-buffer
  * rasteriser). */
@@ -43,13 +44,46 @@ lrr_status lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op,
                                     const float *radiosity, const lrr_render_options *o,
                                     unsigned width, unsigned height);
 
+/* render.c */
+/* Writes data to path through the atomic writer (core/atomic_file.c): path never holds a
+ * partial file; every step goes through the context's I/O fault hook. */
+lrr_status lrr__output_write_atomic(lrr_context *ctx, const char *path,
+                                    const unsigned char *data, size_t len);
+/* The automatic exposure of lrr_export_options (exposure 0): the area-weighted mean
+ * luminance of all non-emitting subpatches (all subpatches if every one emits) maps to
+ * 0.18, as lrr_render_png's does for the visible ones. 1 when that mean is 0. */
+double lrr__output_auto_exposure(const lrr_operator *op, const float *radiosity);
+
+/* export.c */
+/* The lit mesh that lrr_export_gltf and lrr_export_ply write (lrr.h "export"). */
+typedef struct lrr__export_mesh {
+    size_t nv, nt, nm;     /* vertices, triangles, materials */
+    float *pos, *normal;   /* nv×3 */
+    float *radiosity;      /* nv×3: the vertex's area-weighted mean B, unscaled */
+    float *colour;         /* nv×3: min(1, radiosity × exposure) */
+    uint32_t *index;       /* nt×3, grouped by material */
+    size_t *tri_start;     /* nm+1: material m's triangles are tri_start[m] .. [m+1]-1 */
+    float *rho, *emission; /* nm×3: each material's reflectance and emission */
+    double exposure;       /* the exposure used (resolved when the option was 0) */
+    int subpatches;        /* the mesh is the subpatch mesh */
+} lrr__export_mesh;
+/* Checks the request (options, radiosity; errors name `what`, the function, and path) and
+ * builds the mesh. m is zeroed first; free it with lrr__export_mesh_free even on failure. */
+lrr_status lrr__export_mesh_build(const lrr_operator *op, const float *radiosity,
+                                  const lrr_export_options *opts, const char *what,
+                                  const char *path, lrr__export_mesh *m);
+void lrr__export_mesh_free(lrr__export_mesh *m);
+
 /* weld.c */
 /* corner_vertex (3n): per subpatch corner (pos, 9 per subpatch) a welded vertex;
  * *vertex_colour: per vertex the area-weighted mean radiosity of the subpatches that touch
- * it (free with lrr_aligned_free). */
+ * it (free with lrr_aligned_free); *n_vertices (unless NULL) their number. group (n, or
+ * NULL for one group): corners of subpatches in different groups never share a vertex (the
+ * exporter's material edges). */
 lrr_status lrr__render_weld_vertices(const lrr_operator *op, const double *pos,
-                                     const float *radiosity, uint32_t *corner_vertex,
-                                     float **vertex_colour);
+                                     const float *radiosity, const uint32_t *group,
+                                     uint32_t *corner_vertex, float **vertex_colour,
+                                     size_t *n_vertices);
 
 /* raster.c */
 /* The clipped screen triangles of subpatch id, Gouraud-coloured by its welded vertices

@@ -1,5 +1,6 @@
 /* Vertex welding for smooth shading: subpatch corners that coincide (and whose subpatches
- * face the same way) become one vertex, coloured by the mean radiosity around it. */
+ * face the same way, and are in the same group: the exporter's materials) become one
+ * vertex, coloured by the mean radiosity around it. */
 #include "config.h"
 #include "output/render_internal.h"
 
@@ -11,10 +12,12 @@
 #define WELD_POS_TOL 1e-5
 #define WELD_NORMAL_TOL 1e-3f
 
-/* A welded vertex: quantised position and the normal of the first subpatch that made it. */
+/* A welded vertex: quantised position, the normal of the first subpatch that made it and
+ * its group (0 when the caller gives none). */
 typedef struct wvert {
     int32_t key[3];
     float normal[3];
+    uint32_t group;
 } wvert;
 
 typedef struct weld {
@@ -41,15 +44,17 @@ static int normals_agree(const float *a, const float *b)
            fabsf(a[2] - b[2]) <= WELD_NORMAL_TOL;
 }
 
-/* *id = the vertex at key k with a normal agreeing with nrm, added if there is none. */
-static lrr_status weld_insert(weld *w, const int32_t k[3], const float nrm[3], uint32_t *id)
+/* *id = the vertex at key k in group g with a normal agreeing with nrm, added if there is
+ * none. */
+static lrr_status weld_insert(weld *w, const int32_t k[3], const float nrm[3], uint32_t g,
+                              uint32_t *id)
 {
     /* the table has at least twice as many slots as corners: probing finds an empty one */
     size_t mask = w->cap - 1, h = hash_key(k) & mask;
     for (; w->slot[h] != 0; h = (h + 1) & mask) {
         const wvert *v = &w->vert[w->slot[h] - 1];
         if (v->key[0] == k[0] && v->key[1] == k[1] && v->key[2] == k[2] &&
-            normals_agree(v->normal, nrm)) {
+            v->group == g && normals_agree(v->normal, nrm)) {
             *id = w->slot[h] - 1;
             return LRR_OK;
         }
@@ -69,6 +74,7 @@ static lrr_status weld_insert(weld *w, const int32_t k[3], const float nrm[3], u
     uint32_t v = (uint32_t)w->nv++;
     memcpy(w->vert[v].key, k, sizeof w->vert[v].key);
     memcpy(w->vert[v].normal, nrm, sizeof w->vert[v].normal);
+    w->vert[v].group = g;
     w->slot[h] = v + 1;
     *id = v;
     return LRR_OK;
@@ -77,8 +83,9 @@ static lrr_status weld_insert(weld *w, const int32_t k[3], const float nrm[3], u
 /* Per corner (3n) a welded vertex, and per vertex the area-weighted mean radiosity of the
  * subpatches that touch it. */
 lrr_status lrr__render_weld_vertices(const lrr_operator *op, const double *pos,
-                                     const float *radiosity, uint32_t *corner_vertex,
-                                     float **vertex_colour)
+                                     const float *radiosity, const uint32_t *group,
+                                     uint32_t *corner_vertex, float **vertex_colour,
+                                     size_t *n_vertices)
 {
     lrr_context *ctx = op->ctx;
     size_t n = op->n, nc = 3 * n;
@@ -104,7 +111,8 @@ lrr_status lrr__render_weld_vertices(const lrr_operator *op, const double *pos,
         int32_t k[3];
         for (int j = 0; j < 3; j++)
             k[j] = (int32_t)lround((pos[3 * c + j] - lo[j]) / q);
-        if ((st = weld_insert(&w, k, op->normal + 3 * (c / 3), &corner_vertex[c])))
+        uint32_t g = group ? group[c / 3] : 0;
+        if ((st = weld_insert(&w, k, op->normal + 3 * (c / 3), g, &corner_vertex[c])))
             goto done;
     }
     /* per vertex: area-weighted sums of r, g, b and the weight */
@@ -127,6 +135,8 @@ lrr_status lrr__render_weld_vertices(const lrr_operator *op, const double *pos,
         for (int j = 0; j < 3; j++)
             col[3 * v + j] = (float)(acc[4 * v + j] / acc[4 * v + 3]);
     *vertex_colour = col;
+    if (n_vertices)
+        *n_vertices = w.nv;
 done:
     lrr_aligned_free(w.slot);
     lrr_aligned_free(w.vert);

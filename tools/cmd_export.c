@@ -1,0 +1,200 @@
+/* lrr export: solve a saved operator for its stored emission and write the lit mesh as
+ * binary glTF 2.0 (.glb) or PLY with vertex colours, for other programs to show. */
+#include <getopt.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#include "commands.h"
+
+static const char prog[] = "lrr export";
+
+static const char export_help[] =
+    "Usage: lrr export FILE.lrr -o OUT.glb|OUT.ply [OPTIONS]\n"
+    "Solves for the stored emission and writes the lit scene as a mesh with a colour per\n"
+    "vertex: binary glTF 2.0 (.glb) or binary little-endian PLY.\n"
+    "\n"
+    "The mesh is the scene's input triangles (or with --subpatches the subpatch mesh). A\n"
+    "vertex's colour is the area-weighted mean radiosity B of the subpatches at that corner\n"
+    "(what 'lrr render' interpolates), times the exposure, clamped to 1 (viewers show no\n"
+    "more than 1). Corners are shared where surfaces meet flat and in one material, and\n"
+    "split at creases and material edges, so light does not bleed across them.\n"
+    "glTF: COLOR_0 (linear float RGBA) holds that colour and _RADIOSITY (float RGB) the\n"
+    "unclamped B; one material per (reflectance, emission), unlit (KHR_materials_unlit) with\n"
+    "a white base colour, since the light and the reflectance are already in COLOR_0; each\n"
+    "material's reflectance and emission are in its 'extras'. Blender, three.js and the\n"
+    "Khronos viewer show the lit scene as is.\n"
+    "PLY: per vertex x y z, nx ny nz, red green blue (uchar, the colour sRGB-encoded: what\n"
+    "PLY viewers expect) and radiosity_r/_g/_b (float, B unclamped); per face its vertex\n"
+    "indices and its material (listed in the header's comments).\n"
+    "\n"
+    "Options:\n"
+    "  -o, --output OUT     where to write (required); the format follows the extension,\n"
+    "                       .glb or .ply (any case)\n"
+    "  --format F           gltf or ply: wins over the extension (needed for any other one)\n"
+    "  --subpatches         the subpatch mesh instead of the input triangles\n"
+    "  --exposure X         colour = min(1, B × X): X > 0, or 'auto' (the mean radiosity of\n"
+    "                       the surfaces that do not emit maps to 0.18; default 1: B itself)\n"
+    "  --emission-scale S   multiply the stored emission by S (finite, >= 0; default 1)\n"
+    "  -h, --help           show this help\n"
+    "\n"
+    "Prints vertices, triangles, materials, exposure and output as 'key: value' lines.\n";
+
+enum { FORMAT_NONE, FORMAT_GLTF, FORMAT_PLY };
+
+typedef struct export_args {
+    const char *file, *output;
+    lrr_export_options eo;
+    double scale;
+    int format;
+} export_args;
+
+/* The options of export: 1 handled, 0 not one of them, -1 usage error (reported). */
+static int export_option(export_args *a, int c, const char *arg)
+{
+    switch (c) {
+    case 'o':
+        a->output = arg;
+        return 1;
+    case OPT_SUBPATCHES:
+        a->eo.subpatches = 1;
+        return 1;
+    case OPT_EXPOSURE:
+        if (strcmp(arg, "auto") == 0) {
+            a->eo.exposure = 0;
+            return 1;
+        }
+        return cli_parse_double(prog, "--exposure", arg, 0.0, 1, 1e300, &a->eo.exposure) != 0
+                   ? -1 : 1;
+    case OPT_EMISSION_SCALE:
+        return cli_parse_double(prog, "--emission-scale", arg, 0.0, 0, 1e300, &a->scale) != 0
+                   ? -1 : 1;
+    case OPT_FORMAT:
+        if (strcmp(arg, "gltf") == 0 || strcmp(arg, "glb") == 0)
+            a->format = FORMAT_GLTF;
+        else if (strcmp(arg, "ply") == 0)
+            a->format = FORMAT_PLY;
+        else {
+            cli_usage_error(prog, "--format: '%s' is not one of gltf, ply", arg);
+            return -1;
+        }
+        return 1;
+    default:
+        return 0;
+    }
+}
+
+/* The output format: --format, else the extension (.glb, .ply, any case). */
+static int format_finish(export_args *a)
+{
+    if (a->format != FORMAT_NONE)
+        return 0;
+    const char *dot = strrchr(a->output, '.');
+    if (dot && strchr(dot, '/') == NULL) {
+        if (strcasecmp(dot, ".glb") == 0)
+            a->format = FORMAT_GLTF;
+        else if (strcasecmp(dot, ".ply") == 0)
+            a->format = FORMAT_PLY;
+    }
+    if (a->format == FORMAT_NONE) {
+        cli_usage_error(prog, "-o %s: unknown mesh format (name it .glb or .ply, or give "
+                        "--format gltf|ply)",
+                        a->output);
+        return -1;
+    }
+    return 0;
+}
+
+/* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
+static int parse_export(export_args *a, int argc, char *argv[])
+{
+    static const struct option longopts[] = {
+        {"output", required_argument, NULL, 'o'},
+        {"format", required_argument, NULL, OPT_FORMAT},
+        {"subpatches", no_argument, NULL, OPT_SUBPATCHES},
+        {"exposure", required_argument, NULL, OPT_EXPOSURE},
+        {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    *a = (export_args){.eo = lrr_export_options_defaults(), .scale = 1.0};
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
+        if (c == 'h') {
+            fputs(export_help, stdout);
+            return CLI_EXIT_OK;
+        }
+        int r = export_option(a, c, optarg);
+        if (r < 0)
+            return CLI_EXIT_USAGE;
+        if (r == 0)
+            return bad_option(prog, c, argv);
+    }
+    a->file = one_positional(prog, "FILE.lrr", argc, argv);
+    if (!a->file)
+        return CLI_EXIT_USAGE;
+    if (!a->output || !a->output[0]) {
+        cli_usage_error(prog, "-o OUT.glb (or OUT.ply) is required");
+        fprintf(stderr, "Try '%s --help'.\n", prog);
+        return CLI_EXIT_USAGE;
+    }
+    return format_finish(a) != 0 ? CLI_EXIT_USAGE : CLI_RUN;
+}
+
+/* The mesh's sizes, then the file. */
+static int write_mesh(lrr_context *ctx, const lrr_operator *op, const float *b,
+                      const export_args *a)
+{
+    lrr_export_info info;
+    lrr_status s = lrr_export_get_info(op, b, &a->eo, a->output, &info, sizeof info);
+    if (s == LRR_OK)
+        s = a->format == FORMAT_PLY ? lrr_export_ply(op, b, &a->eo, a->output)
+                                    : lrr_export_gltf(op, b, &a->eo, a->output);
+    if (s != LRR_OK)
+        return cli_lib_error(ctx, s);
+    printf("vertices: %zu\ntriangles: %zu\nmaterials: %zu\nexposure: %.6g\n", info.vertices,
+           info.triangles, info.materials, info.exposure);
+    printf("format: %s\noutput: %s\n", a->format == FORMAT_PLY ? "ply" : "gltf", a->output);
+    return CLI_EXIT_OK;
+}
+
+static int run_export(const export_args *a)
+{
+    lrr_context *ctx = NULL;
+    lrr_status s = lrr_context_create(&ctx);
+    if (s != LRR_OK)
+        return cli_lib_error(NULL, s);
+    lrr_operator *op = NULL;
+    float *e = NULL, *b = NULL;
+    double ms = 0.0;
+    int rc = load_operator(ctx, a->file, &op);
+    if (rc == CLI_EXIT_OK)
+        rc = scaled_emission(op, a->scale, &e);
+    /* --lights (lib/light/) goes here: its emission added to e, as render's --probe does */
+    if (rc == CLI_EXIT_OK) {
+        lrr_operator_info oi;
+        lrr_operator_get_info(op, &oi, sizeof oi);
+        b = cli_alloc_rgb(oi.n);
+        rc = b ? timed_solve(ctx, op, LRR_BACKEND_CPU, e, b, 0, LRR_PATH_AUTO, &ms, NULL, NULL)
+               : CLI_EXIT_FAIL;
+    }
+    if (rc == CLI_EXIT_OK)
+        rc = write_mesh(ctx, op, b, a);
+    free(b);
+    free(e);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+    return rc;
+}
+
+int cmd_export(int argc, char *argv[])
+{
+    export_args a;
+    int rc = parse_export(&a, argc, argv);
+    if (rc != CLI_RUN)
+        return rc;
+    if (cli_parse_only)
+        return CLI_EXIT_OK;
+    return run_export(&a);
+}
