@@ -60,63 +60,18 @@ enum { FORMAT_NONE, FORMAT_PNG, FORMAT_EXR };
 typedef struct render_args {
     const char *file, *output;
     probe_args pa;
-    lrr_render_options ro;
+    view_args view;              /* size, exposure, camera */
     double scale;
     int format;                  /* --format, else FORMAT_NONE */
-    int have_eye, have_target, have_up, have_camera;
 } render_args;
 
 /* ------------------------------------------------------------------ parsing */
-/* "X,Y,Z": three finite numbers; 0 or -1 (reported, naming opt). */
-static int parse_vec3(const char *opt, const char *arg, double v[3])
-{
-    const char *p = arg;
-    for (int j = 0; j < 3; j++) {
-        char *end = NULL;
-        errno = 0;
-        v[j] = strtod(p, &end);
-        if (end == p || errno == ERANGE || !isfinite(v[j]) || *end != (j < 2 ? ',' : '\0')) {
-            cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
-            return -1;
-        }
-        p = end + 1;
-    }
-    return 0;
-}
-
 /* The options of render alone: 1 handled, 0 not one of them, -1 usage error (reported). */
 static int render_option(render_args *a, int c, const char *arg)
 {
     switch (c) {
     case 'o':
         a->output = arg;
-        return 1;
-    case OPT_WIDTH:
-        return cli_parse_unsigned(prog, "--width", arg, 1, 16384, &a->ro.width) != 0 ? -1 : 1;
-    case OPT_HEIGHT:
-        return cli_parse_unsigned(prog, "--height", arg, 1, 16384, &a->ro.height) != 0 ? -1 : 1;
-    case OPT_EXPOSURE:
-        return cli_parse_double(prog, "--exposure", arg, 0.0, 1, 1e300, &a->ro.exposure) != 0
-                   ? -1 : 1;
-    case OPT_EMISSION_SCALE:
-        return cli_parse_double(prog, "--emission-scale", arg, 0.0, 0, 1e300, &a->scale) != 0
-                   ? -1 : 1;
-    case OPT_EYE:
-        a->have_eye = 1;
-        return parse_vec3("--eye", arg, a->ro.eye) != 0 ? -1 : 1;
-    case OPT_TARGET:
-        a->have_target = 1;
-        return parse_vec3("--target", arg, a->ro.target) != 0 ? -1 : 1;
-    case OPT_UP:
-        a->have_up = 1;
-        return parse_vec3("--up", arg, a->ro.up) != 0 ? -1 : 1;
-    case OPT_FOV:
-        if (cli_parse_double(prog, "--fov", arg, 0.0, 1, 180.0, &a->ro.fov_degrees) != 0)
-            return -1;
-        if (a->ro.fov_degrees >= 180) {
-            cli_usage_error(prog, "--fov: '%s' is out of range (it must be less than 180)", arg);
-            return -1;
-        }
         return 1;
     case OPT_FORMAT:
         if (strcmp(arg, "png") == 0)
@@ -128,63 +83,11 @@ static int render_option(render_args *a, int c, const char *arg)
             return -1;
         }
         return 1;
-    case OPT_CAMERA:
-        a->have_camera = 1;
-        if (strcmp(arg, "cornell") == 0)
-            a->ro.use_cornell_camera = 1;
-        else if (strcmp(arg, "fit") == 0)
-            a->ro.use_cornell_camera = 0;
-        else if (strcmp(arg, "auto") == 0)
-            a->ro.use_cornell_camera = -1;
-        else {
-            cli_usage_error(prog, "--camera: '%s' is not one of cornell, fit, auto", arg);
-            return -1;
-        }
-        return 1;
-    default:
-        return probe_option(&a->pa, prog, c, arg);
+    default: {
+        int r = view_option(&a->view, prog, c, arg);
+        return r ? r : probe_option(&a->pa, prog, c, arg);
     }
-}
-
-/* --eye needs --target (and they exclude --camera); --up only with --eye; the library's
- * checks repeated here, so that a bad camera is a usage error naming the option. */
-static int camera_finish(render_args *a)
-{
-    if (!a->have_eye && (a->have_target || a->have_up)) {
-        cli_usage_error(prog, "%s needs --eye", a->have_target ? "--target" : "--up");
-        return -1;
     }
-    if (!a->have_eye)
-        return 0;
-    if (!a->have_target) {
-        cli_usage_error(prog, "--eye needs --target");
-        return -1;
-    }
-    if (a->have_camera) {
-        cli_usage_error(prog, "--eye and --camera exclude each other");
-        return -1;
-    }
-    double f[3], s[3];
-    const double *u = a->ro.up;
-    for (int j = 0; j < 3; j++)
-        f[j] = a->ro.target[j] - a->ro.eye[j];
-    if (f[0] == 0 && f[1] == 0 && f[2] == 0) {
-        cli_usage_error(prog, "--target: equals --eye (no view direction)");
-        return -1;
-    }
-    s[0] = f[1] * u[2] - f[2] * u[1];
-    s[1] = f[2] * u[0] - f[0] * u[2];
-    s[2] = f[0] * u[1] - f[1] * u[0];
-    double lf = sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]);
-    double lu = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    if (!(sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]) > 1e-6 * lf * lu)) {
-        cli_usage_error(prog, "--up: (%g,%g,%g) is zero or parallel to the view direction "
-                        "target - eye",
-                        u[0], u[1], u[2]);
-        return -1;
-    }
-    a->ro.use_eye = 1;
-    return 0;
 }
 
 /* The output format: --format, else the extension (.png, .exr, any case). */
@@ -213,21 +116,14 @@ static int parse_render(render_args *a, int argc, char *argv[])
 {
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'},
-        {"width", required_argument, NULL, OPT_WIDTH},
-        {"height", required_argument, NULL, OPT_HEIGHT},
-        {"exposure", required_argument, NULL, OPT_EXPOSURE},
+        VIEW_LONGOPTS,
         {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
-        {"camera", required_argument, NULL, OPT_CAMERA},
-        {"eye", required_argument, NULL, OPT_EYE},
-        {"target", required_argument, NULL, OPT_TARGET},
-        {"up", required_argument, NULL, OPT_UP},
-        {"fov", required_argument, NULL, OPT_FOV},
         {"format", required_argument, NULL, OPT_FORMAT},
         PROBE_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
-    *a = (render_args){.ro = lrr_render_options_defaults(), .scale = 1.0};
-    a->ro.width = a->ro.height = 0;
+    *a = (render_args){.scale = 1.0};
+    view_args_init(&a->view);
     probe_args_init(&a->pa);
     start_getopt();
     int c;
@@ -250,7 +146,7 @@ static int parse_render(render_args *a, int argc, char *argv[])
         fprintf(stderr, "Try '%s --help'.\n", prog);
         return CLI_EXIT_USAGE;
     }
-    if (probe_finish(&a->pa, prog) != 0 || camera_finish(a) != 0 || format_finish(a) != 0)
+    if (probe_finish(&a->pa, prog) != 0 || view_finish(&a->view, prog) != 0 || format_finish(a) != 0)
         return CLI_EXIT_USAGE;
     return CLI_RUN;
 }
@@ -278,8 +174,8 @@ static int run_render(const render_args *a)
                : CLI_EXIT_FAIL;
     }
     if (rc == CLI_EXIT_OK) {
-        s = a->format == FORMAT_EXR ? lrr_render_exr(op, b, &a->ro, a->output)
-                                    : lrr_render_png(op, b, &a->ro, a->output);
+        s = a->format == FORMAT_EXR ? lrr_render_exr(op, b, &a->view.ro, a->output)
+                                    : lrr_render_png(op, b, &a->view.ro, a->output);
         if (s != LRR_OK)
             rc = cli_lib_error(ctx, s);
     }

@@ -202,6 +202,27 @@ typedef struct probe_args {
     lrr_light_source light[CLI_MAX_LIGHTS]; /* --light SPEC, repeatable */
     size_t lights;
 } probe_args;
+/* The picture options of render and animate (tools/cli_view.c). */
+typedef struct view_args {
+    lrr_render_options ro;
+    int have_eye, have_target, have_up, have_camera;
+} view_args;
+#define VIEW_LONGOPTS                                                                         \
+    {"width", required_argument, NULL, OPT_WIDTH},                                            \
+    {"height", required_argument, NULL, OPT_HEIGHT},                                          \
+    {"exposure", required_argument, NULL, OPT_EXPOSURE},                                      \
+    {"camera", required_argument, NULL, OPT_CAMERA},                                          \
+    {"eye", required_argument, NULL, OPT_EYE},                                                \
+    {"target", required_argument, NULL, OPT_TARGET},                                          \
+    {"up", required_argument, NULL, OPT_UP},                                                  \
+    {"fov", required_argument, NULL, OPT_FOV}
+void view_args_init(view_args *v);
+/* 1: handled, 0: not a picture option, -1: usage error (reported). */
+int view_option(view_args *v, const char *prog, int c, const char *arg);
+/* --eye needs --target and excludes --camera, --up only with --eye; sets ro.use_eye. 0 or
+ * -1 after a usage message. */
+int view_finish(view_args *v, const char *prog);
+
 /* --light SPEC (tools/cli_lights.c) into l; 0, or -1 after a usage message. */
 int cli_parse_light(const char *prog, const char *spec, lrr_light_source *l);
 
