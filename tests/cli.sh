@@ -1107,13 +1107,13 @@ expect_rc 2 "--clusters with --levels 1 is rejected"
 # ---------------------------------------------------------------- moving lights
 LTFILE="$T/lights.lrr"
 run preprocess cornell -o "$LTFILE" --patches 100 --levels 1 --hemicube 16
-# a point light near the left wall (x = 0) lights the left half more than the right
+# a point light near the green wall (x = 0) lights the x < 278 half more than the other
 run solve "$LTFILE" --light 'point pos=60,300,279 rgb=20000' --no-scene-emission \
     --csv "$T/light-left.csv" --repeat 1
 if [ "$rc" -eq 0 ] && [ "$(value lights)" = 1 ] && [ -n "$(value direct_light_seconds)" ] &&
     awk -F, 'NR > 1 { if ($4 < 278) l += $3 * $10; else r += $3 * $10 }
              END { exit !(l > 1.5 * r && r > 0) }' "$T/light-left.csv"; then
-    pass "solve --light point near the left wall: the left half gets more light"
+    pass "solve --light point near the x = 0 wall: that half gets more light"
 else
     fail "solve --light (exit $rc)"; show_err
 fi
@@ -1124,6 +1124,29 @@ if [ "$rc" -eq 0 ] && [ "$(value lights)" = 3 ]; then
 else
     fail "solve with three lights (exit $rc)"; show_err
 fi
+# animate: a light crossing the box, one picture per frame
+cat > "$T/move.txt" <<'EOS'
+# from the green wall to the red one
+light point pos=60,300,279 rgb=20000
+light sun dir=0,1,0 rgb=0.5
+path 0 60,300,279 278,300,279 500,300,279
+frames 3
+emitters off
+EOS
+run animate "$LTFILE" --lights "$T/move.txt" -o "$T/frames" --width 64 --height 64
+if [ "$rc" -eq 0 ] && [ "$(value frames)" = 3 ] && [ -s "$T/frames/frame_0000.png" ] &&
+    [ -s "$T/frames/frame_0002.png" ] && [ ! -e "$T/frames/frame_0003.png" ] &&
+    [ "$(grep -c '^frame: ' "$T/out")" = 3 ] && [ -n "$(value exposure)" ]; then
+    pass "animate: 3 frames written, the split printed per frame"
+else
+    fail "animate (exit $rc)"; show_err
+fi
+printf 'light point pos=1,2,3\npath 0 1,2,3\n' > "$T/bad.txt"
+run animate "$LTFILE" --lights "$T/bad.txt" -o "$T/frames"
+expect_rc 2 "animate: a path of one point is rejected"
+if grep -q "line 2" "$T/err"; then pass "the error names the line"; else fail "no line in: $(cat "$T/err")"; fi
+run animate "$LTFILE" -o "$T/frames"
+expect_rc 2 "animate without --lights is rejected"
 run solve "$LTFILE" --light 'lamp pos=1,2,3'
 expect_rc 2 "--light with an unknown kind is rejected"
 run solve "$LTFILE" --light 'point pos=1,2'

@@ -160,4 +160,8 @@ float *cli_alloc_rgb(size_t n);
 /* Sorts v (length n) and returns its median; n must be > 0. */
 double cli_median(double *v, size_t n);
 
+/* mkdir -p: creates each missing component of dir; CLI_EXIT_OK or CLI_EXIT_FAIL (reported:
+ * what cannot be created, or a component that is not a directory). */
+int cli_make_dir(const char *dir);
+
 #endif /* LRR_CLI_H */

@@ -374,3 +374,36 @@ void cli_irradiance_error_pct(size_t m, const float *truth, const float *approx,
     *mean_pct = counted ? 100 * sum / (double)counted : NAN;
     *max_pct = counted ? 100 * emax : NAN;
 }
+
+/* ------------------------------------------------------------------ directories */
+/* mkdir -p: creates each missing component of dir. */
+int cli_make_dir(const char *dir)
+{
+    char *p = strdup(dir);
+    if (!p)
+        return cli_fail(LRR_ERR_NOMEM, "cannot copy the path '%s'", dir);
+    for (char *q = p + 1;; q++) {
+        int end = *q == '\0';
+        if (*q == '/' || end) {
+            char keep = *q;
+            *q = '\0';
+            struct stat st;
+            if (mkdir(p, 0777) != 0 && errno != EEXIST) {
+                int e = errno;
+                free(p);
+                return cli_fail(LRR_ERR_IO, "cannot create the directory '%s': %s", dir,
+                                strerror(e));
+            }
+            if (stat(p, &st) != 0 || !S_ISDIR(st.st_mode)) {
+                free(p);
+                return cli_fail(LRR_ERR_IO, "'%s' is not a directory", dir);
+            }
+            *q = keep;
+        }
+        if (end)
+            break;
+    }
+    free(p);
+    return CLI_EXIT_OK;
+}
+

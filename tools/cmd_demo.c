@@ -63,37 +63,6 @@ static int parse_demo(int argc, char *argv[], const char **dir, size_t *budget)
 }
 
 /* ------------------------------------------------------------------ output paths */
-/* mkdir -p: creates each missing component of dir. */
-static int make_dirs(const char *dir)
-{
-    char *p = strdup(dir);
-    if (!p)
-        return cli_fail(LRR_ERR_NOMEM, "cannot copy the path '%s'", dir);
-    for (char *q = p + 1;; q++) {
-        int end = *q == '\0';
-        if (*q == '/' || end) {
-            char keep = *q;
-            *q = '\0';
-            struct stat st;
-            if (mkdir(p, 0777) != 0 && errno != EEXIST) {
-                int e = errno;
-                free(p);
-                return cli_fail(LRR_ERR_IO, "cannot create the directory '%s': %s", dir,
-                                strerror(e));
-            }
-            if (stat(p, &st) != 0 || !S_ISDIR(st.st_mode)) {
-                free(p);
-                return cli_fail(LRR_ERR_IO, "'%s' is not a directory", dir);
-            }
-            *q = keep;
-        }
-        if (end)
-            break;
-    }
-    free(p);
-    return CLI_EXIT_OK;
-}
-
 static char *join_path(const char *dir, const char *file)
 {
     size_t a = strlen(dir), b = strlen(file);
@@ -272,7 +241,7 @@ static int demo_render(demo_run *d)
 
 static int run_demo(const char *dir, size_t budget)
 {
-    int rc = make_dirs(dir);
+    int rc = cli_make_dir(dir);
     if (rc)
         return rc;
     demo_run d = {.budget = budget,

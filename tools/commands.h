@@ -22,6 +22,7 @@ int cmd_check(int argc, char *argv[]);
 int cmd_preprocess(int argc, char *argv[]);
 int cmd_solve(int argc, char *argv[]);
 int cmd_render(int argc, char *argv[]);
+int cmd_animate(int argc, char *argv[]);
 int cmd_export(int argc, char *argv[]);
 int cmd_reference(int argc, char *argv[]);
 int cmd_compare(int argc, char *argv[]);
@@ -87,6 +88,7 @@ enum {
     OPT_PROBE_SCALE,
     OPT_NO_SCENE_EMISSION,
     OPT_LIGHT,
+    OPT_LIGHTS_SCRIPT,
     OPT_ADAPTIVE,
     OPT_CLUSTERS,
     OPT_ADAPTIVE_SAMPLES,

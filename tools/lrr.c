@@ -5,7 +5,8 @@
  *   lrr check SCENE       the scene doctor: degenerate, intersecting, z-fighting, flipped faces
  *   lrr preprocess SCENE  build and save the operator (F̄, M_c)
  *   lrr solve FILE.lrr    solve for the stored emission, time it, write a CSV
- *   lrr render FILE.lrr   solve and draw a PNG
+ *   lrr render FILE.lrr   solve and draw a PNG (or EXR), lit by its emitters, lights or a probe
+ *   lrr animate FILE.lrr  lights moving along paths: one picture per frame
  *   lrr export FILE.lrr   solve and write the lit mesh as glTF (.glb) or PLY
  *   lrr reference SCENE   the full n×n form factors and a classic solver, for comparison
  *   lrr compare A B       error measures of one radiosity CSV against another
@@ -37,7 +38,8 @@ static const char main_help[] =
     "  check SCENE          the scene doctor: degenerate, intersecting, z-fighting, flipped faces\n"
     "  preprocess SCENE     build the operator and save it to an .lrr file\n"
     "  solve FILE.lrr       solve for the stored emission, time it, optionally write a CSV\n"
-    "  render FILE.lrr      solve and draw a PNG\n"
+    "  render FILE.lrr      solve and draw a PNG (or EXR)\n"
+    "  animate FILE.lrr     lights moving along paths: one picture per frame\n"
     "  export FILE.lrr      solve and write the lit mesh as glTF (.glb) or PLY\n"
     "  reference SCENE      full n×n form factors and a classic solver, to measure against\n"
     "  compare A.csv B.csv  errors of the radiosity in A against the reference B\n"
@@ -74,6 +76,7 @@ int lrr_cli_main(int argc, char *argv[], int parse_only)
                     {"preprocess", cmd_preprocess},
                     {"solve", cmd_solve},
                     {"render", cmd_render},
+                    {"animate", cmd_animate},
                     {"export", cmd_export},
                     {"reference", cmd_reference},
                     {"compare", cmd_compare},
