@@ -302,6 +302,54 @@ static void test_cache(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* On an operator whose subpatches are renumbered cluster by cluster, the direct light comes
+ * out in its order: mapped back to the scene's order it equals the quadtree operator's. */
+static void test_clustered_operator(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    float rho[36], em[36] = {0}, v[108];
+    tu_box_inward(v, 2, 1, 2);
+    for (int i = 0; i < 36; i++)
+        rho[i] = 0.5f;
+    lrr_scene *sc;
+    LRR_CHECK(ctx, lrr_scene_create(ctx, 12, v, rho, em, "box", &sc));
+    lrr_subdivision sd = lrr_subdivision_defaults();
+    sd.target_patches = 400;
+    LRR_CHECK(ctx, lrr_scene_subdivide(sc, &sd));
+    lrr_build_options bo = lrr_build_options_defaults();
+    bo.hemicube_resolution = 8;
+    lrr_operator *quad, *clus;
+    LRR_CHECK(ctx, lrr_operator_build(sc, &bo, &quad));
+    bo.hierarchy = LRR_HIERARCHY_CLUSTER;
+    bo.adaptive_patches = 20;
+    bo.adaptive_split = LRR_SPLIT_AREA;
+    LRR_CHECK(ctx, lrr_operator_build(sc, &bo, &clus));
+    const size_t n = op_n(quad);
+    assert_int_equal(op_n(clus), n);
+    assert_non_null(lrr_operator_subpatch_origin(clus));
+    float *eq = malloc(3 * n * sizeof(float)), *ec = malloc(3 * n * sizeof(float)),
+          *back = malloc(3 * n * sizeof(float));
+    lrr_light_source l = point_at(0.7, 0.6, 1.1, 1.0f);
+    lrr_lighting *lq, *lc;
+    LRR_CHECK(ctx, lrr_lighting_create(quad, &lq));
+    LRR_CHECK(ctx, lrr_lighting_create(clus, &lc));
+    LRR_CHECK(ctx, lrr_lighting_direct(lq, &l, 1, eq));
+    LRR_CHECK(ctx, lrr_lighting_direct(lc, &l, 1, ec));
+    lrr_operator_scene_order(clus, ec, back);
+    assert_memory_equal(back, eq, 3 * n * sizeof(float));
+    lrr_lighting_destroy(lq);
+    lrr_lighting_destroy(lc);
+    free(eq);
+    free(ec);
+    free(back);
+    lrr_operator_destroy(quad);
+    lrr_operator_destroy(clus);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
 static void expect_bad(lrr_context *ctx, lrr_lighting *lt, lrr_light_source l, float *E,
                        const char *what)
 {
@@ -374,6 +422,7 @@ int main(void)
         cmocka_unit_test(test_area_light),
         cmocka_unit_test(test_point_in_furnace),
         cmocka_unit_test(test_cache),
+        cmocka_unit_test(test_clustered_operator),
         cmocka_unit_test(test_bad_lights),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
