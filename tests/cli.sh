@@ -563,6 +563,8 @@ else
     show_err
 fi
 tris=$(value triangles)
+glb_vertices=$(value vertices)
+glb_materials=$(value materials)
 run export "$LRRFILE" -o "$T/lit.ply" --subpatches --exposure auto
 if [ "$rc" -eq 0 ] && [ "$(head -c 4 "$T/lit.ply")" = ply ] &&
     grep -aq "^element face $(value triangles)\$" "$T/lit.ply" && [ "$(value triangles)" -gt "$tris" ]; then
@@ -583,6 +585,19 @@ if [ -n "$VALIDATOR_JS" ]; then
     if [ "$errors" = 0 ]; then pass "gltf-validator: 0 errors"; else fail "gltf-validator: '$errors' errors"; fi
 else
     echo "SKIP: gltf-validator (npm) is not installed"
+fi
+# Blender's own glTF importer, where Blender is installed (Debian blender, python3-numpy)
+if command -v blender >/dev/null 2>&1; then
+    blender -b --python "${LRR_SRCDIR:-.}/tests/blender_import.py" -- "$T/lit.glb" > "$T/blender" 2>&1
+    line=$(grep '^BLENDER_IMPORT' "$T/blender")
+    if [ "$line" = "BLENDER_IMPORT meshes 1 vertices $glb_vertices triangles $tris materials $glb_materials" ] &&
+        grep -q "^BLENDER_COLOR Col" "$T/blender"; then
+        pass "Blender imports the .glb: $line, with its vertex colours"
+    else
+        fail "Blender import: '$line'"; grep -E 'Error|BLENDER' "$T/blender" | head -n 5
+    fi
+else
+    echo "SKIP: blender is not installed"
 fi
 run export "$LRRFILE" -o "$T/lit.obj"
 expect_rc 2 "export -o X.obj without --format is a usage error"
