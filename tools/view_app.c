@@ -192,9 +192,10 @@ static int screenshot(view_app *app, const char *path)
     if (post_lights(app, 1) != 0)
         return CLI_EXIT_FAIL;
     render(app);
-    int rc = view_gl_screenshot(&app->gl, path);
+    double half[2];
+    int rc = view_gl_screenshot(&app->gl, path, half);
     if (rc == CLI_EXIT_OK)
-        printf("screenshot: %s\n", path);
+        printf("screenshot: %s\nleft_luma: %.2f\nright_luma: %.2f\n", path, half[0], half[1]);
     return rc;
 }
 

@@ -84,8 +84,9 @@ void view_gl_upload(view_gl *g, const float *b);
 void view_gl_draw(view_gl *g, const float mvp[16], double exposure, const float *markers,
                   size_t count, long selected);
 void view_gl_present(view_gl *g, int win_w, int win_h);
-/* The offscreen picture to a PNG, written atomically; CLI_EXIT_*. */
-int view_gl_screenshot(view_gl *g, const char *path);
+/* The offscreen picture to a PNG, written atomically, and the mean luma (0..255) of its
+ * left and right halves; CLI_EXIT_*. */
+int view_gl_screenshot(view_gl *g, const char *path, double half_luma[2]);
 void view_gl_free(view_gl *g);
 
 /* ------------------------------------------------------------------ text (view_font.c) */
