@@ -37,6 +37,7 @@ static const char view_help[] =
     "  --screenshot OUT.png save the last frame, after the newest state's relight\n"
     "  --sync               every frame waits for the relight of its own lights (so frames\n"
     "                       per second = relit frames per second)\n"
+    "  --overlay            draw the frame-time line into headless pictures too\n"
     "  -h, --help           show this help\n"
     "\n" VIEW_SCRIPT_HELP
     "\n"
@@ -74,7 +75,7 @@ static int parse_vec3(const char *opt, const char *arg, double v[3])
     return 0;
 }
 
-enum { OPT_SCRIPT = 1000, OPT_SCREENSHOT, OPT_FRAMES, OPT_SYNC };
+enum { OPT_SCRIPT = 1000, OPT_SCREENSHOT, OPT_FRAMES, OPT_SYNC, OPT_OVERLAY };
 
 /* 1 handled, -1 usage error (reported), 0 unknown. */
 static int view_option(view_args *a, int c, const char *arg, int *have_target)
@@ -118,6 +119,9 @@ static int view_option(view_args *a, int c, const char *arg, int *have_target)
     case OPT_SYNC:
         a->sync = 1;
         return 1;
+    case OPT_OVERLAY:
+        a->overlay = 1;
+        return 1;
     }
     return 0;
 }
@@ -138,6 +142,7 @@ static int parse_view(view_args *a, int argc, char *argv[])
         {"screenshot", required_argument, NULL, OPT_SCREENSHOT},
         {"frames", required_argument, NULL, OPT_FRAMES},
         {"sync", no_argument, NULL, OPT_SYNC},
+        {"overlay", no_argument, NULL, OPT_OVERLAY},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     *a = (view_args){.width = 800, .height = 600, .emitters = 1};

@@ -78,6 +78,7 @@ typedef struct view_args {
     double exposure;         /* 0 = automatic */
     int emitters;            /* the scene's own emitters on at the start */
     int sync;                /* --sync: every frame waits for its own relight */
+    int overlay;             /* --overlay: the split line in headless pictures too */
     int have_eye;
     double eye[3], target[3], fov;
     lrr_light_source light[VIEW_MAX_LIGHTS];

@@ -109,7 +109,7 @@ static int app_open(view_app *app)
     if (view_gl_init(&app->gl, app->op, fw, fh) != 0)
         return CLI_EXIT_FAIL;
     app->gl_up = 1;
-    if (!view_headless(app->a) && view_font_init() == 0)
+    if ((!view_headless(app->a) || app->a->overlay) && view_font_init() == 0)
         app->font_up = 1;
     if (view_worker_start(&app->w, app->op) != 0)
         return CLI_EXIT_FAIL;
@@ -150,6 +150,27 @@ void view_auto_exposure(view_app *app, const float *b)
     app->exposure_auto_pending = !(mean > 0 && isfinite(mean)); /* black: key on a later B */
 }
 
+/* The split line: frames per second and the mean times since the last line. */
+static void split_line(view_app *app, char *buf, size_t size)
+{
+    double now = view_now_ms(), dt = now - app->line_t;
+    uint64_t f = app->frames - app->line_frames, r = app->w.relights - app->line_relights;
+    double dd = app->w.sum_direct_ms - app->line_direct, ds = app->w.sum_solve_ms - app->line_solve;
+    double du = app->sum_upload_ms - app->line_upload, dr = app->sum_draw_ms - app->line_draw;
+    snprintf(buf, size,
+             "%.0f fps %.0f relit/s | direct %.2f solve %.2f upload %.2f draw %.2f ms | "
+             "%zu lights, emitters %s, exposure %.3g",
+             f * 1e3 / dt, r * 1e3 / dt, r ? dd / r : 0.0, r ? ds / r : 0.0, f ? du / f : 0.0,
+             f ? dr / f : 0.0, app->nlights, app->emitters ? "on" : "off", app->exposure);
+    app->line_t = now;
+    app->line_frames = app->frames;
+    app->line_relights = app->w.relights;
+    app->line_direct = app->w.sum_direct_ms;
+    app->line_solve = app->w.sum_solve_ms;
+    app->line_upload = app->sum_upload_ms;
+    app->line_draw = app->sum_draw_ms;
+}
+
 /* Uploads the newest B if there is one, draws into the offscreen picture; times both. */
 static void render(view_app *app)
 {
@@ -168,6 +189,12 @@ static void render(view_app *app)
     for (size_t i = 0; i < app->nlights; i++)
         memcpy(markers + 3 * i, app->lights[i].position, sizeof app->lights[i].position);
     view_gl_draw(&app->gl, mvp, app->exposure, markers, app->nlights, app->selected);
+    if (app->font_up) { /* into the picture, so screenshots show it too */
+        if (!app->line[0] || view_now_ms() - app->line_t > 500)
+            split_line(app, app->line, sizeof app->line);
+        view_font_draw(app->line, app->gl.fbo, app->gl.fb_w, app->gl.fb_h,
+                       app->gl.fb_w > 1600 ? 2 : 1);
+    }
     glFinish();
     app->sum_draw_ms += view_now_ms() - t1;
     app->frames++;
@@ -199,40 +226,15 @@ static int screenshot(view_app *app, const char *path)
     return rc;
 }
 
-/* The split line: frames per second and the mean times since the last line. */
-static void split_line(view_app *app, char *buf, size_t size)
-{
-    double now = view_now_ms(), dt = now - app->line_t;
-    uint64_t f = app->frames - app->line_frames, r = app->w.relights - app->line_relights;
-    double dd = app->w.sum_direct_ms - app->line_direct, ds = app->w.sum_solve_ms - app->line_solve;
-    double du = app->sum_upload_ms - app->line_upload, dr = app->sum_draw_ms - app->line_draw;
-    snprintf(buf, size,
-             "%.0f fps  %.0f relit/s  direct %.1f ms  solve %.1f ms  upload %.2f ms  draw %.1f ms"
-             "  | %zu lights  emitters %s  exposure %.3g",
-             f * 1e3 / dt, r * 1e3 / dt, r ? dd / r : 0.0, r ? ds / r : 0.0, f ? du / f : 0.0,
-             f ? dr / f : 0.0, app->nlights, app->emitters ? "on" : "off", app->exposure);
-    app->line_t = now;
-    app->line_frames = app->frames;
-    app->line_relights = app->w.relights;
-    app->line_direct = app->w.sum_direct_ms;
-    app->line_solve = app->w.sum_solve_ms;
-    app->line_upload = app->sum_upload_ms;
-    app->line_draw = app->sum_draw_ms;
-}
-
 /* Shows the picture (and, interactive, the split line, refreshed twice a second). */
 static void present(view_app *app)
 {
     int fw, fh;
     glfwGetFramebufferSize(app->win, &fw, &fh);
     view_gl_present(&app->gl, fw, fh);
-    if (!view_headless(app->a)) {
-        if (view_now_ms() - app->line_t > 500) {
-            split_line(app, app->line, sizeof app->line);
-            glfwSetWindowTitle(app->win, app->line);
-        }
-        if (app->font_up)
-            view_font_draw(app->line, fw, fh, fw > 1600 ? 2 : 1);
+    if (!view_headless(app->a) && view_now_ms() - app->title_t > 500) {
+        glfwSetWindowTitle(app->win, app->line[0] ? app->line : "lrr view");
+        app->title_t = view_now_ms();
     }
     glfwSwapBuffers(app->win);
 }

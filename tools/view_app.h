@@ -37,7 +37,7 @@ typedef struct view_app {
     /* the split */
     uint64_t frames, uploads;
     double sum_upload_ms, sum_draw_ms;
-    double line_t, line_direct, line_solve, line_upload, line_draw;
+    double title_t, line_t, line_direct, line_solve, line_upload, line_draw;
     uint64_t line_frames, line_relights;
     char line[256];
     /* the mouse */

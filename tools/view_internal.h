@@ -90,9 +90,10 @@ int view_gl_screenshot(view_gl *g, const char *path, double half_luma[2]);
 void view_gl_free(view_gl *g);
 
 /* ------------------------------------------------------------------ text (view_font.c) */
-/* Draws ASCII text in the window's top-left corner (a built-in 5×7 font, scale s). */
+/* Draws ASCII text in the top-left corner of framebuffer fbo (w×h; a built-in 5×7 font,
+ * `scale` screen pixels a font pixel). */
 int view_font_init(void);
-void view_font_draw(const char *text, int win_w, int win_h, int scale);
+void view_font_draw(const char *text, GLuint fbo, int w, int h, int scale);
 void view_font_free(void);
 
 double view_now_ms(void);
