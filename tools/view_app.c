@@ -153,9 +153,11 @@ void view_auto_exposure(view_app *app, const float *b)
 /* The split line: frames per second and the mean times since the last line. */
 static void split_line(view_app *app, char *buf, size_t size)
 {
-    double now = view_now_ms(), dt = now - app->line_t;
-    uint64_t f = app->frames - app->line_frames, r = app->w.relights - app->line_relights;
-    double dd = app->w.sum_direct_ms - app->line_direct, ds = app->w.sum_solve_ms - app->line_solve;
+    double now = view_now_ms(), dt = now - app->line_t, sd, ss;
+    uint64_t relights;
+    view_worker_stats(&app->w, &relights, &sd, &ss);
+    uint64_t f = app->frames - app->line_frames, r = relights - app->line_relights;
+    double dd = sd - app->line_direct, ds = ss - app->line_solve;
     double du = app->sum_upload_ms - app->line_upload, dr = app->sum_draw_ms - app->line_draw;
     snprintf(buf, size,
              "%.0f fps %.0f relit/s | direct %.2f solve %.2f upload %.2f draw %.2f ms | "
@@ -164,9 +166,9 @@ static void split_line(view_app *app, char *buf, size_t size)
              f ? dr / f : 0.0, app->nlights, app->emitters ? "on" : "off", app->exposure);
     app->line_t = now;
     app->line_frames = app->frames;
-    app->line_relights = app->w.relights;
-    app->line_direct = app->w.sum_direct_ms;
-    app->line_solve = app->w.sum_solve_ms;
+    app->line_relights = relights;
+    app->line_direct = sd;
+    app->line_solve = ss;
     app->line_upload = app->sum_upload_ms;
     app->line_draw = app->sum_draw_ms;
 }
@@ -316,13 +318,14 @@ static int script_step(view_app *app)
 /* ------------------------------------------------------------------ main loop */
 static void print_split(view_app *app, double seconds)
 {
-    const view_worker *w = &app->w;
+    uint64_t r;
+    double sd, ss;
+    view_worker_stats(&app->w, &r, &sd, &ss);
     printf("frames: %llu\nrelights: %llu\nseconds: %.3f\nfps: %.1f\nrelit_fps: %.1f\n",
-           (unsigned long long)app->frames, (unsigned long long)w->relights, seconds,
-           app->frames / seconds, w->relights / seconds);
+           (unsigned long long)app->frames, (unsigned long long)r, seconds,
+           app->frames / seconds, r / seconds);
     printf("direct_ms: %.3f\nsolve_ms: %.3f\nupload_ms: %.3f\ndraw_ms: %.3f\n",
-           w->relights ? w->sum_direct_ms / w->relights : 0.0,
-           w->relights ? w->sum_solve_ms / w->relights : 0.0,
+           r ? sd / r : 0.0, r ? ss / r : 0.0,
            app->uploads ? app->sum_upload_ms / app->uploads : 0.0,
            app->frames ? app->sum_draw_ms / app->frames : 0.0);
 }
@@ -356,7 +359,7 @@ static int interactive_loop(view_app *app)
         last = now;
         if (post_lights(app, 0) != 0)
             return CLI_EXIT_FAIL;
-        if (app->w.error) {
+        if (view_worker_failed(&app->w)) {
             fprintf(stderr, "lrr view: %s\n", app->w.error_text);
             return CLI_EXIT_FAIL;
         }

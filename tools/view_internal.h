@@ -63,6 +63,11 @@ void view_worker_post(view_worker *w, const lrr_light_source *lights, size_t cou
                       int emitters);
 /* If a newer B than the one shown is ready: swaps it in and returns 1 (w->shown). */
 int view_worker_take(view_worker *w);
+/* 1 once the worker has failed (error_text says why; it is not written again). */
+int view_worker_failed(view_worker *w);
+/* The relights finished so far and the sums of their direct-light and solve times. */
+void view_worker_stats(view_worker *w, uint64_t *relights, double *direct_ms,
+                       double *solve_ms);
 /* Waits until the newest request is finished; 0, or -1 after a worker failure. */
 int view_worker_wait(view_worker *w);
 void view_worker_stop(view_worker *w);

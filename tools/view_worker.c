@@ -131,6 +131,24 @@ int view_worker_take(view_worker *w)
     return fresh;
 }
 
+int view_worker_failed(view_worker *w)
+{
+    pthread_mutex_lock(&w->mu);
+    int failed = w->error != LRR_OK;
+    pthread_mutex_unlock(&w->mu);
+    return failed;
+}
+
+void view_worker_stats(view_worker *w, uint64_t *relights, double *direct_ms,
+                       double *solve_ms)
+{
+    pthread_mutex_lock(&w->mu);
+    *relights = w->relights;
+    *direct_ms = w->sum_direct_ms;
+    *solve_ms = w->sum_solve_ms;
+    pthread_mutex_unlock(&w->mu);
+}
+
 int view_worker_wait(view_worker *w)
 {
     pthread_mutex_lock(&w->mu);
