@@ -170,6 +170,12 @@ static void edit_light(view_app *app, int key)
         while (k < 3 && kinds[k] != l->kind)
             k++;
         l->kind = kinds[(k + 1) % 3];
+        if (l->kind == LRR_LIGHT_SPOT && !(l->cone_angle > 0)) { /* a --light point */
+            l->cone_angle = (float)(35 * M_PI / 180);
+            l->cone_softness = (float)(10 * M_PI / 180);
+        }
+        if (l->kind == LRR_LIGHT_SPOT && !l->direction[0] && !l->direction[1] && !l->direction[2])
+            l->direction[1] = -1;
         if (l->kind == LRR_LIGHT_SUN) { /* a sun gives irradiance, not intensity */
             for (int j = 0; j < 3; j++)
                 l->direction[j] = j == 1 ? 1.0f : 0.3f;
