@@ -55,6 +55,7 @@ static const char view_help[] =
     "  C                    selected light's colour: white, warm, cool, red, green, blue\n"
     "  L                    the scene's own emitters on / off\n"
     "  [ / ] / 0            exposure ÷1.25 / ×1.25 / automatic\n"
+    "  P                    save the picture as lrr-view-NNN.png (current directory)\n"
     "  Esc                  quit\n"
     "The line at the top: frames per second and the split in ms (direct light, solve,\n"
     "upload, draw).\n";

@@ -349,6 +349,18 @@ static int headless_loop(view_app *app)
     return CLI_EXIT_OK;
 }
 
+/* P: the picture as shown (the newest finished B, not waited for) to lrr-view-N.png. */
+static void interactive_shot(view_app *app)
+{
+    char path[64];
+    double half[2];
+    app->want_shot = 0;
+    snprintf(path, sizeof path, "lrr-view-%03u.png", app->shots++);
+    if (view_gl_screenshot(&app->gl, path, half) == CLI_EXIT_OK)
+        printf("screenshot: %s\nleft_luma: %.2f\nright_luma: %.2f\n", path, half[0], half[1]);
+    fflush(stdout);
+}
+
 static int interactive_loop(view_app *app)
 {
     view_input_install(app);
@@ -364,6 +376,8 @@ static int interactive_loop(view_app *app)
             return CLI_EXIT_FAIL;
         }
         render(app);
+        if (app->want_shot)
+            interactive_shot(app);
         present(app);
         glfwPollEvents();
     }

@@ -42,6 +42,8 @@ typedef struct view_app {
     char line[256];
     /* the mouse */
     int dragging, orbiting, panning, colour;
+    int want_shot;              /* P pressed */
+    unsigned shots;
     double mx, my;
 } view_app;
 
