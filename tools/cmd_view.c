@@ -31,6 +31,8 @@ static const char view_help[] =
     "  --target X,Y,Z       box, else a view framing the scene); needs both\n"
     "  --fov DEGREES        vertical field of view (default 39.3 Cornell, else 50)\n"
     "  --width W, --height H  window or picture size (64..8192, default 800×600)\n"
+    "  --flat               one colour per subpatch (default: smooth, each corner the\n"
+    "                       area-weighted mean of the subpatches meeting there in one plane)\n"
     "Headless (no window shown; ends by itself; needs an X display, e.g. xvfb-run):\n"
     "  --script FILE        run the camera and light moves of FILE (below)\n"
     "  --frames N           draw N more frames after the script\n"
@@ -55,6 +57,7 @@ static const char view_help[] =
     "  C                    selected light's colour: white, warm, cool, red, green, blue\n"
     "  L                    the scene's own emitters on / off\n"
     "  [ / ] / 0            exposure ÷1.25 / ×1.25 / automatic\n"
+    "  F                    flat / smooth shading\n"
     "  P                    save the picture as lrr-view-NNN.png (current directory)\n"
     "  Esc                  quit\n"
     "The line at the top: frames per second and the split in ms (direct light, solve,\n"
@@ -76,7 +79,7 @@ static int parse_vec3(const char *opt, const char *arg, double v[3])
     return 0;
 }
 
-enum { OPT_SCRIPT = 1000, OPT_SCREENSHOT, OPT_FRAMES, OPT_SYNC, OPT_OVERLAY };
+enum { OPT_SCRIPT = 1000, OPT_SCREENSHOT, OPT_FRAMES, OPT_SYNC, OPT_OVERLAY, OPT_FLAT };
 
 /* 1 handled, -1 usage error (reported), 0 unknown. */
 static int view_option(view_args *a, int c, const char *arg, int *have_target)
@@ -123,6 +126,9 @@ static int view_option(view_args *a, int c, const char *arg, int *have_target)
     case OPT_OVERLAY:
         a->overlay = 1;
         return 1;
+    case OPT_FLAT:
+        a->flat = 1;
+        return 1;
     }
     return 0;
 }
@@ -144,6 +150,7 @@ static int parse_view(view_args *a, int argc, char *argv[])
         {"frames", required_argument, NULL, OPT_FRAMES},
         {"sync", no_argument, NULL, OPT_SYNC},
         {"overlay", no_argument, NULL, OPT_OVERLAY},
+        {"flat", no_argument, NULL, OPT_FLAT},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     *a = (view_args){.width = 800, .height = 600, .emitters = 1};

@@ -79,6 +79,7 @@ typedef struct view_args {
     int emitters;            /* the scene's own emitters on at the start */
     int sync;                /* --sync: every frame waits for its own relight */
     int overlay;             /* --overlay: the split line in headless pictures too */
+    int flat;                /* --flat: one colour per subpatch, no smooth shading */
     int have_eye;
     double eye[3], target[3], fov;
     lrr_light_source light[VIEW_MAX_LIGHTS];

@@ -106,7 +106,9 @@ static int app_open(view_app *app)
     glfwGetFramebufferSize(app->win, &fw, &fh);
     if (view_headless(app->a))
         fw = app->a->width, fh = app->a->height; /* the picture's size, whatever the screen */
-    if (view_gl_init(&app->gl, app->op, fw, fh) != 0)
+    if (view_smooth_init(&app->sm, app->vtx, lrr_operator_normal(app->op),
+                         lrr_operator_area(app->op), app->n) != 0 ||
+        view_gl_init(&app->gl, app->vtx, app->n, app->sm.corner, app->sm.m, fw, fh) != 0)
         return CLI_EXIT_FAIL;
     app->gl_up = 1;
     if ((!view_headless(app->a) || app->a->overlay) && view_font_init() == 0)
@@ -127,6 +129,7 @@ static void app_close(view_app *app)
         glfwDestroyWindow(app->win);
     if (app->glfw_up)
         glfwTerminate();
+    view_smooth_free(&app->sm);
     free(app->vtx);
     lrr_operator_destroy(app->op);
     lrr_context_destroy(app->ctx);
@@ -177,10 +180,14 @@ static void split_line(view_app *app, char *buf, size_t size)
 static void render(view_app *app)
 {
     double t0 = view_now_ms();
-    if (view_worker_take(&app->w)) {
+    if (view_worker_take(&app->w) || app->reupload) {
         if (app->exposure_auto_pending)
             view_auto_exposure(app, app->w.shown);
-        view_gl_upload(&app->gl, app->w.shown);
+        if (app->smooth) /* the corners' means: part of the upload's time */
+            view_gl_upload(&app->gl, view_smooth_apply(&app->sm, app->w.shown), app->sm.m);
+        else
+            view_gl_upload(&app->gl, app->w.shown, app->n);
+        app->reupload = 0;
         app->uploads++;
         glFinish(); /* so the upload's time is the upload's, not the draw's */
         app->sum_upload_ms += view_now_ms() - t0;
@@ -190,7 +197,8 @@ static void render(view_app *app)
     view_camera_matrix(&app->cam, (double)app->gl.fb_w / app->gl.fb_h, mvp);
     for (size_t i = 0; i < app->nlights; i++)
         memcpy(markers + 3 * i, app->lights[i].position, sizeof app->lights[i].position);
-    view_gl_draw(&app->gl, mvp, app->exposure, markers, app->nlights, app->selected);
+    view_gl_draw(&app->gl, mvp, app->exposure, app->smooth, markers, app->nlights,
+                 app->selected);
     if (app->font_up) { /* into the picture, so screenshots show it too */
         if (!app->line[0] || view_now_ms() - app->line_t > 500)
             split_line(app, app->line, sizeof app->line);
@@ -220,6 +228,7 @@ static int screenshot(view_app *app, const char *path)
 {
     if (post_lights(app, 1) != 0)
         return CLI_EXIT_FAIL;
+    app->line[0] = '\0'; /* the split line as of now, not of up to 0.5 s ago */
     render(app);
     double half[2];
     int rc = view_gl_screenshot(&app->gl, path, half);
@@ -387,6 +396,7 @@ static int interactive_loop(view_app *app)
 int view_run(const view_args *a, const view_script *s)
 {
     view_app app = {.a = a, .s = s, .selected = -1, .emitters = a->emitters, .dirty = 1,
+                    .smooth = !a->flat,
                     .exposure = a->exposure, .exposure_auto_pending = a->exposure == 0};
     memcpy(app.lights, a->light, a->lights * sizeof *a->light);
     app.nlights = a->lights;

@@ -19,6 +19,8 @@ typedef struct view_app {
     GLFWwindow *win;
     int glfw_up, gl_up, font_up;
     view_gl gl;
+    view_smooth sm;
+    int smooth, reupload;       /* smooth shading; colours to upload again (F pressed) */
     view_worker w;
     view_camera cam;
     /* what is lit */

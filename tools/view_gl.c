@@ -21,23 +21,29 @@
 #include <stb_image_write.h>
 #pragma GCC diagnostic pop
 
+/* Colours come from a texture buffer of RGB triples (R32F: GL 3.3 has no RGB32F buffer
+ * format): flat, triple gl_VertexID / 3 (the subpatch's B); smooth, the vertex's welded
+ * corner, interpolated across the triangle. */
 static const char scene_vs[] =
     "#version 330 core\n"
     "layout(location = 0) in vec3 pos;\n"
+    "layout(location = 1) in uint corner;\n"
     "uniform mat4 mvp;\n"
-    "flat out int id;\n"
-    "void main() { gl_Position = mvp * vec4(pos, 1.0); id = gl_VertexID / 3; }\n";
+    "uniform int smooth_on;\n"
+    "uniform samplerBuffer bsamp;\n"
+    "out vec3 b;\n"
+    "void main() {\n"
+    "  int t = 3 * (smooth_on != 0 ? int(corner) : gl_VertexID / 3);\n"
+    "  b = vec3(texelFetch(bsamp, t).r, texelFetch(bsamp, t + 1).r, texelFetch(bsamp, t + 2).r);\n"
+    "  gl_Position = mvp * vec4(pos, 1.0);\n"
+    "}\n";
 
-/* B is n×3 floats in an R32F texture buffer: GL 3.3 has no RGB32F buffer format. */
 static const char scene_fs[] =
     "#version 330 core\n"
-    "flat in int id;\n"
-    "uniform samplerBuffer bsamp;\n"
+    "in vec3 b;\n"
     "uniform float exposure;\n"
     "out vec4 frag;\n"
     "void main() {\n"
-    "  vec3 b = vec3(texelFetch(bsamp, 3 * id).r, texelFetch(bsamp, 3 * id + 1).r,\n"
-    "                texelFetch(bsamp, 3 * id + 2).r);\n"
     "  vec3 c = clamp(exposure * b, 0.0, 1.0);\n"
     "  vec3 s = mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055,\n"
     "               step(vec3(0.0031308), c));\n"
@@ -117,45 +123,46 @@ static int resize_fbo(view_gl *g, int w, int h)
     return 0;
 }
 
-/* The subpatch triangles into a vertex buffer, the radiosity texture buffer; 0 or -1. */
-static int upload_mesh(view_gl *g, const lrr_operator *op)
+/* The triangles and their corners' ids into vertex buffers, the colour texture buffer
+ * (room for the larger of n and m triples); 0 or -1. */
+static int upload_mesh(view_gl *g, const float *vtx, const uint32_t *corner, size_t m)
 {
     GLint max_texels = 0;
     glGetIntegerv(GL_MAX_TEXTURE_BUFFER_SIZE, &max_texels);
-    if ((double)max_texels < 3.0 * g->n) {
-        fprintf(stderr, "lrr view: %zu subpatches need a texture buffer of %zu texels; this "
-                        "GL allows %d\n", g->n, 3 * g->n, (int)max_texels);
+    g->texels = g->n > m ? g->n : m;
+    if ((double)max_texels < 3.0 * g->texels) {
+        fprintf(stderr, "lrr view: %zu colours need a texture buffer of %zu texels; this "
+                        "GL allows %d\n", g->texels, 3 * g->texels, (int)max_texels);
         return -1;
     }
-    float *v = malloc(g->n * 9 * sizeof *v);
-    if (!v) {
-        fprintf(stderr, "lrr view: out of memory for %zu triangles\n", g->n);
-        return -1;
-    }
-    lrr_operator_subpatch_vertices(op, v);
     glGenVertexArrays(1, &g->vao);
     glBindVertexArray(g->vao);
     glGenBuffers(1, &g->vbo);
     glBindBuffer(GL_ARRAY_BUFFER, g->vbo);
-    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(g->n * 9 * sizeof *v), v, GL_STATIC_DRAW);
-    free(v);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(g->n * 9 * sizeof *vtx), vtx, GL_STATIC_DRAW);
     glEnableVertexAttribArray(0);
     glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 0, NULL);
+    glGenBuffers(1, &g->corner_vbo);
+    glBindBuffer(GL_ARRAY_BUFFER, g->corner_vbo);
+    glBufferData(GL_ARRAY_BUFFER, (GLsizeiptr)(g->n * 3 * sizeof *corner), corner,
+                 GL_STATIC_DRAW);
+    glEnableVertexAttribArray(1);
+    glVertexAttribIPointer(1, 1, GL_UNSIGNED_INT, 0, NULL);
     glGenBuffers(1, &g->bbuf);
     glBindBuffer(GL_TEXTURE_BUFFER, g->bbuf);
-    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(g->n * 3 * sizeof(float)), NULL, GL_DYNAMIC_DRAW);
+    glBufferData(GL_TEXTURE_BUFFER, (GLsizeiptr)(g->texels * 3 * sizeof(float)), NULL,
+                 GL_DYNAMIC_DRAW);
     glGenTextures(1, &g->btex);
     glBindTexture(GL_TEXTURE_BUFFER, g->btex);
     glTexBuffer(GL_TEXTURE_BUFFER, GL_R32F, g->bbuf);
     return glGetError() == GL_NO_ERROR ? 0 : -1;
 }
 
-int view_gl_init(view_gl *g, const lrr_operator *op, int w, int h)
+int view_gl_init(view_gl *g, const float *vtx, size_t n, const uint32_t *corner, size_t m,
+                 int w, int h)
 {
     memset(g, 0, sizeof *g);
-    lrr_operator_info info;
-    lrr_operator_get_info(op, &info, sizeof info);
-    g->n = info.n;
+    g->n = n;
     g->prog = program(scene_vs, scene_fs);
     g->marker_prog = program(marker_vs, marker_fs);
     if (!g->prog || !g->marker_prog)
@@ -163,8 +170,9 @@ int view_gl_init(view_gl *g, const lrr_operator *op, int w, int h)
     g->u_mvp = glGetUniformLocation(g->prog, "mvp");
     g->u_exposure = glGetUniformLocation(g->prog, "exposure");
     g->u_bsamp = glGetUniformLocation(g->prog, "bsamp");
+    g->u_smooth = glGetUniformLocation(g->prog, "smooth_on");
     g->u_marker_mvp = glGetUniformLocation(g->marker_prog, "mvp");
-    if (upload_mesh(g, op) != 0) {
+    if (upload_mesh(g, vtx, corner, m) != 0) {
         fprintf(stderr, "lrr view: cannot upload the mesh (GL error)\n");
         return -1;
     }
@@ -181,10 +189,11 @@ int view_gl_init(view_gl *g, const lrr_operator *op, int w, int h)
     return resize_fbo(g, w, h);
 }
 
-void view_gl_upload(view_gl *g, const float *b)
+void view_gl_upload(view_gl *g, const float *rgb, size_t count)
 {
     glBindBuffer(GL_TEXTURE_BUFFER, g->bbuf);
-    glBufferSubData(GL_TEXTURE_BUFFER, 0, (GLsizeiptr)(g->n * 3 * sizeof(float)), b);
+    glBufferSubData(GL_TEXTURE_BUFFER, 0,
+                    (GLsizeiptr)((count < g->texels ? count : g->texels) * 3 * sizeof(float)), rgb);
 }
 
 static void draw_markers(view_gl *g, const float mvp[16], const float *markers, size_t count,
@@ -207,8 +216,8 @@ static void draw_markers(view_gl *g, const float mvp[16], const float *markers, 
     }
 }
 
-void view_gl_draw(view_gl *g, const float mvp[16], double exposure, const float *markers,
-                  size_t count, long selected)
+void view_gl_draw(view_gl *g, const float mvp[16], double exposure, int smooth,
+                  const float *markers, size_t count, long selected)
 {
     glBindFramebuffer(GL_FRAMEBUFFER, g->fbo);
     glViewport(0, 0, g->fb_w, g->fb_h);
@@ -220,6 +229,7 @@ void view_gl_draw(view_gl *g, const float mvp[16], double exposure, const float 
     glUseProgram(g->prog);
     glUniformMatrix4fv(g->u_mvp, 1, GL_FALSE, mvp);
     glUniform1f(g->u_exposure, (float)exposure);
+    glUniform1i(g->u_smooth, smooth);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_BUFFER, g->btex);
     glUniform1i(g->u_bsamp, 0);
@@ -306,6 +316,7 @@ void view_gl_free(view_gl *g)
     glDeleteProgram(g->prog);
     glDeleteProgram(g->marker_prog);
     glDeleteBuffers(1, &g->vbo);
+    glDeleteBuffers(1, &g->corner_vbo);
     glDeleteBuffers(1, &g->bbuf);
     glDeleteBuffers(1, &g->marker_vbo);
     glDeleteTextures(1, &g->btex);

@@ -212,6 +212,7 @@ static void on_key(GLFWwindow *win, int key, int scancode, int action, int mods)
             view_remove_light(app, (size_t)app->selected);
         break;
     case GLFW_KEY_P: app->want_shot = 1; break;
+    case GLFW_KEY_F: app->smooth = !app->smooth; app->reupload = 1; break;
     case GLFW_KEY_L: app->emitters = !app->emitters; app->dirty = 1; break;
     case GLFW_KEY_LEFT_BRACKET: app->exposure /= 1.25; break;
     case GLFW_KEY_RIGHT_BRACKET: app->exposure *= 1.25; break;

@@ -72,22 +72,42 @@ void view_worker_stats(view_worker *w, uint64_t *relights, double *direct_ms,
 int view_worker_wait(view_worker *w);
 void view_worker_stop(view_worker *w);
 
+/* ------------------------------------------------------------------ smooth shading (view_smooth.c) */
+typedef struct view_smooth {
+    uint32_t *corner;   /* 3n: the welded corner of each triangle corner */
+    const float *area;  /* n: the operator's subpatch areas, the weights */
+    float *sum, *out;   /* m×4 scratch, m×3 corner radiosity */
+    size_t n, m;
+} view_smooth;
+
+/* Welds the corners of the n triangles vtx (n×9) of normals normal (n×3); 0 or -1. */
+int view_smooth_init(view_smooth *s, const float *vtx, const float *normal, const float *area,
+                     size_t n);
+/* The m corner colours (m×3) of radiosity b (n×3); valid until the next call. */
+const float *view_smooth_apply(view_smooth *s, const float *b);
+void view_smooth_free(view_smooth *s);
+
 /* ------------------------------------------------------------------ GL (view_gl.c) */
 typedef struct view_gl {
     GLuint prog, vao, vbo, btex, bbuf;      /* the scene: positions + radiosity texture */
     GLuint marker_prog, marker_vao, marker_vbo;
     GLuint fbo, color_rb, depth_rb;         /* what is drawn; blitted to the window */
-    GLint u_mvp, u_exposure, u_bsamp, u_marker_mvp;
+    GLuint corner_vbo;                      /* per vertex: its welded corner */
+    GLint u_mvp, u_exposure, u_bsamp, u_smooth, u_marker_mvp;
     int fb_w, fb_h;
-    size_t n;
+    size_t n, texels;                       /* texels: room in the texture buffer /3 */
 } view_gl;
 
-/* Shaders, the mesh (n subpatch triangles) and an offscreen w×h framebuffer; 0 or -1. */
-int view_gl_init(view_gl *g, const lrr_operator *op, int w, int h);
-void view_gl_upload(view_gl *g, const float *b);
-/* markers: count points (xyz), the selected one (or −1) highlighted. */
-void view_gl_draw(view_gl *g, const float mvp[16], double exposure, const float *markers,
-                  size_t count, long selected);
+/* Shaders, the mesh (n triangles vtx, n×9; corner: the welded corner of each of the 3n
+ * vertices, of m) and an offscreen w×h framebuffer; 0 or -1. */
+int view_gl_init(view_gl *g, const float *vtx, size_t n, const uint32_t *corner, size_t m,
+                 int w, int h);
+/* count RGB triples: n subpatch radiosities (flat) or m corner colours (smooth). */
+void view_gl_upload(view_gl *g, const float *rgb, size_t count);
+/* markers: count points (xyz), the selected one (or −1) highlighted; smooth: colours per
+ * welded corner (else per triangle). */
+void view_gl_draw(view_gl *g, const float mvp[16], double exposure, int smooth,
+                  const float *markers, size_t count, long selected);
 void view_gl_present(view_gl *g, int win_w, int win_h);
 /* The offscreen picture to a PNG, written atomically, and the mean luma (0..255) of its
  * left and right halves; CLI_EXIT_*. */
