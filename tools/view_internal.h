@@ -75,8 +75,10 @@ void view_worker_stop(view_worker *w);
 /* ------------------------------------------------------------------ smooth shading (view_smooth.c) */
 typedef struct view_smooth {
     uint32_t *corner;   /* 3n: the welded corner of each triangle corner */
-    const float *area;  /* n: the operator's subpatch areas, the weights */
-    float *sum, *out;   /* m×4 scratch, m×3 corner radiosity */
+    uint32_t *first;    /* m+1: corner u gathers entries first[u] .. first[u+1]-1 */
+    uint32_t *src;      /* 3n: the subpatch of each entry */
+    float *w;           /* 3n: its area's share at that corner */
+    float *out;         /* m×3 corner radiosity */
     size_t n, m;
 } view_smooth;
 

@@ -40,6 +40,36 @@ static size_t weld(corner_key *k, size_t count, uint32_t *corner)
     return count ? m + 1 : 0;
 }
 
+/* The gather lists: corner u takes the subpatches src[first[u] .. first[u+1]-1], weighted
+ * by their share w of the area meeting there (so a frame is one pass, no division). */
+static int build_lists(view_smooth *s, const uint32_t *corner, const float *area)
+{
+    s->first = calloc(s->m + 1, sizeof *s->first);
+    s->src = malloc(3 * s->n * sizeof *s->src);
+    s->w = malloc(3 * s->n * sizeof *s->w);
+    double *total = calloc(s->m, sizeof *total);
+    if (!s->first || !s->src || !s->w || !total) {
+        free(total);
+        return -1;
+    }
+    for (size_t v = 0; v < 3 * s->n; v++) {
+        s->first[corner[v] + 1]++;
+        total[corner[v]] += area[v / 3];
+    }
+    for (size_t u = 0; u < s->m; u++)
+        s->first[u + 1] += s->first[u];
+    for (size_t v = 0; v < 3 * s->n; v++) { /* total[] doubles as the fill cursor's weight */
+        uint32_t u = corner[v], at = s->first[u]++;
+        s->src[at] = (uint32_t)(v / 3);
+        s->w[at] = total[u] > 0 ? (float)(area[v / 3] / total[u]) : 1.0f / 3;
+    }
+    for (size_t u = s->m; u > 0; u--) /* the fill advanced every first[u] to first[u+1] */
+        s->first[u] = s->first[u - 1];
+    s->first[0] = 0;
+    free(total);
+    return 0;
+}
+
 int view_smooth_init(view_smooth *s, const float *vtx, const float *normal, const float *area,
                      size_t n)
 {
@@ -47,7 +77,6 @@ int view_smooth_init(view_smooth *s, const float *vtx, const float *normal, cons
     s->n = n;
     corner_key *k = malloc(3 * n * sizeof *k);
     s->corner = malloc(3 * n * sizeof *s->corner);
-    s->area = area;
     if (!k || !s->corner || 3 * n > UINT32_MAX) {
         free(k);
         view_smooth_free(s);
@@ -62,9 +91,8 @@ int view_smooth_init(view_smooth *s, const float *vtx, const float *normal, cons
     }
     s->m = weld(k, 3 * n, s->corner);
     free(k);
-    s->sum = malloc(s->m * 4 * sizeof *s->sum);
     s->out = malloc(s->m * 3 * sizeof *s->out);
-    if (!s->sum || !s->out) {
+    if (!s->out || build_lists(s, s->corner, area) != 0) {
         view_smooth_free(s);
         fprintf(stderr, "lrr view: out of memory for smooth shading (%zu corners)\n", s->m);
         return -1;
@@ -74,18 +102,12 @@ int view_smooth_init(view_smooth *s, const float *vtx, const float *normal, cons
 
 const float *view_smooth_apply(view_smooth *s, const float *b)
 {
-    memset(s->sum, 0, s->m * 4 * sizeof *s->sum);
-    for (size_t v = 0; v < 3 * s->n; v++) {
-        size_t i = v / 3;
-        float *acc = s->sum + 4 * s->corner[v];
-        for (int c = 0; c < 3; c++)
-            acc[c] += s->area[i] * b[3 * i + c];
-        acc[3] += s->area[i];
-    }
     for (size_t u = 0; u < s->m; u++) {
-        float w = s->sum[4 * u + 3], inv = w > 0 ? 1.0f / w : 0.0f;
-        for (int c = 0; c < 3; c++)
-            s->out[3 * u + c] = s->sum[4 * u + c] * inv;
+        float acc[3] = {0, 0, 0};
+        for (uint32_t k = s->first[u]; k < s->first[u + 1]; k++)
+            for (int c = 0; c < 3; c++)
+                acc[c] += s->w[k] * b[3 * s->src[k] + c];
+        memcpy(s->out + 3 * u, acc, sizeof acc);
     }
     return s->out;
 }
@@ -93,7 +115,9 @@ const float *view_smooth_apply(view_smooth *s, const float *b)
 void view_smooth_free(view_smooth *s)
 {
     free(s->corner);
-    free(s->sum);
+    free(s->first);
+    free(s->src);
+    free(s->w);
     free(s->out);
     memset(s, 0, sizeof *s);
 }
