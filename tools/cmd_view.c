@@ -82,7 +82,7 @@ static int parse_vec3(const char *opt, const char *arg, double v[3])
 enum { OPT_SCRIPT = 1000, OPT_SCREENSHOT, OPT_FRAMES, OPT_SYNC, OPT_OVERLAY, OPT_FLAT };
 
 /* 1 handled, -1 usage error (reported), 0 unknown. */
-static int view_option(view_args *a, int c, const char *arg, int *have_target)
+static int viewer_option(viewer_args *a, int c, const char *arg, int *have_target)
 {
     unsigned u;
     switch (c) {
@@ -134,7 +134,7 @@ static int view_option(view_args *a, int c, const char *arg, int *have_target)
 }
 
 /* CLI_RUN with *a filled in, or the exit status. */
-static int parse_view(view_args *a, int argc, char *argv[])
+static int parse_view(viewer_args *a, int argc, char *argv[])
 {
     static const struct option longopts[] = {
         {"light", required_argument, NULL, OPT_LIGHT},
@@ -153,7 +153,7 @@ static int parse_view(view_args *a, int argc, char *argv[])
         {"flat", no_argument, NULL, OPT_FLAT},
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
-    *a = (view_args){.width = 800, .height = 600, .emitters = 1};
+    *a = (viewer_args){.width = 800, .height = 600, .emitters = 1};
     int have_target = 0, c;
     start_getopt();
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
@@ -161,7 +161,7 @@ static int parse_view(view_args *a, int argc, char *argv[])
             fputs(view_help, stdout);
             return CLI_EXIT_OK;
         }
-        int r = view_option(a, c, optarg, &have_target);
+        int r = viewer_option(a, c, optarg, &have_target);
         if (r < 0)
             return CLI_EXIT_USAGE;
         if (r == 0)
@@ -178,7 +178,7 @@ static int parse_view(view_args *a, int argc, char *argv[])
 
 int cmd_view(int argc, char *argv[])
 {
-    view_args a;
+    viewer_args a;
     int rc = parse_view(&a, argc, argv);
     if (rc != CLI_RUN)
         return rc;

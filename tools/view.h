@@ -68,7 +68,7 @@ int view_script_load(const char *prog, const char *path, size_t lights, view_scr
 void view_script_free(view_script *s);
 
 /* ------------------------------------------------------------------ the command line */
-typedef struct view_args {
+typedef struct viewer_args {
     const char *file;        /* the .lrr operator */
     const char *script;      /* --script, or NULL */
     const char *screenshot;  /* --screenshot, or NULL */
@@ -84,15 +84,15 @@ typedef struct view_args {
     double eye[3], target[3], fov;
     lrr_light_source light[VIEW_MAX_LIGHTS];
     size_t lights;
-} view_args;
+} viewer_args;
 
 /* Headless: no window shown, the program ends after the script and --frames. */
-static inline int view_headless(const view_args *a)
+static inline int view_headless(const viewer_args *a)
 {
     return a->script || a->screenshot || a->have_frames;
 }
 
 /* The viewer itself (view_app.c); CLI_EXIT_*. */
-int view_run(const view_args *a, const view_script *s);
+int view_run(const viewer_args *a, const view_script *s);
 
 #endif /* LRR_VIEW_H */

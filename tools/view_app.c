@@ -18,7 +18,7 @@ static void on_glfw_error(int code, const char *text)
 /* The window and its GL 3.3 core context; 0 or -1 after a message. */
 static int open_window(view_app *app)
 {
-    const view_args *a = app->a;
+    const viewer_args *a = app->a;
     if (!getenv("DISPLAY") && !getenv("WAYLAND_DISPLAY")) {
         fprintf(stderr, "lrr view: no display: use --screenshot with xvfb-run, or set DISPLAY\n");
         return -1;
@@ -393,7 +393,7 @@ static int interactive_loop(view_app *app)
     return CLI_EXIT_OK;
 }
 
-int view_run(const view_args *a, const view_script *s)
+int view_run(const viewer_args *a, const view_script *s)
 {
     view_app app = {.a = a, .s = s, .selected = -1, .emitters = a->emitters, .dirty = 1,
                     .smooth = !a->flat,

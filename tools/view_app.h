@@ -9,7 +9,7 @@
 #include "view_internal.h"
 
 typedef struct view_app {
-    const view_args *a;
+    const viewer_args *a;
     const view_script *s;
     lrr_context *ctx;
     lrr_operator *op;
