@@ -28,6 +28,7 @@ int cmd_reference(int argc, char *argv[]);
 int cmd_compare(int argc, char *argv[]);
 int cmd_demo(int argc, char *argv[]);
 int cmd_probe(int argc, char *argv[]);
+int cmd_view(int argc, char *argv[]);
 
 /* Set by lrr_cli_main: each command returns CLI_EXIT_OK right after its command line has
  * been parsed and checked, before it touches a file or does any work (see cli.h). */

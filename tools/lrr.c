@@ -12,6 +12,7 @@
  *   lrr compare A B       error measures of one radiosity CSV against another
  *   lrr demo              the Cornell box from start to picture
  *   lrr probe PROBE       fit lights or SH9 to a light probe and measure the irradiance error
+ *   lrr view FILE.lrr     the interactive viewer (moving lights; headless with --script)
  *
  * This file is the dispatcher (top-level --help and --version, the table of subcommands);
  * each subcommand lives in tools/cmd_NAME.c, what several share in cli_options.c and
@@ -45,6 +46,7 @@ static const char main_help[] =
     "  compare A.csv B.csv  errors of the radiosity in A against the reference B\n"
     "  demo                 the Cornell box from scene to picture\n"
     "  probe PROBE.hdr      fit lights (median cut) or SH9 to a light probe, measure errors\n"
+    "  view FILE.lrr        the interactive viewer: move lights, see the radiosity live\n"
     "\n"
     "Options:\n"
     "  -h, --help           show this help (COMMAND --help: help on a command)\n"
@@ -81,7 +83,8 @@ int lrr_cli_main(int argc, char *argv[], int parse_only)
                     {"reference", cmd_reference},
                     {"compare", cmd_compare},
                     {"demo", cmd_demo},
-                    {"probe", cmd_probe}};
+                    {"probe", cmd_probe},
+                    {"view", cmd_view}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;

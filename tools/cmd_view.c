@@ -1,0 +1,201 @@
+/* lrr view: the interactive viewer (tools/view.h). This file parses the command line and
+ * the script and is always compiled; the viewer itself (view_run) only with LRR_VIEWER,
+ * i.e. when configure found GLFW 3 and libepoxy. */
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "view.h"
+
+static const char prog[] = "lrr view";
+
+static const char view_help[] =
+    "Usage: lrr view FILE.lrr [OPTIONS]\n"
+    "Draws the scene with its radiosity in a window (GLFW, OpenGL 3.3 core) and relights it\n"
+    "as lights move: a worker thread computes the direct light of the lights\n"
+    "(lrr_lighting_direct) and the interreflections (lrr_solve); the window shows the\n"
+    "newest finished radiosity at the display rate. The scene's own emitters are a light\n"
+    "that can be switched on and off.\n"
+    "\n"
+    "Options:\n"
+    "  --light SPEC         a light (repeatable, up to 16), as for lrr render --light:\n"
+    "                       'point pos=X,Y,Z rgb=R,G,B', 'spot pos=.. dir=.. angle=DEG\n"
+    "                       soft=DEG rgb=..', 'area pos=.. u=.. v=.. rgb=..', 'sun dir=..\n"
+    "                       rgb=..'\n"
+    "  --no-scene-emission  start with the scene's own emitters switched off\n"
+    "  --exposure X         multiplier before the sRGB curve (> 0; default automatic)\n"
+    "  --eye X,Y,Z          the camera's position (default: the Cornell camera for a Cornell\n"
+    "  --target X,Y,Z       box, else a view framing the scene); needs both\n"
+    "  --fov DEGREES        vertical field of view (default 39.3 Cornell, else 50)\n"
+    "  --width W, --height H  window or picture size (64..8192, default 800×600)\n"
+    "  --flat               one colour per subpatch (default: smooth, each corner the\n"
+    "                       area-weighted mean of the subpatches meeting there in one plane)\n"
+    "Headless (no window shown; ends by itself; needs an X display, e.g. xvfb-run):\n"
+    "  --script FILE        run the camera and light moves of FILE (below)\n"
+    "  --frames N           draw N more frames after the script\n"
+    "  --screenshot OUT.png save the last frame, after the newest state's relight\n"
+    "  --sync               every frame waits for the relight of its own lights (so frames\n"
+    "                       per second = relit frames per second)\n"
+    "  --overlay            draw the frame-time line into headless pictures too\n"
+    "  -h, --help           show this help\n"
+    "\n" VIEW_SCRIPT_HELP
+    "\n"
+    "Headless runs print the frame-time split at the end (frames, relights, fps, direct_ms,\n"
+    "solve_ms, upload_ms, draw_ms: means per relight or per frame).\n"
+    "\n"
+    "Interactive keys and mouse:\n"
+    "  left drag            orbit around the target; right drag: pan; wheel: zoom\n"
+    "  W A S D Q E          fly (forward, left, back, right, down, up); shift: faster\n"
+    "  click a light        select it (the yellow square); drag it across the surfaces\n"
+    "  N / Delete           add a point light where the mouse points / remove the selected\n"
+    "  T                    selected light's type: point, spot (pointing along the surface\n"
+    "                       normal it was dropped on), sun\n"
+    "  + / -                selected light's intensity ×1.25 / ÷1.25\n"
+    "  C                    selected light's colour: white, warm, cool, red, green, blue\n"
+    "  L                    the scene's own emitters on / off\n"
+    "  [ / ] / 0            exposure ÷1.25 / ×1.25 / automatic\n"
+    "  F                    flat / smooth shading\n"
+    "  P                    save the picture as lrr-view-NNN.png (current directory)\n"
+    "  Esc                  quit\n"
+    "The line at the top: frames per second and the split in ms (direct light, solve,\n"
+    "upload, draw).\n";
+
+static int parse_vec3(const char *opt, const char *arg, double v[3])
+{
+    const char *p = arg;
+    for (int j = 0; j < 3; j++) {
+        char *end = NULL;
+        errno = 0;
+        v[j] = strtod(p, &end);
+        if (end == p || errno == ERANGE || !isfinite(v[j]) || *end != (j < 2 ? ',' : '\0')) {
+            cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
+            return -1;
+        }
+        p = end + 1;
+    }
+    return 0;
+}
+
+enum { OPT_SCRIPT = 1000, OPT_SCREENSHOT, OPT_FRAMES, OPT_SYNC, OPT_OVERLAY, OPT_FLAT };
+
+/* 1 handled, -1 usage error (reported), 0 unknown. */
+static int viewer_option(viewer_args *a, int c, const char *arg, int *have_target)
+{
+    unsigned u;
+    switch (c) {
+    case OPT_LIGHT:
+        if (a->lights >= VIEW_MAX_LIGHTS) {
+            cli_usage_error(prog, "--light: at most %d lights", VIEW_MAX_LIGHTS);
+            return -1;
+        }
+        return cli_parse_light(prog, arg, &a->light[a->lights++]) != 0 ? -1 : 1;
+    case OPT_NO_SCENE_EMISSION:
+        a->emitters = 0;
+        return 1;
+    case OPT_EXPOSURE:
+        return cli_parse_double(prog, "--exposure", arg, 0.0, 1, 1e30, &a->exposure) ? -1 : 1;
+    case OPT_EYE:
+        a->have_eye = 1;
+        return parse_vec3("--eye", arg, a->eye) ? -1 : 1;
+    case OPT_TARGET:
+        *have_target = 1;
+        return parse_vec3("--target", arg, a->target) ? -1 : 1;
+    case OPT_FOV:
+        return cli_parse_double(prog, "--fov", arg, 1.0, 0, 170.0, &a->fov) ? -1 : 1;
+    case OPT_WIDTH:
+    case OPT_HEIGHT:
+        if (cli_parse_unsigned(prog, c == OPT_WIDTH ? "--width" : "--height", arg, 64, 8192, &u))
+            return -1;
+        *(c == OPT_WIDTH ? &a->width : &a->height) = (int)u;
+        return 1;
+    case OPT_SCRIPT:
+        a->script = arg;
+        return 1;
+    case OPT_SCREENSHOT:
+        a->screenshot = arg;
+        return 1;
+    case OPT_FRAMES:
+        a->have_frames = 1;
+        return cli_parse_unsigned(prog, "--frames", arg, 0, 10000000, &a->frames) ? -1 : 1;
+    case OPT_SYNC:
+        a->sync = 1;
+        return 1;
+    case OPT_OVERLAY:
+        a->overlay = 1;
+        return 1;
+    case OPT_FLAT:
+        a->flat = 1;
+        return 1;
+    }
+    return 0;
+}
+
+/* CLI_RUN with *a filled in, or the exit status. */
+static int parse_view(viewer_args *a, int argc, char *argv[])
+{
+    static const struct option longopts[] = {
+        {"light", required_argument, NULL, OPT_LIGHT},
+        {"no-scene-emission", no_argument, NULL, OPT_NO_SCENE_EMISSION},
+        {"exposure", required_argument, NULL, OPT_EXPOSURE},
+        {"eye", required_argument, NULL, OPT_EYE},
+        {"target", required_argument, NULL, OPT_TARGET},
+        {"fov", required_argument, NULL, OPT_FOV},
+        {"width", required_argument, NULL, OPT_WIDTH},
+        {"height", required_argument, NULL, OPT_HEIGHT},
+        {"script", required_argument, NULL, OPT_SCRIPT},
+        {"screenshot", required_argument, NULL, OPT_SCREENSHOT},
+        {"frames", required_argument, NULL, OPT_FRAMES},
+        {"sync", no_argument, NULL, OPT_SYNC},
+        {"overlay", no_argument, NULL, OPT_OVERLAY},
+        {"flat", no_argument, NULL, OPT_FLAT},
+        {"help", no_argument, NULL, 'h'},
+        {NULL, 0, NULL, 0}};
+    *a = (viewer_args){.width = 800, .height = 600, .emitters = 1};
+    int have_target = 0, c;
+    start_getopt();
+    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
+        if (c == 'h') {
+            fputs(view_help, stdout);
+            return CLI_EXIT_OK;
+        }
+        int r = viewer_option(a, c, optarg, &have_target);
+        if (r < 0)
+            return CLI_EXIT_USAGE;
+        if (r == 0)
+            return bad_option(prog, c, argv);
+    }
+    if (a->have_eye != have_target) {
+        cli_usage_error(prog, "%s needs %s", a->have_eye ? "--eye" : "--target",
+                        a->have_eye ? "--target" : "--eye");
+        return CLI_EXIT_USAGE;
+    }
+    a->file = one_positional(prog, "FILE.lrr", argc, argv);
+    return a->file ? CLI_RUN : CLI_EXIT_USAGE;
+}
+
+int cmd_view(int argc, char *argv[])
+{
+    viewer_args a;
+    int rc = parse_view(&a, argc, argv);
+    if (rc != CLI_RUN)
+        return rc;
+    if (cli_parse_only)
+        return CLI_EXIT_OK;
+#ifdef LRR_VIEWER
+    view_script s = {0};
+    if (a.script && (rc = view_script_load(prog, a.script, a.lights, &s)) != CLI_EXIT_OK)
+        return rc;
+    rc = view_run(&a, &s);
+    view_script_free(&s);
+    return rc;
+#else
+    fprintf(stderr, "%s: lrr was built without the viewer (configure found no GLFW 3 or "
+                    "libepoxy, or was given --disable-viewer). On Debian: apt-get install "
+                    "libglfw3-dev libepoxy-dev, then ./configure && make\n",
+            prog);
+    return CLI_EXIT_FAIL;
+#endif
+}
