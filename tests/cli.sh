@@ -599,6 +599,16 @@ if command -v blender >/dev/null 2>&1; then
 else
     echo "SKIP: blender is not installed"
 fi
+run export "$LRRFILE" -o "$T/lamp.glb" --light 'point pos=278,400,279 rgb=30000' \
+    --no-scene-emission --exposure auto
+if [ "$rc" -eq 0 ] && [ "$(value triangles)" = "$tris" ] &&
+    awk -v x="$(value exposure)" 'BEGIN { exit !(x > 0) }'; then
+    pass "export --light: the lit mesh of a moving light"
+else
+    fail "export --light (exit $rc)"; show_err
+fi
+run export "$LRRFILE" -o "$T/lamp.glb" --no-scene-emission
+expect_rc 2 "export --no-scene-emission without --light or --probe is rejected"
 run export "$LRRFILE" -o "$T/lit.obj"
 expect_rc 2 "export -o X.obj without --format is a usage error"
 run export "$LRRFILE" -o "$T/lit.glb" --format fbx

@@ -37,6 +37,11 @@ static const char export_help[] =
     "  --exposure X         colour = min(1, B × X): X > 0, or 'auto' (the mean radiosity of\n"
     "                       the surfaces that do not emit maps to 0.18; default 1: B itself)\n"
     "  --emission-scale S   multiply the stored emission by S (finite, >= 0; default 1)\n"
+    "  --light SPEC         a light (repeatable, up to 16) whose shadowed direct light is\n"
+    "                       added to the emission, as for 'lrr render --light'\n"
+    "  --probe PROBE        light the scene with a light probe, as for 'lrr render'\n"
+    "                       (with --sources, --probe-method, --probe-scale)\n"
+    "  --no-scene-emission  --light, --probe: leave out the stored emission\n"
     "  -h, --help           show this help\n"
     "\n"
     "Prints vertices, triangles, materials, exposure and output as 'key: value' lines.\n";
@@ -46,6 +51,7 @@ enum { FORMAT_NONE, FORMAT_GLTF, FORMAT_PLY };
 typedef struct export_args {
     const char *file, *output;
     lrr_export_options eo;
+    probe_args pa;      /* --light, --probe */
     double scale;
     int format;
 } export_args;
@@ -81,7 +87,7 @@ static int export_option(export_args *a, int c, const char *arg)
         }
         return 1;
     default:
-        return 0;
+        return probe_option(&a->pa, prog, c, arg);
     }
 }
 
@@ -115,9 +121,11 @@ static int parse_export(export_args *a, int argc, char *argv[])
         {"subpatches", no_argument, NULL, OPT_SUBPATCHES},
         {"exposure", required_argument, NULL, OPT_EXPOSURE},
         {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
+        PROBE_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     *a = (export_args){.eo = lrr_export_options_defaults(), .scale = 1.0};
+    probe_args_init(&a->pa);
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
@@ -139,7 +147,7 @@ static int parse_export(export_args *a, int argc, char *argv[])
         fprintf(stderr, "Try '%s --help'.\n", prog);
         return CLI_EXIT_USAGE;
     }
-    return format_finish(a) != 0 ? CLI_EXIT_USAGE : CLI_RUN;
+    return format_finish(a) != 0 || probe_finish(&a->pa, prog) != 0 ? CLI_EXIT_USAGE : CLI_RUN;
 }
 
 /* The mesh's sizes, then the file. */
@@ -171,7 +179,9 @@ static int run_export(const export_args *a)
     int rc = load_operator(ctx, a->file, &op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(op, a->scale, &e);
-    /* --lights (lib/light/) goes here: its emission added to e, as render's --probe does */
+    double direct_s = 0.0;
+    if (rc == CLI_EXIT_OK && (a->pa.path || a->pa.lights))
+        rc = add_probe_light(ctx, op, &a->pa, e, &direct_s);
     if (rc == CLI_EXIT_OK) {
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi, sizeof oi);
