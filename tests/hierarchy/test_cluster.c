@@ -318,6 +318,64 @@ static void test_file_round_trip(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* The OpenCL solver's segmented sum takes the Vᵀ weights, and the device-side hemicube
+ * integration the cluster sizes: the same B and F̄ as on the CPU. Skipped without OpenCL
+ * (failed when LRR_REQUIRE_OPENCL is set, as in CI). */
+static void test_opencl_agrees(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_scene *s;
+    LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
+    subdivided(ctx, s, 600);
+    lrr_build_options bo = cluster_opts(60, LRR_SPLIT_AREA);
+    lrr_operator *op;
+    LRR_CHECK(ctx, lrr_operator_build(s, &bo, &op));
+    lrr_solver *sv = NULL;
+    lrr_status st = lrr_solver_create(op, LRR_BACKEND_OPENCL, &sv);
+    if (st == LRR_ERR_UNSUPPORTED) {
+        const char *req = getenv("LRR_REQUIRE_OPENCL");
+        char msg[512];
+        lrr_context_last_error(ctx, msg, sizeof msg);
+        printf("OpenCL comparison %s: %s\n", req && *req ? "required" : "skipped", msg);
+        if (req && *req)
+            fail_msg("LRR_REQUIRE_OPENCL is set but OpenCL is unavailable");
+    } else {
+        LRR_CHECK(ctx, st);
+        lrr_operator_info oi;
+        lrr_operator_get_info(op, &oi, sizeof oi);
+        float *cpu = solve(ctx, op), *cl = malloc(3 * oi.n * sizeof(float));
+        LRR_CHECK(ctx, lrr_solve(sv, lrr_operator_emission(op), cl));
+        double num = 0, den = 0;
+        for (size_t i = 0; i < 3 * oi.n; i++) {
+            num = fmax(num, fabs((double)cl[i] - cpu[i]));
+            den = fmax(den, fabs((double)cpu[i]));
+        }
+        printf("OpenCL vs CPU on clusters (k = %zu, d %zu..%zu): %.3g\n", oi.k, oi.d_min,
+               oi.d_max, num / den);
+        assert_true(num / den <= 1e-6);
+        free(cpu);
+        free(cl);
+        lrr_operator *dev;
+        bo.backend = LRR_BACKEND_OPENCL;
+        LRR_CHECK(ctx, lrr_operator_build(s, &bo, &dev));
+        assert_memory_equal(lrr_operator_subpatch_origin(dev), lrr_operator_subpatch_origin(op),
+                            oi.n * sizeof(size_t));
+        const float *fc = lrr_operator_fbar(op), *fd = lrr_operator_fbar(dev);
+        double worst = 0;
+        for (size_t i = 0; i < oi.n * oi.k; i++)
+            worst = fmax(worst, fabs((double)fd[i] - fc[i]) / fmax(fabs((double)fc[i]), 1e-30));
+        printf("device-integrated F̄ vs CPU, worst relative difference %.3g\n", worst);
+        assert_true(worst <= 2 * 1.1920929e-7);
+        lrr_operator_destroy(dev);
+    }
+    lrr_solver_destroy(sv);
+    lrr_operator_destroy(op);
+    lrr_scene_destroy(s);
+    lrr_context_destroy(ctx);
+}
+
 /* What a file's CLUSTERS section must be (the loader's check, lrr__geometry_clusters). */
 static void test_bad_clusters(void **state)
 {
@@ -451,6 +509,7 @@ int main(void)
         cmocka_unit_test(test_every_subpatch_is_exact),
         cmocka_unit_test(test_area_weights),
         cmocka_unit_test(test_file_round_trip),
+        cmocka_unit_test(test_opencl_agrees),
         cmocka_unit_test(test_bad_clusters),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_real_house),
