@@ -224,6 +224,29 @@ int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *
 }
 
 /* ------------------------------------------------------------------ solving */
+int solve_lit(lrr_context *ctx, const char *file, double scale, const probe_args *pa,
+              lrr_operator **op, float **b)
+{
+    float *e = NULL;
+    double ms = 0.0, direct_s = 0.0;
+    *b = NULL;
+    int rc = load_operator(ctx, file, op);
+    if (rc == CLI_EXIT_OK)
+        rc = scaled_emission(*op, scale, &e);
+    if (rc == CLI_EXIT_OK && (pa->path || pa->lights))
+        rc = add_probe_light(ctx, *op, pa, e, &direct_s);
+    if (rc == CLI_EXIT_OK) {
+        lrr_operator_info oi;
+        lrr_operator_get_info(*op, &oi, sizeof oi);
+        *b = cli_alloc_rgb(oi.n);
+        rc = *b ? timed_solve(ctx, *op, LRR_BACKEND_CPU, e, *b, 0, LRR_PATH_AUTO, &ms, NULL,
+                              NULL)
+                : CLI_EXIT_FAIL;
+    }
+    free(e);
+    return rc;
+}
+
 int check_finite(const float *b, size_t n)
 {
     for (size_t i = 0; i < 3 * n; i++)

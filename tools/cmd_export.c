@@ -174,25 +174,11 @@ static int run_export(const export_args *a)
     if (s != LRR_OK)
         return cli_lib_error(NULL, s);
     lrr_operator *op = NULL;
-    float *e = NULL, *b = NULL;
-    double ms = 0.0;
-    int rc = load_operator(ctx, a->file, &op);
-    if (rc == CLI_EXIT_OK)
-        rc = scaled_emission(op, a->scale, &e);
-    double direct_s = 0.0;
-    if (rc == CLI_EXIT_OK && (a->pa.path || a->pa.lights))
-        rc = add_probe_light(ctx, op, &a->pa, e, &direct_s);
-    if (rc == CLI_EXIT_OK) {
-        lrr_operator_info oi;
-        lrr_operator_get_info(op, &oi, sizeof oi);
-        b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, LRR_BACKEND_CPU, e, b, 0, LRR_PATH_AUTO, &ms, NULL, NULL)
-               : CLI_EXIT_FAIL;
-    }
+    float *b = NULL;
+    int rc = solve_lit(ctx, a->file, a->scale, &a->pa, &op, &b);
     if (rc == CLI_EXIT_OK)
         rc = write_mesh(ctx, op, b, a);
     free(b);
-    free(e);
     lrr_operator_destroy(op);
     lrr_context_destroy(ctx);
     return rc;

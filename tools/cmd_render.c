@@ -34,25 +34,7 @@ static const char render_help[] =
     "                       to target - eye)\n"
     "  --fov DEGREES        vertical field of view, 0 < fov < 180 (default 60 for --eye and\n"
     "                       the inside view, 40 for 'fit', 39.3 for 'cornell')\n"
-    "  --probe PROBE        light the scene with a latitude-longitude probe (.hdr, +y up,\n"
-    "                       at infinity): its fitted directional lights give the reflected\n"
-    "                       direct light E_i = rho_i sum_l I_l max(0, n_i.w_l) visible(x_i, w_l)\n"
-    "                       (shadows by Embree occlusion rays), added to the stored emission\n"
-    "  --sources N          --probe: number of lights (1..65536, default 16)\n"
-    "  --probe-method M     --probe: irradiance (default; fitted by Levenberg-Marquardt) or\n"
-    "                       median-cut\n"
-    "  --probe-scale S      --probe: multiply the lights by S (finite, >= 0; default 1)\n"
-    "  --light SPEC         a light (repeatable, up to 16): its direct light on every\n"
-    "                       subpatch, shadowed by Embree occlusion rays, is added to the\n"
-    "                       emission (lrr_lighting_direct). SPEC: a kind and fields,\n"
-    "                         'point pos=X,Y,Z rgb=R,G,B'    (rgb: intensity per sr)\n"
-    "                         'spot pos=.. dir=X,Y,Z angle=DEG soft=DEG rgb=..'\n"
-    "                         'area pos=.. u=X,Y,Z v=X,Y,Z samples=N rgb=..' (a rectangle\n"
-    "                           pos ± u/2 ± v/2 emitting on the side of u × v; rgb: its\n"
-    "                           radiosity)\n"
-    "                         'sun dir=X,Y,Z rgb=..'        (dir: towards the sun)\n"
-    "                       rgb=V sets all three channels\n"
-    "  --no-scene-emission  --probe, --light: leave out the stored emission\n"
+    PROBE_LIGHT_HELP
     "  -h, --help           show this help\n";
 
 enum { FORMAT_NONE, FORMAT_PNG, FORMAT_EXR };
@@ -159,20 +141,8 @@ static int run_render(const render_args *a)
     if (s != LRR_OK)
         return cli_lib_error(NULL, s);
     lrr_operator *op = NULL;
-    float *e = NULL, *b = NULL;
-    double ms = 0.0, direct_s = 0.0;
-    int rc = load_operator(ctx, a->file, &op);
-    if (rc == CLI_EXIT_OK)
-        rc = scaled_emission(op, a->scale, &e);
-    if (rc == CLI_EXIT_OK && (a->pa.path || a->pa.lights))
-        rc = add_probe_light(ctx, op, &a->pa, e, &direct_s);
-    if (rc == CLI_EXIT_OK) {
-        lrr_operator_info oi;
-        lrr_operator_get_info(op, &oi, sizeof oi);
-        b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, LRR_BACKEND_CPU, e, b, 0, LRR_PATH_AUTO, &ms, NULL, NULL)
-               : CLI_EXIT_FAIL;
-    }
+    float *b = NULL;
+    int rc = solve_lit(ctx, a->file, a->scale, &a->pa, &op, &b);
     if (rc == CLI_EXIT_OK) {
         s = a->format == FORMAT_EXR ? lrr_render_exr(op, b, &a->view.ro, a->output)
                                     : lrr_render_png(op, b, &a->view.ro, a->output);
@@ -182,7 +152,6 @@ static int run_render(const render_args *a)
     if (rc == CLI_EXIT_OK)
         printf("output: %s\n", a->output);
     free(b);
-    free(e);
     lrr_operator_destroy(op);
     lrr_context_destroy(ctx);
     return rc;

@@ -226,6 +226,28 @@ int view_option(view_args *v, const char *prog, int c, const char *arg);
  * -1 after a usage message. */
 int view_finish(view_args *v, const char *prog);
 
+/* The --help lines of the probe and light options, shared by solve and render. */
+#define PROBE_LIGHT_HELP                                                                      \
+    "  --probe PROBE        light the scene with a latitude-longitude probe (.hdr, +y up,\n"  \
+    "                       at infinity): its fitted directional lights give the reflected\n" \
+    "                       direct light E_i = rho_i sum_l I_l max(0, n_i.w_l) visible(x_i, w_l)\n" \
+    "                       (shadows by Embree occlusion rays), added to the stored emission\n" \
+    "  --sources N          --probe: number of lights (1..65536, default 16)\n"              \
+    "  --probe-method M     --probe: irradiance (default; fitted by Levenberg-Marquardt) or\n" \
+    "                       median-cut\n"                                                     \
+    "  --probe-scale S      --probe: multiply the lights by S (finite, >= 0; default 1)\n"    \
+    "  --light SPEC         a light (repeatable, up to 16): its direct light on every\n"      \
+    "                       subpatch, shadowed by Embree occlusion rays, is added to the\n"   \
+    "                       emission (lrr_lighting_direct). SPEC: a kind and fields,\n"       \
+    "                         'point pos=X,Y,Z rgb=R,G,B'    (rgb: intensity per sr)\n"      \
+    "                         'spot pos=.. dir=X,Y,Z angle=DEG soft=DEG rgb=..'\n"           \
+    "                         'area pos=.. u=X,Y,Z v=X,Y,Z samples=N rgb=..' (a rectangle\n" \
+    "                           pos ± u/2 ± v/2 emitting on the side of u × v; rgb: its\n"   \
+    "                           radiosity)\n"                                                 \
+    "                         'sun dir=X,Y,Z rgb=..'        (dir: towards the sun)\n"         \
+    "                       rgb=V sets all three channels\n"                                  \
+    "  --no-scene-emission  --probe, --light: leave out the stored emission\n"
+
 /* --light SPEC (tools/cli_lights.c) into l; 0, or -1 after a usage message. */
 int cli_parse_light(const char *prog, const char *spec, lrr_light_source *l);
 
@@ -271,6 +293,11 @@ int check_finite(const float *b, size_t n);
 int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend, const float *e,
                 float *b, unsigned repeat, lrr_path path, double *median_ms, lrr_path *used,
                 char *kernel);
+/* render's and export's solve: loads *op from file and solves once on the CPU for its stored
+ * emission × scale plus the direct light of pa's probe and --light sources (or that light
+ * alone with --no-scene-emission) into *b (n×3, freed by the caller; also on failure). */
+int solve_lit(lrr_context *ctx, const char *file, double scale, const probe_args *pa,
+              lrr_operator **op, float **b);
 
 /* mean_b_r/g/b (area-weighted; plain means without areas) and max_b of n subpatches. */
 void print_radiosity_summary(size_t n, const float *area, const float *b);
