@@ -656,6 +656,14 @@ LRR_API LRR_NODISCARD lrr_status lrr_render_png(const lrr_operator *op, const fl
 LRR_API LRR_NODISCARD lrr_status lrr_render_exr(const lrr_operator *op, const float *radiosity,
                                                 const lrr_render_options *opts,
                                                 const char *path) LRR_NONNULL(1, 2, 4);
+/* The automatic exposure (what exposure = 0 means) for radiosity (n×3): the area-weighted
+ * mean luminance (Rec. 709) of the subpatches that do not emit maps to 0.18 (of all of them
+ * when that mean is 0; 1 when it is 0 too). lrr_render_png keys it on the subpatches its
+ * picture shows, lrr_export_gltf / _ply ("auto") on all of them, as this function does: a
+ * sequence of pictures drawn with this exposure, fixed, does not flicker. Thread safety: any
+ * thread. */
+LRR_API double lrr_render_auto_exposure(const lrr_operator *op, const float *radiosity)
+    LRR_NONNULL(1, 2);
 
 /* ---------------------------------------------------------------- export */
 /* The lit scene as a mesh for other programs: glTF 2.0 (binary .glb) or PLY.

@@ -257,20 +257,12 @@ static void anim_close(anim_state *st)
         free(st->ms[k]);
 }
 
-/* The exposure of every PNG frame: --exposure, else the automatic one of the first frame
- * (lrr_export_get_info resolves the same rule as lrr_render_png). */
-static int fix_exposure(anim_state *st, animate_args *a)
+/* The exposure of every PNG frame: --exposure, else the automatic one of the first frame,
+ * kept (lrr_render_auto_exposure). */
+static void fix_exposure(anim_state *st, animate_args *a)
 {
-    if (a->exr || a->view.ro.exposure > 0)
-        return CLI_EXIT_OK;
-    lrr_export_options eo = lrr_export_options_defaults();
-    eo.exposure = 0;
-    lrr_export_info info;
-    lrr_status s = lrr_export_get_info(st->op, st->b, &eo, a->output, &info, sizeof info);
-    if (s != LRR_OK)
-        return cli_lib_error(st->ctx, s);
-    a->view.ro.exposure = info.exposure;
-    return CLI_EXIT_OK;
+    if (!a->exr && !(a->view.ro.exposure > 0))
+        a->view.ro.exposure = lrr_render_auto_exposure(st->op, st->b);
 }
 
 static int one_frame(anim_state *st, animate_args *a, size_t f)
@@ -285,7 +277,9 @@ static int one_frame(anim_state *st, animate_args *a, size_t f)
     if (s == LRR_OK)
         s = lrr_solve(st->sv, st->e, st->b);
     double t2 = cli_now();
-    int rc = s == LRR_OK ? (f == 0 ? fix_exposure(st, a) : CLI_EXIT_OK) : cli_lib_error(st->ctx, s);
+    if (s == LRR_OK && f == 0)
+        fix_exposure(st, a);
+    int rc = s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(st->ctx, s);
     char path[4096];
     if (rc == CLI_EXIT_OK &&
         snprintf(path, sizeof path, "%s/frame_%04zu.%s", a->output, f, a->exr ? "exr" : "png") >=

@@ -252,7 +252,7 @@ lrr_status lrr__export_mesh_build(const lrr_operator *op, const float *radiosity
     if (st)
         return st;
     m->subpatches = o.subpatches;
-    m->exposure = o.exposure > 0 ? o.exposure : lrr__output_auto_exposure(op, radiosity);
+    m->exposure = o.exposure > 0 ? o.exposure : lrr_render_auto_exposure(op, radiosity);
     m->nt = o.subpatches ? op->n : op->geom.n_tri;
     export_work w = {0};
     if ((st = lrr__calloc(op->ctx, &w.mat, m->nt, sizeof *w.mat, "export: item materials")) ||

@@ -27,45 +27,15 @@ static double luminance(const float *c)
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
 }
 
-/* The area-weighted mean luminance of the visible non-emitting subpatches maps to
- * EXPOSURE_KEY; the light sources then burn out to white, as in photographs of the box. */
-static lrr_status auto_exposure(const lrr_operator *op, const float *radiosity,
-                                const lrr__framebuffer *fb, double *exposure)
-{
-    uint8_t *seen;
-    lrr_status st = lrr__calloc(op->ctx, &seen, op->n, 1, "render: visibility flags");
-    if (st)
-        return st;
-    size_t npix = (size_t)fb->width * fb->height;
-    for (size_t p = 0; p < npix; p++)
-        if (fb->id[p])
-            seen[fb->id[p] - 1] = 1;
-    double sum[2] = {0, 0}, area[2] = {0, 0}; /* [0] non-emitters, [1] all visible */
-    for (size_t i = 0; i < op->n; i++) {
-        if (!seen[i])
-            continue;
-        const float *e = op->emission ? op->emission + 3 * i : NULL;
-        int emits = e && (e[0] > 0 || e[1] > 0 || e[2] > 0);
-        double a = op->area[i], l = luminance(radiosity + 3 * i);
-        if (!emits) {
-            sum[0] += a * l;
-            area[0] += a;
-        }
-        sum[1] += a * l;
-        area[1] += a;
-    }
-    lrr_aligned_free(seen);
-    double mean = area[0] > 0 && sum[0] > 0 ? sum[0] / area[0]
-                  : area[1] > 0            ? sum[1] / area[1]
-                                           : 0;
-    *exposure = mean > 0 && isfinite(mean) ? EXPOSURE_KEY / mean : 1.0;
-    return LRR_OK;
-}
-
-double lrr__output_auto_exposure(const lrr_operator *op, const float *radiosity)
+/* The area-weighted mean luminance of the non-emitting subpatches (those with seen[i], when
+ * seen is given) maps to EXPOSURE_KEY; the light sources then burn out to white, as in
+ * photographs of the box. With no such light, the mean over all of them. */
+static double exposure_for(const lrr_operator *op, const float *radiosity, const uint8_t *seen)
 {
     double sum[2] = {0, 0}, area[2] = {0, 0}; /* [0] non-emitters, [1] all */
     for (size_t i = 0; i < op->n; i++) {
+        if (seen && !seen[i])
+            continue;
         const float *e = op->emission ? op->emission + 3 * i : NULL;
         int emits = e && (e[0] > 0 || e[1] > 0 || e[2] > 0);
         double a = op->area[i], l = luminance(radiosity + 3 * i);
@@ -80,6 +50,28 @@ double lrr__output_auto_exposure(const lrr_operator *op, const float *radiosity)
                   : area[1] > 0            ? sum[1] / area[1]
                                            : 0;
     return mean > 0 && isfinite(mean) ? EXPOSURE_KEY / mean : 1.0;
+}
+
+/* The picture's automatic exposure: keyed on the subpatches it shows. */
+static lrr_status auto_exposure(const lrr_operator *op, const float *radiosity,
+                                const lrr__framebuffer *fb, double *exposure)
+{
+    uint8_t *seen;
+    lrr_status st = lrr__calloc(op->ctx, &seen, op->n, 1, "render: visibility flags");
+    if (st)
+        return st;
+    size_t npix = (size_t)fb->width * fb->height;
+    for (size_t p = 0; p < npix; p++)
+        if (fb->id[p])
+            seen[fb->id[p] - 1] = 1;
+    *exposure = exposure_for(op, radiosity, seen);
+    lrr_aligned_free(seen);
+    return LRR_OK;
+}
+
+double lrr_render_auto_exposure(const lrr_operator *op, const float *radiosity)
+{
+    return exposure_for(op, radiosity, NULL);
 }
 
 /* sRGB 8-bit encoding by thresholds: code k is the first whose lower bound (the linear

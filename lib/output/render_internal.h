@@ -49,10 +49,6 @@ lrr_status lrr__render_camera_setup(lrr__camera *cam, const lrr_operator *op,
  * partial file; every step goes through the context's I/O fault hook. */
 lrr_status lrr__output_write_atomic(lrr_context *ctx, const char *path,
                                     const unsigned char *data, size_t len);
-/* The automatic exposure of lrr_export_options (exposure 0): the area-weighted mean
- * luminance of all non-emitting subpatches (all subpatches if every one emits) maps to
- * 0.18, as lrr_render_png's does for the visible ones. 1 when that mean is 0. */
-double lrr__output_auto_exposure(const lrr_operator *op, const float *radiosity);
 
 /* export.c */
 /* The lit mesh that lrr_export_gltf and lrr_export_ply write (lrr.h "export"). */

@@ -469,6 +469,36 @@ static void test_bad_input(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* The automatic exposure: in the furnace every subpatch emits, so the mean over all of them,
+ * B = e/(1 − ρ) per channel, maps to 0.18; the export's "auto" resolves to the same value,
+ * and with one subpatch no longer emitting the key is that subpatch alone. */
+static void test_auto_exposure(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    float v[108], *B;
+    lrr_operator *op = furnace_op(ctx, v, &B);
+    double lum = 0;
+    const double w[3] = {0.2126, 0.7152, 0.0722};
+    for (int c = 0; c < 3; c++)
+        lum += w[c] * FURNACE_E / (1 - FURNACE_RHO[c]);
+    ASSERT_NEAR(lrr_render_auto_exposure(op, B), 0.18 / lum, 1e-6 * 0.18 / lum, "furnace");
+    lrr_export_options o = lrr_export_options_defaults();
+    o.exposure = 0;
+    lrr_export_info info;
+    char path[512];
+    tu_tmp_path(path, sizeof path, "export-auto.glb");
+    LRR_CHECK(ctx, lrr_export_get_info(op, B, &o, path, &info, sizeof info));
+    assert_true(info.exposure == lrr_render_auto_exposure(op, B));
+    op->emission[0] = op->emission[1] = op->emission[2] = 0; /* subpatch 0 is lit only */
+    B[0] = B[1] = B[2] = 2.0f;
+    ASSERT_NEAR(lrr_render_auto_exposure(op, B), 0.09, 1e-6, "one non-emitter");
+    free(B);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+}
+
 /* Failed writes: an unwritable path is LRR_ERR_IO naming it; a fault at any step of the
  * atomic writer leaves neither the file nor a temporary one. */
 typedef struct export_fault {
@@ -529,6 +559,7 @@ int main(void)
         cmocka_unit_test(test_material_edge),
         cmocka_unit_test(test_ply_furnace),
         cmocka_unit_test(test_bad_input),
+        cmocka_unit_test(test_auto_exposure),
         cmocka_unit_test(test_write_failures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
