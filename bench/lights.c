@@ -1,6 +1,7 @@
 /* lrr-bench lights: the direct light of moving point lights (lrr_lighting_direct) per frame,
  * its shadow rays per second, and Embree's own occlusion rate on the same rays as the
- * baseline (a plain OpenMP loop of rtcOccluded1 over a BVH of the same triangles). */
+ * baseline (plain OpenMP loops of rtcOccluded1 and rtcOccluded16 over a BVH of the subpatch
+ * triangles). */
 #include "bench.h"
 
 #include <embree3/rtcore.h>
@@ -17,7 +18,8 @@ static const char lights_help[] =
     "two cases: every light moves each frame (all traced), and one of them moves (the others\n"
     "come from the cache). Reports ms per frame (median, min, max), rays per frame and rays\n"
     "per second, against Embree's occlusion rate on the same rays (an OpenMP loop of\n"
-    "rtcOccluded1 over a BVH of the same triangles, nothing else per ray).\n\n"
+    "rtcOccluded1, and rtcOccluded16 on 16 neighbouring receivers, over a BVH of the\n"
+    "subpatch triangles, nothing else per ray).\n\n"
     "Options:\n"
     "  --operator FILE.lrr  the operator (default: the built-in Cornell box, --patches 216\n"
     "                       --levels 2, hemicube 32, built here)\n"
@@ -56,9 +58,67 @@ static int lights_step(void *user)
     return r->status != LRR_OK;
 }
 
-/* Embree alone: the rays of one frame with every light traced (from each centre, off the
- * surface, to each light in front), over a BVH of the subpatch triangles. */
-static double embree_rate(const lrr_operator *op, size_t n, const lights_run *r, double *rays)
+/* The ray from centre x (normal nv) to light position p, off the surface; 0 when the light is
+ * behind the receiver. */
+static int light_ray(const float *x, const float *nv, const float *p, float o[3], float d[3],
+                     float *len)
+{
+    float w[3] = {p[0] - x[0], p[1] - x[1], p[2] - x[2]};
+    *len = sqrtf(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    if (!(nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2] > 0))
+        return 0;
+    for (int j = 0; j < 3; j++) {
+        o[j] = x[j] + 1e-4f * nv[j];
+        d[j] = w[j] / *len;
+    }
+    return 1;
+}
+
+/* Embree alone on the rays of one frame with every light traced: one rtcOccluded1 per ray
+ * (width 1), or per light rtcOccluded16 on 16 consecutive receivers (width 16), nothing else
+ * per ray. The best of 5 passes. */
+static double embree_pass(RTCScene sc, const float *ce, const float *nr, size_t n,
+                          const lights_run *r, int width, double *rays)
+{
+    double cnt = 0;
+    #pragma omp parallel for schedule(dynamic, 4) reduction(+ : cnt)
+    for (size_t i0 = 0; i0 < n; i0 += 16) {
+        struct RTCIntersectContext ictx;
+        rtcInitIntersectContext(&ictx);
+        for (size_t l = 0; l < r->count; l++) {
+            struct RTCRay16 p16;
+            int valid[16], any = 0;
+            for (size_t i = i0; i < i0 + 16; i++) {
+                unsigned k = (unsigned)(i - i0);
+                float o[3], d[3], len;
+                valid[k] = 0;
+                if (i >= n || !light_ray(ce + 3 * i, nr + 3 * i, r->light[l].position, o, d, &len))
+                    continue;
+                cnt += 1;
+                if (width == 1) {
+                    struct RTCRay ray = {.org_x = o[0], .org_y = o[1], .org_z = o[2],
+                                         .dir_x = d[0], .dir_y = d[1], .dir_z = d[2],
+                                         .tfar = len, .mask = UINT32_MAX};
+                    rtcOccluded1(sc, &ictx, &ray);
+                    continue;
+                }
+                valid[k] = -1;
+                any = 1;
+                p16.org_x[k] = o[0], p16.org_y[k] = o[1], p16.org_z[k] = o[2];
+                p16.dir_x[k] = d[0], p16.dir_y[k] = d[1], p16.dir_z[k] = d[2];
+                p16.tnear[k] = 0, p16.tfar[k] = len, p16.time[k] = 0;
+                p16.mask[k] = UINT32_MAX, p16.flags[k] = 0, p16.id[k] = k;
+            }
+            if (any)
+                rtcOccluded16(valid, sc, &ictx, &p16);
+        }
+    }
+    *rays = cnt;
+    return cnt;
+}
+
+static double embree_rate(const lrr_operator *op, size_t n, const lights_run *r, int width,
+                          double *rays)
 {
     float *tri = malloc(n * 9 * sizeof(float));
     if (!tri)
@@ -79,36 +139,16 @@ static double embree_rate(const lrr_operator *op, size_t n, const lights_run *r,
     rtcReleaseGeometry(g);
     rtcCommitScene(sc);
     const float *ce = lrr_operator_centre(op), *nr = lrr_operator_normal(op);
-    double best = 0, count = 0;
+    double best = 0;
     for (int pass = 0; pass < 5; pass++) {
-        double t0 = omp_get_wtime(), cnt = 0;
-        #pragma omp parallel for schedule(dynamic, 64) reduction(+ : cnt)
-        for (size_t i = 0; i < n; i++) {
-            struct RTCIntersectContext ictx;
-            rtcInitIntersectContext(&ictx);
-            for (size_t l = 0; l < r->count; l++) {
-                const float *p = r->light[l].position, *x = ce + 3 * i, *nv = nr + 3 * i;
-                float w[3] = {p[0] - x[0], p[1] - x[1], p[2] - x[2]};
-                float len = sqrtf(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-                if (!(nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2] > 0))
-                    continue;
-                struct RTCRay ray = {.org_x = x[0] + 1e-4f * nv[0], .org_y = x[1] + 1e-4f * nv[1],
-                                     .org_z = x[2] + 1e-4f * nv[2], .dir_x = w[0] / len,
-                                     .dir_y = w[1] / len, .dir_z = w[2] / len, .tfar = len,
-                                     .mask = UINT32_MAX};
-                rtcOccluded1(sc, &ictx, &ray);
-                cnt += 1;
-            }
-        }
+        double t0 = omp_get_wtime(), cnt = embree_pass(sc, ce, nr, n, r, width, rays);
         double dt = omp_get_wtime() - t0;
         if (cnt / dt > best)
             best = cnt / dt;
-        count = cnt;
     }
     rtcReleaseScene(sc);
     rtcReleaseDevice(dev);
     free(tri);
-    *rays = count;
     return best;
 }
 
@@ -228,8 +268,11 @@ int cmd_lights(int argc, char *argv[])
     if (rc == CLI_EXIT_OK)
         rc = measure(&r, 1, repeat, "one_moving");
     if (rc == CLI_EXIT_OK) {
-        double rays = 0, rate = embree_rate(op, oi.n, &r, &rays);
-        printf("embree_occluded1_rays: %.0f\nembree_occluded1_rays_per_s: %.4g\n", rays, rate);
+        for (int width = 1; width <= 16; width += 15) {
+            double rays = 0, rate = embree_rate(op, oi.n, &r, width, &rays);
+            printf("embree_occluded%d_rays: %.0f\nembree_occluded%d_rays_per_s: %.4g\n", width,
+                   rays, width, rate);
+        }
     }
     lrr_lighting_destroy(r.lt);
     free(r.light);

@@ -26,9 +26,32 @@ typedef struct lrr__source {
  * light and the field. */
 lrr_status lrr__source_check(lrr_context *ctx, const lrr_light_source *l, size_t index,
                              lrr__source *s);
-/* Irradiance H (rgb) of s at receiver i (centre x, unit normal nv, ray offset eps) with
- * shadows from scene; *rays counts the occlusion rays cast. */
-void lrr__source_irradiance(const lrr__source *s, RTCScene scene, size_t i, const float *x,
-                            const float *nv, float eps, float H[3], uint64_t *rays);
+/* Shadow rays traced together (shadow.c): up to LRR__SHADOW_RAYS rays in 16-wide packets;
+ * each carries its receiver (an index into acc) and the weight it adds to acc[receiver] when
+ * nothing is in the way. A flush adds them in push order. */
+#define LRR__SHADOW_LANES 16
+#define LRR__SHADOW_RAYS 256
+typedef struct lrr__shadow_batch {
+    struct RTCRay16 packet[LRR__SHADOW_RAYS / LRR__SHADOW_LANES];
+    unsigned receiver[LRR__SHADOW_RAYS];
+    double weight[LRR__SHADOW_RAYS];
+    unsigned count;
+    RTCScene scene;
+    double *acc;
+    uint64_t rays; /* rays pushed since init */
+} lrr__shadow_batch;
+
+void lrr__shadow_init(lrr__shadow_batch *b, RTCScene scene, double *acc);
+/* A ray from o (already off the surface) along unit w for length t (INFINITY: unbounded). */
+void lrr__shadow_push(lrr__shadow_batch *b, const float o[3], const double w[3], float t,
+                      unsigned receiver, double weight);
+void lrr__shadow_flush(lrr__shadow_batch *b);
+
+/* Pushes the shadow rays of s at receiver i (centre x, unit normal nv, ray offset eps) into b,
+ * accumulating into acc[slot]; after the flush, lrr__source_irradiance turns acc[slot] into
+ * the irradiance H (rgb). */
+void lrr__source_rays(const lrr__source *s, lrr__shadow_batch *b, size_t i, unsigned slot,
+                      const float *x, const float *nv, float eps);
+void lrr__source_irradiance(const lrr__source *s, double acc, float H[3]);
 
 #endif

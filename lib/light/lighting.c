@@ -80,16 +80,29 @@ static lrr_status reserve(lrr_lighting *lt, size_t count)
     return LRR_OK;
 }
 
-/* Traces light l (checked as s) into its cache slot. */
+/* Traces light l (checked as s) into its cache slot: blocks of receivers, each with one
+ * batch of shadow rays (lrr__shadow_batch: its rays go to Embree as packets). */
+#define BLOCK 64
 static void trace(lrr_lighting *lt, const lrr__source *s, size_t l)
 {
     const lrr_operator *op = lt->op;
     float *H = lt->H + l * op->n * 3;
+    const size_t blocks = (op->n + BLOCK - 1) / BLOCK;
     uint64_t rays = 0;
-    #pragma omp parallel for schedule(dynamic, 64) reduction(+ : rays)
-    for (size_t i = 0; i < op->n; i++)
-        lrr__source_irradiance(s, lt->bvh.scene, i, op->centre + 3 * i, op->normal + 3 * i,
-                               lt->eps, H + 3 * i, &rays);
+    #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays)
+    for (size_t blk = 0; blk < blocks; blk++) {
+        const size_t i0 = blk * BLOCK, i1 = i0 + BLOCK < op->n ? i0 + BLOCK : op->n;
+        double acc[BLOCK] = {0};
+        lrr__shadow_batch b;
+        lrr__shadow_init(&b, lt->bvh.scene, acc);
+        for (size_t i = i0; i < i1; i++)
+            lrr__source_rays(s, &b, i, (unsigned)(i - i0), op->centre + 3 * i,
+                             op->normal + 3 * i, lt->eps);
+        lrr__shadow_flush(&b);
+        for (size_t i = i0; i < i1; i++)
+            lrr__source_irradiance(s, acc[i - i0], H + 3 * i);
+        rays += b.rays;
+    }
     lt->rays += rays;
 }
 

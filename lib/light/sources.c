@@ -97,29 +97,6 @@ lrr_status lrr__source_check(lrr_context *ctx, const lrr_light_source *l, size_t
     return LRR_OK;
 }
 
-/* Whether the segment from o (already off the surface) along unit w for length t (INFINITY
- * for the sun) is free of triangles. */
-static int visible(RTCScene scene, const float o[3], const double w[3], float t)
-{
-    struct RTCIntersectContext ictx;
-    rtcInitIntersectContext(&ictx);
-    struct RTCRay ray;
-    ray.org_x = o[0];
-    ray.org_y = o[1];
-    ray.org_z = o[2];
-    ray.tnear = 0.0f;
-    ray.dir_x = (float)w[0];
-    ray.dir_y = (float)w[1];
-    ray.dir_z = (float)w[2];
-    ray.time = 0.0f;
-    ray.tfar = t;
-    ray.mask = UINT32_MAX;
-    ray.id = 0;
-    ray.flags = 0;
-    rtcOccluded1(scene, &ictx, &ray);
-    return !(ray.tfar < 0.0f); /* -inf: something is in the way */
-}
-
 /* Smoothstep fall-off of a spot at angle theta from its axis. */
 static double cone_factor(const lrr__source *s, double cos_theta)
 {
@@ -132,40 +109,38 @@ static double cone_factor(const lrr__source *s, double cos_theta)
     return x * x * (3 - 2 * x);
 }
 
-/* A point-like source at q: the factor f (cosine over r², cone) and its visibility. */
-static double towards_point(const lrr__source *s, RTCScene scene, const float *o,
-                            const float *x, const float *nv, const double q[3],
-                            uint64_t *rays)
+/* A point-like source at q: the weight cosine / r² (times the cone) with its ray. */
+static void towards_point(const lrr__source *s, lrr__shadow_batch *b, unsigned slot,
+                          const float *o, const float *x, const float *nv, const double q[3])
 {
     double w[3] = {q[0] - x[0], q[1] - x[1], q[2] - x[2]};
     double r2 = lrr__dot3(w, w), r = sqrt(r2);
     if (!(r > 0))
-        return 0;
+        return;
     for (int j = 0; j < 3; j++)
         w[j] /= r;
     double cosine = nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2];
     if (!(cosine > 0))
-        return 0;
+        return;
     double f = cosine / r2;
     if (s->kind == LRR_LIGHT_SPOT && !((f *= cone_factor(s, -lrr__dot3(w, s->d))) > 0))
-        return 0;
-    (*rays)++;
+        return;
     /* stop just short of the light: it is a point, not geometry */
-    return visible(scene, o, w, (float)(r * (1 - 1e-6))) ? f : 0;
+    lrr__shadow_push(b, o, w, (float)(r * (1 - 1e-6)), slot, f);
 }
 
-/* The area light by side² stratified, jittered points: F(x → rectangle) estimate. */
-static double towards_area(const lrr__source *s, RTCScene scene, const float *o, size_t i,
-                           const float *x, const float *nv, uint64_t *rays)
+/* The area light by side² stratified, jittered points: weights cr·cl / r², whose visible sum
+ * times area / (side² π) is the F(x → rectangle) estimate. */
+static void towards_area(const lrr__source *s, lrr__shadow_batch *b, unsigned slot,
+                         const float *o, size_t i, const float *x, const float *nv)
 {
     const unsigned m = s->side;
     uint64_t state = s->seed ^ lrr__splitmix64((uint64_t)i);
-    double sum = 0;
     for (unsigned a = 0; a < m; a++)
-        for (unsigned b = 0; b < m; b++) {
+        for (unsigned c = 0; c < m; c++) {
             double ja = (lrr__splitmix64_next(&state) >> 11) * 0x1.0p-53,
                    jb = (lrr__splitmix64_next(&state) >> 11) * 0x1.0p-53;
-            double sa = (a + ja) / m - 0.5, sb = (b + jb) / m - 0.5, q[3], w[3];
+            double sa = (a + ja) / m - 0.5, sb = (c + jb) / m - 0.5, q[3], w[3];
             for (int j = 0; j < 3; j++) {
                 q[j] = s->p[j] + sa * s->u[j] + sb * s->v[j];
                 w[j] = q[j] - x[j];
@@ -179,34 +154,37 @@ static double towards_area(const lrr__source *s, RTCScene scene, const float *o,
                 continue;
             for (int j = 0; j < 3; j++)
                 w[j] /= r;
-            (*rays)++;
-            if (visible(scene, o, w, (float)(r * (1 - 1e-6))))
-                sum += cr * cl / r2;
+            lrr__shadow_push(b, o, w, (float)(r * (1 - 1e-6)), slot, cr * cl / r2);
         }
-    return sum * s->area / ((double)m * m * M_PI);
 }
 
-void lrr__source_irradiance(const lrr__source *s, RTCScene scene, size_t i, const float *x,
-                            const float *nv, float eps, float H[3], uint64_t *rays)
+void lrr__source_rays(const lrr__source *s, lrr__shadow_batch *b, size_t i, unsigned slot,
+                      const float *x, const float *nv, float eps)
 {
-    H[0] = H[1] = H[2] = 0.0f;
     const float o[3] = {x[0] + eps * nv[0], x[1] + eps * nv[1], x[2] + eps * nv[2]};
     if (s->kind == LRR_LIGHT_SUN) {
-        /* as lrr_probe_direct_light always did: float cosine, float products */
+        /* as lrr_probe_direct_light always did: a float cosine (its weight, exact in double) */
         const float w[3] = {(float)s->d[0], (float)s->d[1], (float)s->d[2]};
         float cosine = nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2];
         if (!(cosine > 0.0f))
             return;
-        (*rays)++;
         const double wd[3] = {w[0], w[1], w[2]};
-        if (!visible(scene, o, wd, INFINITY))
-            return;
+        lrr__shadow_push(b, o, wd, INFINITY, slot, cosine);
+    } else if (s->kind == LRR_LIGHT_AREA)
+        towards_area(s, b, slot, o, i, x, nv);
+    else
+        towards_point(s, b, slot, o, x, nv, s->p);
+}
+
+void lrr__source_irradiance(const lrr__source *s, double acc, float H[3])
+{
+    if (s->kind == LRR_LIGHT_SUN) { /* float products, as before */
         for (int c = 0; c < 3; c++)
-            H[c] = (float)s->rgb[c] * cosine;
+            H[c] = (float)s->rgb[c] * (float)acc;
         return;
     }
-    double f = s->kind == LRR_LIGHT_AREA ? towards_area(s, scene, o, i, x, nv, rays)
-                                         : towards_point(s, scene, o, x, nv, s->p, rays);
+    double f = s->kind == LRR_LIGHT_AREA ? acc * s->area / ((double)s->side * s->side * M_PI)
+                                         : acc;
     for (int c = 0; c < 3; c++)
         H[c] = (float)(s->rgb[c] * f);
 }

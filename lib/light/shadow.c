@@ -1,0 +1,79 @@
+/* Shadow rays traced together: receivers push their rays into a batch of 16-wide packets,
+ * which Embree traces 16 at a time, so rays towards the same light from neighbouring
+ * subpatches (the subpatches are stored patch-major, so neighbours in memory are neighbours
+ * in space) share their BVH traversal (docs/METHOD.md "Lights"). */
+#include "config.h"
+#include "light/light.h"
+
+#include <math.h>
+#include <string.h>
+
+void lrr__shadow_init(lrr__shadow_batch *b, RTCScene scene, double *acc)
+{
+    b->scene = scene;
+    b->acc = acc;
+    b->count = 0;
+    b->rays = 0;
+}
+
+void lrr__shadow_push(lrr__shadow_batch *b, const float o[3], const double w[3], float t,
+                      unsigned receiver, double weight)
+{
+    if (b->count == LRR__SHADOW_RAYS)
+        lrr__shadow_flush(b);
+    unsigned k = b->count++, p = k / LRR__SHADOW_LANES, l = k % LRR__SHADOW_LANES;
+    struct RTCRay16 *r = &b->packet[p];
+    r->org_x[l] = o[0];
+    r->org_y[l] = o[1];
+    r->org_z[l] = o[2];
+    r->tnear[l] = 0.0f;
+    r->dir_x[l] = (float)w[0];
+    r->dir_y[l] = (float)w[1];
+    r->dir_z[l] = (float)w[2];
+    r->time[l] = 0.0f;
+    r->tfar[l] = t;
+    r->mask[l] = UINT32_MAX;
+    r->id[l] = k;
+    r->flags[l] = 0;
+    b->receiver[k] = receiver;
+    b->weight[k] = weight;
+    b->rays++;
+}
+
+void lrr__shadow_flush(lrr__shadow_batch *b)
+{
+    if (b->count == 0)
+        return;
+    unsigned packets = (b->count + LRR__SHADOW_LANES - 1) / LRR__SHADOW_LANES;
+    /* the unused lanes of the last packet: invalid, and tnear > tfar makes them inactive
+     * for Embree's packet code as well */
+    for (unsigned k = b->count; k < packets * LRR__SHADOW_LANES; k++) {
+        struct RTCRay16 *r = &b->packet[k / LRR__SHADOW_LANES];
+        unsigned l = k % LRR__SHADOW_LANES;
+        r->org_x[l] = r->org_y[l] = r->org_z[l] = 0.0f;
+        r->dir_x[l] = r->dir_y[l] = 0.0f;
+        r->dir_z[l] = 1.0f;
+        r->tnear[l] = 1.0f;
+        r->tfar[l] = 0.0f;
+        r->time[l] = 0.0f;
+        r->mask[l] = UINT32_MAX;
+        r->flags[l] = 0;
+    }
+    /* rtcOccluded16 per packet, measured against the alternatives on the bunny room
+     * (73k subpatches, 4 point lights, CPU time per ray on one thread, same result to the
+     * bit): rtcOccluded1 277 ns, rtcOccludedNM as a coherent stream 255 ns, rtcOccluded8
+     * 272 ns, rtcOccluded16 227–238 ns; 16-sample area lights: 236 → 170 ns. */
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    for (unsigned p = 0; p < packets; p++) {
+        int valid[LRR__SHADOW_LANES];
+        for (unsigned l = 0; l < LRR__SHADOW_LANES; l++)
+            valid[l] = p * LRR__SHADOW_LANES + l < b->count ? -1 : 0;
+        rtcOccluded16(valid, b->scene, &ictx, &b->packet[p]);
+    }
+    /* in push order, so each receiver's sum has the same order as one ray at a time */
+    for (unsigned k = 0; k < b->count; k++)
+        if (!(b->packet[k / LRR__SHADOW_LANES].tfar[k % LRR__SHADOW_LANES] < 0.0f))
+            b->acc[b->receiver[k]] += b->weight[k]; /* -inf: something is in the way */
+    b->count = 0;
+}
