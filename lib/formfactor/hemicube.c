@@ -135,6 +135,7 @@ static int clip_plane(const cvert *in, int n, cvert *out, double a, double b, do
 typedef struct {
     double A, B, C;
     int owns_ties;   /* top-left rule: this triangle owns pixel centres exactly on the edge */
+    double k0, k1;   /* A ≠ 0: the crossing pixel index k0 + k1·py, an estimate (edge_span) */
 } edge_fn;
 
 static void edge_setup(const svert *a, const svert *b, edge_fn *e)
@@ -151,11 +152,48 @@ static void edge_setup(const svert *a, const svert *b, edge_fn *e)
      * (dy == 0 and dx < 0); the neighbour traverses the edge the other way and does not. */
     double dx = b->x - a->x, dy = b->y - a->y;
     e->owns_ties = dy > 0 || (dy == 0 && dx < 0);
+    e->k0 = A != 0 ? -C / A - 0.5 : 0;
+    e->k1 = A != 0 ? -B / A : 0;
 }
 
 static inline int inside(const edge_fn *e, double v)
 {
     return v > 0 || (v == 0 && e->owns_ties);
+}
+
+/* The edge function at pixel centre (px, py): the one expression every test uses. */
+static inline double edge_at(const edge_fn *e, double px, double py)
+{
+    return e->A * px + e->B * py + e->C;
+}
+
+/* Narrows the row's pixel range [*L, *R] to the pixels inside edge e; 0 when none is left.
+ * The computed edge function is monotone in px (each rounding step is), so the inside pixels
+ * of a row form one interval: start from the analytic crossing and settle its ends with the
+ * exact per-pixel test, so the covered pixels are exactly those of a test at every pixel
+ * (measured: that test was 44% of a Cornell R 64 profile, most of it on the bounding box's
+ * empty half). */
+static int edge_span(const edge_fn *e, double py, int *L, int *R)
+{
+    if (e->A == 0) /* constant along the row */
+        return inside(e, edge_at(e, *L + 0.5, py));
+    double xc = e->k0 + e->k1 * py; /* the crossing, in pixel indices */
+    if (e->A > 0) { /* inside from some x on */
+        int x = !(xc > *L) ? *L : xc >= *R + 1 ? *R + 1 : (int)ceil(xc);
+        while (x > *L && inside(e, edge_at(e, (x - 1) + 0.5, py)))
+            x--;
+        while (x <= *R && !inside(e, edge_at(e, x + 0.5, py)))
+            x++;
+        *L = x;
+    } else { /* inside up to some x */
+        int x = !(xc < *R) ? *R : xc <= *L - 1 ? *L - 1 : (int)floor(xc);
+        while (x < *R && inside(e, edge_at(e, (x + 1) + 0.5, py)))
+            x++;
+        while (x >= *L && !inside(e, edge_at(e, x + 0.5, py)))
+            x--;
+        *R = x;
+    }
+    return *L <= *R;
 }
 
 static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, float *depth,
@@ -181,13 +219,14 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
     double inv_area = 1.0 / area;
     for (int y = y0; y <= y1; y++) {
         double py = y + 0.5;
-        for (int x = x0; x <= x1; x++) {
+        int L = x0, R = x1;
+        if (!edge_span(&e0, py, &L, &R) || !edge_span(&e1, py, &L, &R) ||
+            !edge_span(&e2, py, &L, &R))
+            continue;
+        for (int x = L; x <= R; x++) {
             double px = x + 0.5;
-            double w0 = e0.A * px + e0.B * py + e0.C;
-            double w1 = e1.A * px + e1.B * py + e1.C;
-            double w2 = e2.A * px + e2.B * py + e2.C;
-            if (!inside(&e0, w0) || !inside(&e1, w1) || !inside(&e2, w2))
-                continue;
+            double w0 = edge_at(&e0, px, py), w1 = edge_at(&e1, px, py),
+                   w2 = edge_at(&e2, px, py);
             float iz = (float)((w0 * a.iz + w1 * b.iz + w2 * c.iz) * inv_area);
             size_t pix = (size_t)y * W + x;
             if (iz > depth[pix]) {
@@ -244,27 +283,45 @@ static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t,
         raster_tri(s[0], s[i], s[i + 1], id, f->W, f->H, f->depth, f->item);
 }
 
-/* The patch (or subpatch) that pixel (xx, y) of face f shows; id is its triangle (>= 0). */
-static inline size_t pixel_target(const hemi_ctx *h, const double x[3], const face *f, int xx,
-                                  int y, int32_t id)
+/* The barycentric coordinates of the point that pixel (sx, sy) of a face shows on a
+ * triangle's plane, as ratios of linear functions of (sx, sy): with dir = sx·right + sy·up +
+ * fwd, w0 = v0 − x, c = n·w0 and α_j the dual basis of (e1, e2) (Gram inverse), the ray
+ * x + t·dir meets the plane at t = c / n·dir, so b_j = (c·dir·α_j − (w0·α_j)·n·dir) / n·dir.
+ * Set up once per run of pixels showing the same triangle: 9 coefficients instead of a
+ * ray-plane intersection per pixel (that was 36% of a Cornell R 64 profile). */
+typedef struct {
+    double b1[3], b2[3], den[3]; /* coefficients of sx, sy, 1 */
+} bary_plane;
+
+static void bary_setup(const tri_info *ti, const double x[3], const face *f, bary_plane *bp)
 {
-    double half = 0.5 * f->W;
-    double sy = f->side ? (y + 0.5) / half : (y + 0.5) / half - 1;
-    double sx = (xx + 0.5) / half - 1;
-    double dir[3];
-    for (int j = 0; j < 3; j++)
-        dir[j] = sx * f->right[j] + sy * f->up[j] + f->fwd[j];
-    const tri_info *ti = &h->tri[id];
-    double w0[3] = {ti->v0[0] - x[0], ti->v0[1] - x[1], ti->v0[2] - x[2]};
-    double tt = lrr__dot3(ti->n, w0) / lrr__dot3(ti->n, dir);
-    double r[3];
-    for (int j = 0; j < 3; j++)
-        r[j] = x[j] + tt * dir[j] - ti->v0[j];
-    double d1 = lrr__dot3(r, ti->e1), d2 = lrr__dot3(r, ti->e2);
-    double b1 = (ti->g22 * d1 - ti->g12 * d2) * ti->inv;
-    double b2 = (ti->g11 * d2 - ti->g12 * d1) * ti->inv;
-    return h->by_subpatch ? lrr__subpatch_at(h->g, (size_t)id, b1, b2)
-                          : lrr__patch_at(h->g, (size_t)id, b1, b2);
+    double w0[3] = {ti->v0[0] - x[0], ti->v0[1] - x[1], ti->v0[2] - x[2]}, a1[3], a2[3];
+    for (int j = 0; j < 3; j++) {
+        a1[j] = (ti->g22 * ti->e1[j] - ti->g12 * ti->e2[j]) * ti->inv;
+        a2[j] = (ti->g11 * ti->e2[j] - ti->g12 * ti->e1[j]) * ti->inv;
+    }
+    const double c = lrr__dot3(ti->n, w0), w1 = lrr__dot3(w0, a1), w2 = lrr__dot3(w0, a2);
+    const double *basis[3] = {f->right, f->up, f->fwd};
+    for (int m = 0; m < 3; m++) {
+        double nd = lrr__dot3(ti->n, basis[m]);
+        bp->den[m] = nd;
+        bp->b1[m] = c * lrr__dot3(basis[m], a1) - w1 * nd;
+        bp->b2[m] = c * lrr__dot3(basis[m], a2) - w2 * nd;
+    }
+}
+
+/* The patch (or subpatch) at barycentric (b1, b2) of triangle t; the uniform quadtree's
+ * lookup inline, the others through lrr__patch_at / lrr__subpatch_at. */
+static inline size_t target_at(const hemi_ctx *h, size_t t, double b1, double b2)
+{
+    const lrr__geometry *g = h->g;
+    if (h->by_subpatch)
+        return lrr__subpatch_at(g, t, b1, b2);
+    if (g->origin || g->node)
+        return lrr__patch_at(g, t, b1, b2);
+    double b0;
+    lrr__clamp_bary(&b1, &b2, &b0);
+    return g->patch0[t] + lrr__descend(&b0, &b1, &b2, g->depth[t]);
 }
 
 /* Accumulates the visible patches (or subpatches) of face f into row (k or n doubles), or
@@ -285,12 +342,25 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
         }
         return back;
     }
-    for (int y = 0; y < f->H; y++)
+    const double half = 0.5 * f->W;
+    for (int y = 0; y < f->H; y++) {
+        const double sy = f->side ? (y + 0.5) / half : (y + 0.5) / half - 1;
+        int32_t set_for = -1; /* the triangle bp is set up for */
+        bary_plane bp;
         for (int xx = 0; xx < f->W; xx++) {
             size_t pix = (size_t)y * f->W + xx;
             int32_t id = f->item[pix];
             if (id >= 0) {
-                size_t p = pixel_target(h, x, f, xx, y, id);
+                if (id != set_for) {
+                    bary_setup(&h->tri[id], x, f, &bp);
+                    set_for = id;
+                }
+                const double sx = (xx + 0.5) / half - 1;
+                /* one division: two were a quarter of this loop's time */
+                const double r = 1.0 / (bp.den[0] * sx + bp.den[1] * sy + bp.den[2]);
+                size_t p = target_at(h, (size_t)id,
+                                     (bp.b1[0] * sx + bp.b1[1] * sy + bp.b1[2]) * r,
+                                     (bp.b2[0] * sx + bp.b2[1] * sy + bp.b2[2]) * r);
                 if (row)
                     row[p] += f->weight[pix];
                 else
@@ -299,6 +369,7 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
                 back += f->weight[pix];
             }
         }
+    }
     return back;
 }
 

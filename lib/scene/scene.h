@@ -90,6 +90,30 @@ static inline unsigned lrr__child_at(double *b0, double *b1, double *b2)
     if (w >= 0.5) { *b0 = 2 * u; *b1 = 2 * v; *b2 = 2 * w - 1; return 2; }
     *b0 = 1 - 2 * u; *b1 = 1 - 2 * v; *b2 = 1 - 2 * w; return 3;
 }
+/* Descends `depth` levels, returning the base-4 digits as an index. Inline: the hemicube
+ * resolves every pixel through it. */
+static inline size_t lrr__descend(double *b0, double *b1, double *b2, unsigned depth)
+{
+    size_t idx = 0;
+    for (unsigned l = 0; l < depth; l++)
+        idx = idx * 4 + lrr__child_at(b0, b1, b2);
+    return idx;
+}
+/* Clamps (b1, b2) into the triangle and sets b0 = 1 - b1 - b2. */
+static inline void lrr__clamp_bary(double *b1, double *b2, double *b0)
+{
+    if (!(*b1 > 0)) *b1 = 0;
+    if (!(*b2 > 0)) *b2 = 0;
+    if (*b1 > 1) *b1 = 1;
+    if (*b2 > 1) *b2 = 1;
+    *b0 = 1 - *b1 - *b2;
+    if (*b0 < 0) {
+        double s = *b1 + *b2;
+        *b1 /= s;
+        *b2 /= s;
+        *b0 = 0;
+    }
+}
 /* Subpatch index of barycentric point (b1, b2) (b0 = 1-b1-b2) of triangle t. */
 size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2);
 /* Patch index only (used by the hemicube item buffer). */

@@ -269,50 +269,26 @@ size_t lrr__patch_of(const lrr__geometry *g, size_t i)
     return g->d ? i / g->d : bsearch_le(g->first, 0, g->k, i);
 }
 
-/* Descends `depth` levels, returning the base-4 digits as an index. */
-static size_t descend(double *b0, double *b1, double *b2, unsigned depth)
-{
-    size_t idx = 0;
-    for (unsigned l = 0; l < depth; l++)
-        idx = idx * 4 + lrr__child_at(b0, b1, b2);
-    return idx;
-}
-
-static void clamp_bary(double *b1, double *b2, double *b0)
-{
-    if (!(*b1 > 0)) *b1 = 0;
-    if (!(*b2 > 0)) *b2 = 0;
-    if (*b1 > 1) *b1 = 1;
-    if (*b2 > 1) *b2 = 1;
-    *b0 = 1 - *b1 - *b2;
-    if (*b0 < 0) {
-        double s = *b1 + *b2;
-        *b1 /= s;
-        *b2 /= s;
-        *b0 = 0;
-    }
-}
-
 size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2)
 {
     double b0;
-    clamp_bary(&b1, &b2, &b0);
+    lrr__clamp_bary(&b1, &b2, &b0);
     if (g->origin) {
-        size_t j = g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t]);
+        size_t j = g->sub0[t] + lrr__descend(&b0, &b1, &b2, g->depth[t]);
         return bsearch_le(g->first, 0, g->k, g->order[j]);
     }
     if (g->node) {
-        size_t i = g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t]);
+        size_t i = g->sub0[t] + lrr__descend(&b0, &b1, &b2, g->depth[t]);
         return bsearch_le(g->first, g->patch0[t], g->patch0[t + 1], i);
     }
-    return g->patch0[t] + descend(&b0, &b1, &b2, g->depth[t]);
+    return g->patch0[t] + lrr__descend(&b0, &b1, &b2, g->depth[t]);
 }
 
 size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2)
 {
     double b0;
-    clamp_bary(&b1, &b2, &b0);
-    return lrr__subpatch_id(g, g->sub0[t] + descend(&b0, &b1, &b2, g->depth[t] + g->levels));
+    lrr__clamp_bary(&b1, &b2, &b0);
+    return lrr__subpatch_id(g, g->sub0[t] + lrr__descend(&b0, &b1, &b2, g->depth[t] + g->levels));
 }
 
 size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i)
