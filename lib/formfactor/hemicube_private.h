@@ -41,7 +41,17 @@ typedef struct lrr__hemi_ctx {
     double near, eps;      /* near plane and "on the plane" distance, scene units */
     int by_subpatch;       /* 1: columns are subpatches (full F, n wide); 0: patches (F̄) */
     const lrr__raycaster *rc; /* non-NULL: pixels by ray casting (raycast.c), else raster */
+    int simd;              /* lrr__hemi_simd(): four pixels at a time (hemicube_simd.c) */
 } lrr__hemi_ctx;
+
+/* 1 when lrr__hemi_leaves4 may run here (AVX2, unless the environment's LRR_SIMD=c). */
+int lrr__hemi_simd(void);
+/* The leaves (base-4 index after `depth` levels of lrr__child_at) of pixels xx..xx+3 of a
+ * row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
+ * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = (x + 0.5) / half − 1; bit-identical to the scalar
+ * path (hemicube.c). */
+void lrr__hemi_leaves4(const double b1k[3], const double b2k[3], const double denk[3],
+                       double half, double sy, int xx, unsigned depth, size_t leaf[4]);
 
 /* An Embree scene (robust, watertight) of g's triangles, built once per form-factor build;
  * diag is the scene's bounding-box diagonal (for the ray origins' offset). */

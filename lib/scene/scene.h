@@ -116,6 +116,8 @@ static inline void lrr__clamp_bary(double *b1, double *b2, double *b0)
 }
 /* Subpatch index of barycentric point (b1, b2) (b0 = 1-b1-b2) of triangle t. */
 size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2);
+/* The patch of leaf `leaf` (lrr__descend's index, depth[t] levels) of triangle t. */
+size_t lrr__patch_of_leaf(const lrr__geometry *g, size_t t, size_t leaf);
 /* Patch index only (used by the hemicube item buffer). */
 size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2);
 /* Triangle that owns subpatch i (binary search on sub0). */

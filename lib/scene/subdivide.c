@@ -269,19 +269,20 @@ size_t lrr__patch_of(const lrr__geometry *g, size_t i)
     return g->d ? i / g->d : bsearch_le(g->first, 0, g->k, i);
 }
 
+size_t lrr__patch_of_leaf(const lrr__geometry *g, size_t t, size_t leaf)
+{
+    if (g->origin)
+        return bsearch_le(g->first, 0, g->k, g->order[g->sub0[t] + leaf]);
+    if (g->node)
+        return bsearch_le(g->first, g->patch0[t], g->patch0[t + 1], g->sub0[t] + leaf);
+    return g->patch0[t] + leaf;
+}
+
 size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2)
 {
     double b0;
     lrr__clamp_bary(&b1, &b2, &b0);
-    if (g->origin) {
-        size_t j = g->sub0[t] + lrr__descend(&b0, &b1, &b2, g->depth[t]);
-        return bsearch_le(g->first, 0, g->k, g->order[j]);
-    }
-    if (g->node) {
-        size_t i = g->sub0[t] + lrr__descend(&b0, &b1, &b2, g->depth[t]);
-        return bsearch_le(g->first, g->patch0[t], g->patch0[t + 1], i);
-    }
-    return g->patch0[t] + lrr__descend(&b0, &b1, &b2, g->depth[t]);
+    return lrr__patch_of_leaf(g, t, lrr__descend(&b0, &b1, &b2, g->depth[t]));
 }
 
 size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2)
