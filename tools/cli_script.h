@@ -46,8 +46,8 @@
     "  drag X0 Y0 X1 Y1 [frames=N] left button down at X0,Y0, moved to X1,Y1 in N steps\n"    \
     "                              (default 8), one frame each, then up\n"                     \
     "  scroll D                    the wheel, D notches (> 0 zooms in)\n"                       \
-    "  key NAME                    press a key of the list below (N, Delete, T, +, -, C, L,\n" \
-    "                              [, ], 0, F, P, Escape)\n"
+    "  key NAME                    press one of lrr view's keys: N, Delete, T, +, -, C, L,\n" \
+    "                              [, ], 0, F, P, Escape (not the held fly keys W A S D Q E)\n"
 
 enum {
     CS_LIGHT = 1, /* add a light */
