@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cli_script.h"
 #include "commands.h"
 
 static const char prog[] = "lrr animate";
@@ -19,121 +20,27 @@ static const char animate_help[] =
     "direct_ms D solve_ms S picture_ms P', then frames, the medians direct_ms, solve_ms,\n"
     "picture_ms, exposure and output.\n"
     "\n"
-    "SCRIPT, one statement a line ('#' starts a comment):\n"
-    "  light SPEC             a light, as for 'lrr solve --light' (numbered from 0 in\n"
-    "                         order): 'point pos=X,Y,Z rgb=R,G,B', 'spot ...', 'area ...',\n"
-    "                         'sun dir=X,Y,Z rgb=...'\n"
-    "  path I X,Y,Z X,Y,Z ... light I's position over the animation: through these\n"
-    "                         points at equal steps, linearly between them (at least 2)\n"
-    "  frames N               number of frames (1..100000, default 60)\n"
-    "  emitters on|off        the scene's own emitters (default on)\n"
+    "SCRIPT: the script below; each frame it draws is a picture. Statements that only\n"
+    "lrr view has (screenshot, mouse, click, drag, scroll, key) are refused.\n"
     "\n"
     "Options:\n"
-    "  --lights SCRIPT      the script above (required)\n"
+    "  --lights SCRIPT      the script (below; required)\n"
     "  -o, --output DIR     where the frames go (created if missing)\n"
     "  --format F           png (default; tone mapped) or exr (linear radiosity)\n"
     "  --exposure X         PNG: multiplier before tone mapping (> 0; default: automatic\n"
-    "                       for the first frame, then kept, so the pictures do not flicker)\n"
+    "                       for the first frame, then kept, so the pictures do not flicker;\n"
+    "                       the script's exposure statements change it)\n"
     "  --width W, --height H, --camera C, --eye X,Y,Z, --target X,Y,Z, --up X,Y,Z,\n"
     "  --fov DEGREES        the picture and its camera, as for 'lrr render'\n"
-    "  -h, --help           show this help\n";
-
-#define MAX_PATH_POINTS 64
-
-typedef struct anim_script {
-    lrr_light_source light[CLI_MAX_LIGHTS];
-    size_t lights;
-    float path[CLI_MAX_LIGHTS][MAX_PATH_POINTS][3];
-    size_t points[CLI_MAX_LIGHTS]; /* 0: the light stays */
-    size_t frames;
-    int emitters;
-} anim_script;
+    "  -h, --help           show this help\n"
+    "\n" CLI_SCRIPT_HELP;
 
 typedef struct animate_args {
     const char *file, *script, *output;
     view_args view;
     int exr;
-    anim_script s;
+    cli_script s;
 } animate_args;
-
-/* ------------------------------------------------------------------ the script */
-static int script_error(const char *path, size_t line, const char *what)
-{
-    cli_usage_error(prog, "%s line %zu: %s", path, line, what);
-    return -1;
-}
-
-/* "path I X,Y,Z X,Y,Z ...": the rest of the line after "path". */
-static int parse_path(anim_script *s, char *rest, const char *path, size_t line)
-{
-    char *save = NULL, *tok = strtok_r(rest, " \t", &save), *end;
-    unsigned long i = tok ? strtoul(tok, &end, 10) : 0;
-    if (!tok || *end || i >= s->lights)
-        return script_error(path, line, "path: the light's index is missing or not a light "
-                                        "defined above");
-    size_t m = 0;
-    while ((tok = strtok_r(NULL, " \t", &save))) {
-        float *p = s->path[i][m];
-        if (m == MAX_PATH_POINTS || sscanf(tok, "%f,%f,%f", &p[0], &p[1], &p[2]) != 3 ||
-            !isfinite(p[0]) || !isfinite(p[1]) || !isfinite(p[2]))
-            return script_error(path, line, "path: points are X,Y,Z (finite, at most 64)");
-        m++;
-    }
-    if (m < 2)
-        return script_error(path, line, "path: at least two points");
-    s->points[i] = m;
-    return 0;
-}
-
-static int parse_statement(anim_script *s, char *text, const char *path, size_t line)
-{
-    char *save = NULL, *word = strtok_r(text, " \t", &save);
-    char *rest = save ? save + strspn(save, " \t") : "";
-    if (!word)
-        return 0;
-    if (strcmp(word, "light") == 0) {
-        if (s->lights == CLI_MAX_LIGHTS)
-            return script_error(path, line, "light: at most 16 lights");
-        return cli_parse_light(prog, rest, &s->light[s->lights++]);
-    }
-    if (strcmp(word, "path") == 0)
-        return parse_path(s, rest, path, line);
-    if (strcmp(word, "frames") == 0) {
-        char *end;
-        unsigned long f = strtoul(rest, &end, 10);
-        if (end == rest || *end || f < 1 || f > 100000)
-            return script_error(path, line, "frames: a number in 1..100000");
-        s->frames = f;
-        return 0;
-    }
-    if (strcmp(word, "emitters") == 0 && (!strcmp(rest, "on") || !strcmp(rest, "off"))) {
-        s->emitters = strcmp(rest, "on") == 0;
-        return 0;
-    }
-    return script_error(path, line, "not one of: light SPEC, path I X,Y,Z ..., frames N, "
-                                    "emitters on|off");
-}
-
-static int read_script(const char *path, anim_script *s)
-{
-    FILE *f = fopen(path, "r");
-    if (!f) {
-        cli_usage_error(prog, "--lights: cannot open the script '%s'", path);
-        return -1;
-    }
-    char buf[4096];
-    size_t line = 0;
-    int rc = 0;
-    while (!rc && fgets(buf, sizeof buf, f)) {
-        line++;
-        buf[strcspn(buf, "#\r\n")] = '\0';
-        rc = parse_statement(s, buf, path, line);
-    }
-    fclose(f);
-    if (!rc && s->lights == 0)
-        rc = script_error(path, line, "no light");
-    return rc;
-}
 
 /* ------------------------------------------------------------------ options */
 static int animate_option(animate_args *a, int c, const char *arg)
@@ -169,8 +76,6 @@ static int parse_animate(animate_args *a, int argc, char *argv[])
         {NULL, 0, NULL, 0}};
     memset(a, 0, sizeof *a);
     view_args_init(&a->view);
-    a->s.frames = 60;
-    a->s.emitters = 1;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
@@ -191,34 +96,31 @@ static int parse_animate(animate_args *a, int argc, char *argv[])
         cli_usage_error(prog, "%s is required", a->script ? "-o DIR" : "--lights SCRIPT");
         return CLI_EXIT_USAGE;
     }
-    if (view_finish(&a->view, prog) != 0 || read_script(a->script, &a->s) != 0)
+    if (view_finish(&a->view, prog) != 0)
         return CLI_EXIT_USAGE;
-    return CLI_RUN;
+    const cli_script_caps caps = {0};
+    int rc = cli_script_load(prog, a->script, &caps, &a->s);
+    if (rc == CLI_EXIT_OK && a->s.frames == 0) {
+        cli_usage_error(prog, "'%s': draws no frame (add frames N)", a->script);
+        cli_script_free(&a->s);
+        rc = CLI_EXIT_USAGE;
+    }
+    return rc == CLI_EXIT_OK ? CLI_RUN : rc;
 }
 
 /* ------------------------------------------------------------------ running */
-/* Light l's position at frame f of the script's frames. */
-static void place(anim_script *s, size_t l, size_t f)
-{
-    const size_t m = s->points[l];
-    if (m == 0)
-        return;
-    double t = s->frames > 1 ? (double)f / (double)(s->frames - 1) * (double)(m - 1) : 0;
-    size_t seg = t >= (double)(m - 1) ? m - 2 : (size_t)t;
-    double u = t - (double)seg;
-    for (int j = 0; j < 3; j++)
-        s->light[l].position[j] =
-            (float)((1 - u) * s->path[l][seg][j] + u * s->path[l][seg + 1][j]);
-}
-
 typedef struct anim_state {
     lrr_context *ctx;
     lrr_operator *op;
     lrr_lighting *lt;
     lrr_solver *sv;
-    float *base, *direct, *e, *b;
+    float *direct, *e, *b;
     size_t n;
     double *ms[3]; /* per frame: direct, solve, picture */
+    /* what the script has set */
+    cli_lights L;
+    int emitters, exposure_pending;
+    size_t frame;
 } anim_state;
 
 static int anim_open(const animate_args *a, anim_state *st)
@@ -236,11 +138,11 @@ static int anim_open(const animate_args *a, anim_state *st)
     for (int k = 0; k < 3; k++)
         if (!(st->ms[k] = calloc(a->s.frames, sizeof(double))))
             return cli_fail(LRR_ERR_NOMEM, "cannot allocate the timings");
-    if (!(st->base = cli_alloc_rgb(oi.n)) || !(st->direct = cli_alloc_rgb(oi.n)) ||
-        !(st->e = cli_alloc_rgb(oi.n)) || !(st->b = cli_alloc_rgb(oi.n)))
+    if (!(st->direct = cli_alloc_rgb(oi.n)) || !(st->e = cli_alloc_rgb(oi.n)) ||
+        !(st->b = cli_alloc_rgb(oi.n)))
         return CLI_EXIT_FAIL;
-    if (a->s.emitters)
-        memcpy(st->base, lrr_operator_emission(st->op), 3 * oi.n * sizeof(float));
+    st->emitters = 1;
+    st->exposure_pending = !a->exr && !(a->view.ro.exposure > 0);
     return CLI_EXIT_OK;
 }
 
@@ -249,7 +151,6 @@ static void anim_close(anim_state *st)
     lrr_solver_destroy(st->sv);
     lrr_lighting_destroy(st->lt);
     lrr_operator_destroy(st->op);
-    free(st->base);
     free(st->direct);
     free(st->e);
     free(st->b);
@@ -257,28 +158,41 @@ static void anim_close(anim_state *st)
         free(st->ms[k]);
 }
 
-/* The exposure of every PNG frame: --exposure, else the automatic one of the first frame,
- * kept (lrr_render_auto_exposure). */
-static void fix_exposure(anim_state *st, animate_args *a)
+/* One statement that draws no frame; CLI_EXIT_*. */
+static int apply(anim_state *st, animate_args *a, const cli_script_cmd *c)
 {
-    if (!a->exr && !(a->view.ro.exposure > 0))
-        a->view.ro.exposure = lrr_render_auto_exposure(st->op, st->b);
+    if (cli_lights_apply(&st->L, c) >= 0) /* indices were checked when it was read */
+        switch (c->kind) {
+        case CS_EMITTERS: st->emitters = c->on; break;
+        case CS_EXPOSURE:
+            a->view.ro.exposure = c->value;
+            st->exposure_pending = !a->exr && c->value == 0;
+            break;
+        case CS_CAMERA:
+            memcpy(a->view.ro.eye, c->eye, sizeof c->eye);
+            memcpy(a->view.ro.target, c->target, sizeof c->target);
+            a->view.ro.use_eye = 1;
+            break;
+        }
+    return CLI_EXIT_OK;
 }
 
-static int one_frame(anim_state *st, animate_args *a, size_t f)
+static int one_frame(anim_state *st, animate_args *a)
 {
-    for (size_t l = 0; l < a->s.lights; l++)
-        place(&a->s, l, f);
+    const size_t f = st->frame++;
     double t0 = cli_now();
-    lrr_status s = lrr_lighting_direct(st->lt, a->s.light, a->s.lights, st->direct);
+    lrr_status s = lrr_lighting_direct(st->lt, st->L.light, st->L.count, st->direct);
     double t1 = cli_now();
+    const float *em = lrr_operator_emission(st->op);
     for (size_t i = 0; s == LRR_OK && i < 3 * st->n; i++)
-        st->e[i] = st->base[i] + st->direct[i];
+        st->e[i] = (st->emitters && em ? em[i] : 0.0f) + st->direct[i];
     if (s == LRR_OK)
         s = lrr_solve(st->sv, st->e, st->b);
     double t2 = cli_now();
-    if (s == LRR_OK && f == 0)
-        fix_exposure(st, a);
+    if (s == LRR_OK && st->exposure_pending) { /* automatic: keyed on this frame, then kept */
+        a->view.ro.exposure = lrr_render_auto_exposure(st->op, st->b);
+        st->exposure_pending = 0;
+    }
     int rc = s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(st->ctx, s);
     char path[4096];
     if (rc == CLI_EXIT_OK &&
@@ -310,13 +224,16 @@ static int run_animate(animate_args *a)
     if (s != LRR_OK)
         return cli_lib_error(NULL, s);
     int rc = anim_open(a, &st);
-    for (size_t f = 0; rc == CLI_EXIT_OK && f < a->s.frames; f++)
-        rc = one_frame(&st, a, f);
+    cli_player p = {.s = &a->s};
+    const cli_script_cmd *c;
+    int step;
+    while (rc == CLI_EXIT_OK && (step = cli_player_next(&p, &st.L, &c)) != CLI_PLAY_END)
+        rc = step == CLI_PLAY_FRAME ? one_frame(&st, a) : apply(&st, a, c);
     if (rc == CLI_EXIT_OK) {
         static const char *const names[3] = {"direct_ms", "solve_ms", "picture_ms"};
-        printf("frames: %zu\n", a->s.frames);
+        printf("frames: %zu\n", st.frame);
         for (int k = 0; k < 3; k++)
-            printf("%s: %.3f\n", names[k], cli_median(st.ms[k], a->s.frames));
+            printf("%s: %.3f\n", names[k], cli_median(st.ms[k], st.frame));
         if (!a->exr)
             printf("exposure: %.6g\n", a->view.ro.exposure);
         printf("output: %s\n", a->output);
@@ -332,7 +249,8 @@ int cmd_animate(int argc, char *argv[])
     int rc = parse_animate(&a, argc, argv);
     if (rc != CLI_RUN)
         return rc;
-    if (cli_parse_only)
-        return CLI_EXIT_OK;
-    return run_animate(&a);
+    if (!cli_parse_only)
+        rc = run_animate(&a);
+    cli_script_free(&a.s);
+    return rc;
 }

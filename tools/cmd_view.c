@@ -36,27 +36,35 @@ static const char view_help[] =
     "Headless (no window shown; ends by itself; needs an X display, e.g. xvfb-run):\n"
     "  --script FILE        run the camera and light moves of FILE (below)\n"
     "  --frames N           draw N more frames after the script\n"
-    "  --screenshot OUT.png save the last frame, after the newest state's relight\n"
+    "  --screenshot OUT.png save the last frame, after the newest state's relight, and\n"
+    "                       print its luma and the viewer's state (below)\n"
     "  --sync               every frame waits for the relight of its own lights (so frames\n"
     "                       per second = relit frames per second)\n"
     "  --overlay            draw the frame-time line into headless pictures too\n"
     "  -h, --help           show this help\n"
-    "\n" VIEW_SCRIPT_HELP
+    "\n" CLI_SCRIPT_HELP
     "\n"
     "Headless runs print the frame-time split at the end (frames, relights, fps, direct_ms,\n"
-    "solve_ms, upload_ms, draw_ms: means per relight or per frame).\n"
+    "solve_ms, upload_ms, draw_ms: means per relight or per frame). A screenshot prints\n"
+    "screenshot, left_luma, right_luma, luma (mean sRGB luma 0..255 of the picture's halves\n"
+    "and of all of it), then the state it shows: lights, one 'light I: SPEC' each (SPEC as\n"
+    "for --light), selected (a light's index or none), emitters, exposure and eye.\n"
     "\n"
     "Interactive keys and mouse:\n"
     "  left drag            orbit around the target; right drag: pan; wheel: zoom\n"
     "  W A S D Q E          fly (forward, left, back, right, down, up); shift: faster\n"
-    "  click a light        select it (the yellow square); drag it across the surfaces\n"
-    "  N / Delete           add a point light where the mouse points / remove the selected\n"
+    "  click a light        select it (its marker turns yellow); drag it across the\n"
+    "                       surfaces (it stays 5% of the scene's size in front of them)\n"
+    "  N                    add a point light where the mouse points (else at the camera's\n"
+    "                       target) and select it\n"
+    "  Delete, Backspace    remove the selected light\n"
     "  T                    selected light's type: point, spot (pointing along the surface\n"
-    "                       normal it was dropped on), sun\n"
-    "  + / -                selected light's intensity ×1.25 / ÷1.25\n"
+    "                       normal it was dropped on; straight down until dragged), sun\n"
+    "  + / -                selected light's intensity ×1.25 / ÷1.25 (also = and keypad)\n"
     "  C                    selected light's colour: white, warm, cool, red, green, blue\n"
     "  L                    the scene's own emitters on / off\n"
-    "  [ / ] / 0            exposure ÷1.25 / ×1.25 / automatic\n"
+    "  [ / ] / 0            exposure ÷1.25 / ×1.25 / automatic (lrr_render_auto_exposure of\n"
+    "                       the radiosity shown, as lrr export's)\n"
     "  F                    flat / smooth shading\n"
     "  P                    save the picture as lrr-view-NNN.png (current directory)\n"
     "  Esc                  quit\n"
@@ -185,11 +193,13 @@ int cmd_view(int argc, char *argv[])
     if (cli_parse_only)
         return CLI_EXIT_OK;
 #ifdef LRR_VIEWER
-    view_script s = {0};
-    if (a.script && (rc = view_script_load(prog, a.script, a.lights, &s)) != CLI_EXIT_OK)
+    static const char *const keys[] = VIEW_KEY_NAMES;
+    const cli_script_caps caps = {.lights = a.lights, .keys = keys, .tail_frames = a.frames > 0};
+    cli_script s = {0};
+    if (a.script && (rc = cli_script_load(prog, a.script, &caps, &s)) != CLI_EXIT_OK)
         return rc;
     rc = view_run(&a, &s);
-    view_script_free(&s);
+    cli_script_free(&s);
     return rc;
 #else
     fprintf(stderr, "%s: lrr was built without the viewer (configure found no GLFW 3 or "

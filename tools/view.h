@@ -1,7 +1,7 @@
 /*
  * `lrr view FILE.lrr`: the interactive viewer (tools/cmd_view.c parses the command line and
  * the script; the GL half, built only with GLFW 3 and libepoxy, is tools/view_*.c):
- *   view_script.c  the headless script (camera and light moves)
+ *   cli_script.c   the script (shared with lrr animate: cli_script.h)
  *   view_app.c     window, main loop, input, the script stepping, the frame-time split
  *   view_gl.c      shaders, mesh and radiosity upload, drawing, the screenshot
  *   view_worker.c  the relighting thread: direct light + solve, newest B handed over
@@ -15,57 +15,21 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "cli_script.h"
 #include "commands.h"
 #include "lrr.h"
 
 #define VIEW_MAX_LIGHTS CLI_MAX_LIGHTS
 
-/* ------------------------------------------------------------------ the script */
-enum {
-    VS_LIGHT = 1,  /* add a light (its spec as --light) */
-    VS_MOVE,       /* move light `index` to pos over `frames` frames (linearly) */
-    VS_REMOVE,     /* remove light `index` */
-    VS_CAMERA,     /* eye= target= */
-    VS_EMITTERS,   /* the scene's own emitters on or off */
-    VS_EXPOSURE,   /* exposure (0 = automatic) */
-    VS_FRAMES,     /* draw `frames` frames with nothing changed */
-    VS_SCREENSHOT  /* wait for the newest state's relight, draw, write a PNG */
+/* ------------------------------------------------------------------ the keys */
+/* The viewer's keys (lrr view --help), named as a script's `key NAME` names them; the GLFW
+ * callback and the script both press them through view_input_key. */
+enum view_key {
+    VK_NEW, VK_DELETE, VK_TYPE, VK_BRIGHTER, VK_DIMMER, VK_COLOUR, VK_EMITTERS,
+    VK_EXPOSURE_DOWN, VK_EXPOSURE_UP, VK_EXPOSURE_AUTO, VK_FLAT, VK_PICTURE, VK_QUIT
 };
-
-typedef struct view_cmd {
-    int kind, line;
-    lrr_light_source light;  /* VS_LIGHT */
-    size_t index;            /* VS_MOVE, VS_REMOVE */
-    float pos[3];            /* VS_MOVE */
-    unsigned frames;         /* VS_MOVE, VS_FRAMES */
-    double eye[3], target[3]; /* VS_CAMERA */
-    int on;                  /* VS_EMITTERS */
-    double exposure;         /* VS_EXPOSURE */
-    char *path;              /* VS_SCREENSHOT */
-} view_cmd;
-
-typedef struct view_script {
-    view_cmd *cmd;
-    size_t count;
-} view_script;
-
-#define VIEW_SCRIPT_HELP                                                                      \
-    "Script (--script FILE): one command a line, '#' starts a comment; light indices count\n" \
-    "from 0 in the order the lights were added (--light first):\n"                            \
-    "  light SPEC                  add a light, SPEC as for --light\n"                          \
-    "  move I pos=X,Y,Z [frames=N] move light I to X,Y,Z over N frames (default 1)\n"          \
-    "  remove I                    remove light I\n"                                              \
-    "  camera eye=X,Y,Z target=X,Y,Z\n"                                                         \
-    "  emitters on|off             the scene's own emitters\n"                                   \
-    "  exposure X                  exposure (0 = automatic)\n"                                   \
-    "  frames N                    draw N frames\n"                                              \
-    "  screenshot FILE.png         wait for the newest relight, then save the picture\n"
-
-/* Reads and checks the script; CLI_EXIT_OK, or CLI_EXIT_USAGE / CLI_EXIT_FAIL after a
- * message "PROG: 'PATH' line L: what". Light indices are checked against `lights` lights
- * given before the script. */
-int view_script_load(const char *prog, const char *path, size_t lights, view_script *s);
-void view_script_free(view_script *s);
+#define VIEW_KEY_NAMES {"N", "Delete", "T", "+", "-", "C", "L", "[", "]", "0", "F", "P", \
+                        "Escape", NULL}
 
 /* ------------------------------------------------------------------ the command line */
 typedef struct viewer_args {
@@ -93,6 +57,6 @@ static inline int view_headless(const viewer_args *a)
 }
 
 /* The viewer itself (view_app.c); CLI_EXIT_*. */
-int view_run(const viewer_args *a, const view_script *s);
+int view_run(const viewer_args *a, const cli_script *s);
 
 #endif /* LRR_VIEW_H */

@@ -136,21 +136,16 @@ static void app_close(view_app *app)
 }
 
 /* ------------------------------------------------------------------ frames */
-/* exposure = 0.18 / the area-weighted mean luminance of the non-emitting subpatches, as
- * lrr render's automatic exposure keys on what is seen (here: everything). */
+/* The library's automatic exposure (lrr_render_auto_exposure: what lrr export and lrr
+ * animate use), keyed on the whole scene rather than on what the window shows, so orbiting
+ * does not change it. A black B (no light yet) gives no key: then a later B sets it. */
 void view_auto_exposure(view_app *app, const float *b)
 {
-    const float *area = lrr_operator_area(app->op), *em = lrr_operator_emission(app->op);
-    double sum = 0, w = 0;
-    for (size_t i = 0; i < app->n; i++) {
-        if (em && (em[3 * i] > 0 || em[3 * i + 1] > 0 || em[3 * i + 2] > 0))
-            continue;
-        sum += area[i] * (0.2126 * b[3 * i] + 0.7152 * b[3 * i + 1] + 0.0722 * b[3 * i + 2]);
-        w += area[i];
-    }
-    double mean = w > 0 ? sum / w : 0;
-    app->exposure = mean > 0 && isfinite(mean) ? 0.18 / mean : 1.0;
-    app->exposure_auto_pending = !(mean > 0 && isfinite(mean)); /* black: key on a later B */
+    int lit = 0;
+    for (size_t i = 0; i < 3 * app->n && !lit; i++)
+        lit = b[i] > 0;
+    app->exposure = lrr_render_auto_exposure(app->op, b);
+    app->exposure_auto_pending = !lit;
 }
 
 /* The split line: frames per second and the mean times since the last line. */
@@ -166,7 +161,7 @@ static void split_line(view_app *app, char *buf, size_t size)
              "%.0f fps %.0f relit/s | direct %.2f solve %.2f upload %.2f draw %.2f ms | "
              "%zu lights, emitters %s, exposure %.3g",
              f * 1e3 / dt, r * 1e3 / dt, r ? dd / r : 0.0, r ? ds / r : 0.0, f ? du / f : 0.0,
-             f ? dr / f : 0.0, app->nlights, app->emitters ? "on" : "off", app->exposure);
+             f ? dr / f : 0.0, app->L.count, app->emitters ? "on" : "off", app->exposure);
     app->line_t = now;
     app->line_frames = app->frames;
     app->line_relights = relights;
@@ -174,6 +169,53 @@ static void split_line(view_app *app, char *buf, size_t size)
     app->line_solve = ss;
     app->line_upload = app->sum_upload_ms;
     app->line_draw = app->sum_draw_ms;
+}
+
+/* What a screenshot shows besides the picture (lrr view --help): the lights, each as a
+ * --light SPEC that gives it back, the selection, the emitters, the exposure and the eye. */
+static void print_state(const view_app *app)
+{
+    static const char *const kinds[] = {"?", "point", "spot", "area", "sun"};
+    printf("lights: %zu\n", app->L.count);
+    for (size_t i = 0; i < app->L.count; i++) {
+        const lrr_light_source *l = &app->L.light[i];
+        int k = l->kind >= LRR_LIGHT_POINT && l->kind <= LRR_LIGHT_SUN ? l->kind : 0;
+        printf("light %zu: %s pos=%.9g,%.9g,%.9g dir=%.9g,%.9g,%.9g angle=%.9g soft=%.9g", i,
+               kinds[k], l->position[0], l->position[1], l->position[2], l->direction[0],
+               l->direction[1], l->direction[2], l->cone_angle * 180 / M_PI,
+               l->cone_softness * 180 / M_PI);
+        if (l->kind == LRR_LIGHT_AREA)
+            printf(" u=%.9g,%.9g,%.9g v=%.9g,%.9g,%.9g samples=%u", l->u[0], l->u[1], l->u[2],
+                   l->v[0], l->v[1], l->v[2], l->samples);
+        printf(" rgb=%.9g,%.9g,%.9g\n", l->rgb[0], l->rgb[1], l->rgb[2]);
+    }
+    if (app->selected >= 0)
+        printf("selected: %ld\n", app->selected);
+    else
+        printf("selected: none\n");
+    double eye[3];
+    view_camera_eye(&app->cam, eye);
+    printf("emitters: %s\nexposure: %.9g\neye: %.9g,%.9g,%.9g\n", app->emitters ? "on" : "off",
+           app->exposure, eye[0], eye[1], eye[2]);
+}
+
+static void print_shot(const view_app *app, const char *path, const double half[2])
+{
+    printf("screenshot: %s\nleft_luma: %.2f\nright_luma: %.2f\nluma: %.2f\n", path, half[0],
+           half[1], (half[0] + half[1]) / 2);
+    print_state(app);
+    fflush(stdout);
+}
+
+/* P: the picture as shown (the newest finished B, not waited for) to lrr-view-N.png. */
+static void interactive_shot(view_app *app)
+{
+    char path[64];
+    double half[2];
+    app->want_shot = 0;
+    snprintf(path, sizeof path, "lrr-view-%03u.png", app->shots++);
+    if (view_gl_screenshot(&app->gl, path, half) == CLI_EXIT_OK)
+        print_shot(app, path, half);
 }
 
 /* Uploads the newest B if there is one, draws into the offscreen picture; times both. */
@@ -195,9 +237,9 @@ static void render(view_app *app)
     double t1 = view_now_ms();
     float mvp[16], markers[3 * VIEW_MAX_LIGHTS];
     view_camera_matrix(&app->cam, (double)app->gl.fb_w / app->gl.fb_h, mvp);
-    for (size_t i = 0; i < app->nlights; i++)
-        memcpy(markers + 3 * i, app->lights[i].position, sizeof app->lights[i].position);
-    view_gl_draw(&app->gl, mvp, app->exposure, app->smooth, markers, app->nlights,
+    for (size_t i = 0; i < app->L.count; i++)
+        memcpy(markers + 3 * i, app->L.light[i].position, sizeof app->L.light[i].position);
+    view_gl_draw(&app->gl, mvp, app->exposure, app->smooth, markers, app->L.count,
                  app->selected);
     if (app->font_up) { /* into the picture, so screenshots show it too */
         if (!app->line[0] || view_now_ms() - app->line_t > 500)
@@ -208,13 +250,15 @@ static void render(view_app *app)
     glFinish();
     app->sum_draw_ms += view_now_ms() - t1;
     app->frames++;
+    if (app->want_shot) /* P, pressed by the user or the script */
+        interactive_shot(app);
 }
 
 /* Hands the lights to the worker when they changed; with sync, waits for them. */
 static int post_lights(view_app *app, int wait)
 {
     if (app->dirty) {
-        view_worker_post(&app->w, app->lights, app->nlights, app->emitters);
+        view_worker_post(&app->w, app->L.light, app->L.count, app->emitters);
         app->dirty = 0;
     }
     if (wait && view_worker_wait(&app->w) != 0) {
@@ -233,7 +277,7 @@ static int screenshot(view_app *app, const char *path)
     double half[2];
     int rc = view_gl_screenshot(&app->gl, path, half);
     if (rc == CLI_EXIT_OK)
-        printf("screenshot: %s\nleft_luma: %.2f\nright_luma: %.2f\n", path, half[0], half[1]);
+        print_shot(app, path, half);
     return rc;
 }
 
@@ -253,73 +297,89 @@ static void present(view_app *app)
 /* ------------------------------------------------------------------ the script */
 void view_add_light(view_app *app, const lrr_light_source *l)
 {
-    if (app->nlights < VIEW_MAX_LIGHTS) {
-        app->lights[app->nlights++] = *l;
+    if (cli_lights_add(&app->L, l) == 0)
         app->dirty = 1;
-    }
 }
 
 void view_remove_light(view_app *app, size_t i)
 {
-    if (i >= app->nlights)
+    if (i >= app->L.count)
         return;
-    memmove(app->lights + i, app->lights + i + 1, (app->nlights - i - 1) * sizeof *app->lights);
-    app->nlights--;
+    cli_lights_remove(&app->L, i);
     app->selected = -1;
     app->dirty = 1;
 }
 
-/* One command that takes no frame; VS_MOVE and VS_FRAMES only set up their frames. */
-static int apply(view_app *app, const view_cmd *c)
+/* One statement that draws no frame (the player handles frames); CLI_EXIT_*. */
+static int apply(view_app *app, const cli_script_cmd *c)
 {
+    int r = cli_lights_apply(&app->L, c);
+    if (r < 0) {
+        fprintf(stderr, "lrr view: '%s' line %d: light %zu is not there (%zu lights now)\n",
+                app->a->script, c->line, c->index, app->L.count);
+        return CLI_EXIT_FAIL;
+    }
+    if (r > 0) {
+        if (c->kind == CS_REMOVE)
+            app->selected = -1;
+        app->dirty = 1;
+        return CLI_EXIT_OK;
+    }
     switch (c->kind) {
-    case VS_LIGHT: view_add_light(app, &c->light); break;
-    case VS_REMOVE: view_remove_light(app, c->index); break;
-    case VS_MOVE:
-        app->move = c;
-        app->move_left = c->frames;
-        memcpy(app->move_from, app->lights[c->index].position, sizeof app->move_from);
-        break;
-    case VS_CAMERA: view_camera_look(&app->cam, c->eye, c->target); break;
-    case VS_EMITTERS: app->emitters = c->on; app->dirty = 1; break;
-    case VS_EXPOSURE:
-        app->exposure = c->exposure;
-        app->exposure_auto_pending = c->exposure == 0;
-        if (c->exposure == 0 && app->w.shown_gen)
+    case CS_CAMERA: view_camera_look(&app->cam, c->eye, c->target); break;
+    case CS_EMITTERS: app->emitters = c->on; app->dirty = 1; break;
+    case CS_EXPOSURE:
+        app->exposure = c->value;
+        app->exposure_auto_pending = c->value == 0;
+        if (c->value == 0 && app->w.shown_gen)
             view_auto_exposure(app, app->w.shown); /* keyed on what is shown now */
         break;
-    case VS_FRAMES: app->frames_left = c->frames; break;
-    case VS_SCREENSHOT: return screenshot(app, c->path);
+    case CS_SCREENSHOT: return screenshot(app, c->path);
+    case CS_MOUSE: view_input_cursor(app, c->xy[0], c->xy[1]); break;
+    case CS_CLICK:
+        view_input_cursor(app, c->xy[0], c->xy[1]);
+        view_input_button(app, 1, 1);
+        view_input_button(app, 1, 0);
+        break;
+    case CS_SCROLL: view_input_scroll(app, c->value); break;
+    case CS_KEY: view_input_key(app, c->key); break;
     }
     return CLI_EXIT_OK;
+}
+
+/* Frame k of a drag's n: the button goes down at its start before the first, the mouse
+ * moves k/n of the way, and the button comes up after the last. */
+static void drag_step(view_app *app, const cli_script_cmd *c, unsigned k, unsigned n)
+{
+    if (k == 1) {
+        view_input_cursor(app, c->xy[0], c->xy[1]);
+        view_input_button(app, 1, 1);
+    }
+    double t = (double)k / n;
+    view_input_cursor(app, c->xy[0] + t * (c->xy[2] - c->xy[0]),
+                      c->xy[1] + t * (c->xy[3] - c->xy[1]));
+    if (k == n)
+        view_input_button(app, 1, 0);
 }
 
 /* Runs the script up to the next frame: 1 draw a frame, 0 finished, -1 failed. */
 static int script_step(view_app *app)
 {
     for (;;) {
-        if (app->move_left) {
-            const view_cmd *c = app->move;
-            double t = (double)(c->frames - app->move_left + 1) / c->frames;
-            for (int j = 0; j < 3; j++)
-                app->lights[c->index].position[j] =
-                    (float)(app->move_from[j] + t * (c->pos[j] - app->move_from[j]));
-            app->move_left--;
-            app->dirty = 1;
+        if (glfwWindowShouldClose(app->win)) /* the script pressed Escape */
+            return 0;
+        const cli_script_cmd *c;
+        int r = cli_player_next(&app->play, &app->L, &c);
+        if (r == CLI_PLAY_END)
+            return 0;
+        if (r == CLI_PLAY_FRAME) {
+            if (app->play.moved)
+                app->dirty = 1;
+            if (app->play.drawing && app->play.drawing->kind == CS_DRAG)
+                drag_step(app, app->play.drawing, app->play.frame, app->play.frames);
             return 1;
         }
-        if (app->frames_left) {
-            app->frames_left--;
-            return 1;
-        }
-        if (app->pc == app->s->count) {
-            if (app->tail_done)
-                return 0;
-            app->tail_done = 1;
-            app->frames_left = app->a->frames;
-            continue;
-        }
-        if (apply(app, &app->s->cmd[app->pc++]) != CLI_EXIT_OK)
+        if (apply(app, c) != CLI_EXIT_OK)
             return -1;
     }
 }
@@ -358,18 +418,6 @@ static int headless_loop(view_app *app)
     return CLI_EXIT_OK;
 }
 
-/* P: the picture as shown (the newest finished B, not waited for) to lrr-view-N.png. */
-static void interactive_shot(view_app *app)
-{
-    char path[64];
-    double half[2];
-    app->want_shot = 0;
-    snprintf(path, sizeof path, "lrr-view-%03u.png", app->shots++);
-    if (view_gl_screenshot(&app->gl, path, half) == CLI_EXIT_OK)
-        printf("screenshot: %s\nleft_luma: %.2f\nright_luma: %.2f\n", path, half[0], half[1]);
-    fflush(stdout);
-}
-
 static int interactive_loop(view_app *app)
 {
     view_input_install(app);
@@ -385,21 +433,22 @@ static int interactive_loop(view_app *app)
             return CLI_EXIT_FAIL;
         }
         render(app);
-        if (app->want_shot)
-            interactive_shot(app);
         present(app);
         glfwPollEvents();
     }
     return CLI_EXIT_OK;
 }
 
-int view_run(const viewer_args *a, const view_script *s)
+int view_run(const viewer_args *a, const cli_script *s)
 {
     view_app app = {.a = a, .s = s, .selected = -1, .emitters = a->emitters, .dirty = 1,
                     .smooth = !a->flat,
                     .exposure = a->exposure, .exposure_auto_pending = a->exposure == 0};
-    memcpy(app.lights, a->light, a->lights * sizeof *a->light);
-    app.nlights = a->lights;
+    for (size_t i = 0; i < a->lights; i++)
+        cli_lights_add(&app.L, &a->light[i]);
+    app.play = (cli_player){.s = s, .tail = a->frames};
+    app.mx = a->width / 2.0; /* headless: the mouse starts in the middle */
+    app.my = a->height / 2.0;
     int rc = app_open(&app);
     if (rc == CLI_EXIT_OK) {
         app.line_t = view_now_ms();

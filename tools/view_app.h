@@ -10,7 +10,7 @@
 
 typedef struct view_app {
     const viewer_args *a;
-    const view_script *s;
+    const cli_script *s;
     lrr_context *ctx;
     lrr_operator *op;
     float *vtx;                 /* n×9: the subpatch triangles, for picking */
@@ -24,18 +24,12 @@ typedef struct view_app {
     view_worker w;
     view_camera cam;
     /* what is lit */
-    lrr_light_source lights[VIEW_MAX_LIGHTS];
-    size_t nlights;
+    cli_lights L;               /* the lights (and the script's moves under way) */
     long selected;              /* −1: none */
     int emitters, dirty;        /* dirty: the worker has not been told yet */
     double exposure;
     int exposure_auto_pending;  /* key the exposure on the next B */
-    /* the script */
-    size_t pc;
-    const view_cmd *move;
-    unsigned move_left, frames_left;
-    float move_from[3];
-    int tail_done;
+    cli_player play;            /* the script */
     /* the split */
     uint64_t frames, uploads;
     double sum_upload_ms, sum_draw_ms;
@@ -53,7 +47,12 @@ void view_auto_exposure(view_app *app, const float *b);
 void view_add_light(view_app *app, const lrr_light_source *l);
 void view_remove_light(view_app *app, size_t i);
 
-/* view_input.c */
+/* view_input.c: the GLFW callbacks call these, and so does the script (a user's session
+ * replayed headless). x, y: window pixels from the top-left corner. */
+void view_input_cursor(view_app *app, double x, double y);
+void view_input_button(view_app *app, int left, int press);
+void view_input_scroll(view_app *app, double notches);
+void view_input_key(view_app *app, int key); /* enum view_key */
 void view_input_install(view_app *app);
 /* WASDQE flying, dt seconds since the last frame. */
 void view_input_fly(view_app *app, double dt);

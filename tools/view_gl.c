@@ -1,7 +1,8 @@
 /* The viewer's OpenGL 3.3 core half: every subpatch a triangle of its own whose colour is
  * its radiosity, fetched in the fragment shader from a texture buffer (one upload of n×3
  * floats per relight, no per-vertex expansion), tone mapped as lrr render's PNGs (exposure,
- * then the sRGB curve, clamped). Drawn offscreen, so a screenshot never depends on the
+ * the extended Reinhard curve white at 6 (lib/output/render.c TONE_WHITE), the sRGB curve:
+ * the automatic exposure's 0.18 key then looks the same in both). Drawn offscreen, so a screenshot never depends on the
  * window being mapped (Xvfb, hidden windows), then blitted to the window. */
 #include "view_internal.h"
 
@@ -44,7 +45,8 @@ static const char scene_fs[] =
     "uniform float exposure;\n"
     "out vec4 frag;\n"
     "void main() {\n"
-    "  vec3 c = clamp(exposure * b, 0.0, 1.0);\n"
+    "  vec3 x = exposure * b;\n"
+    "  vec3 c = clamp(x * (1.0 + x / 36.0) / (1.0 + x), 0.0, 1.0);\n"
     "  vec3 s = mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055,\n"
     "               step(vec3(0.0031308), c));\n"
     "  frag = vec4(s, 1.0);\n"

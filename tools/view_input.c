@@ -12,6 +12,18 @@ static view_app *app_of(GLFWwindow *win)
     return glfwGetWindowUserPointer(win);
 }
 
+/* The size the mouse's pixels refer to: the window's, or headless the picture's (a hidden
+ * window may be smaller than the picture, e.g. on a small Xvfb screen). */
+static void window_size(const view_app *app, int *w, int *h)
+{
+    if (view_headless(app->a)) {
+        *w = app->gl.fb_w;
+        *h = app->gl.fb_h;
+    } else {
+        glfwGetWindowSize(app->win, w, h);
+    }
+}
+
 /* The nearest front-or-back hit of the ray among the subpatch triangles (Möller–Trumbore):
  * its distance (INFINITY: none) and the triangle's unit normal facing the ray's origin. */
 static double cast(const view_app *app, const double o[3], const double d[3], double nrm[3])
@@ -55,7 +67,7 @@ static double cast(const view_app *app, const double o[3], const double d[3], do
 static int surface_point(view_app *app, float pos[3], double nrm[3])
 {
     int w, h;
-    glfwGetWindowSize(app->win, &w, &h);
+    window_size(app, &w, &h);
     double o[3], d[3];
     view_camera_ray(&app->cam, app->mx, app->my, w, h, o, d);
     double t = cast(app, o, d, nrm);
@@ -70,13 +82,13 @@ static int surface_point(view_app *app, float pos[3], double nrm[3])
 static long pick_light(view_app *app)
 {
     int w, h;
-    glfwGetWindowSize(app->win, &w, &h);
+    window_size(app, &w, &h);
     long best = -1;
     double best_d = PICK_PIXELS;
-    for (size_t i = 0; i < app->nlights; i++) {
+    for (size_t i = 0; i < app->L.count; i++) {
         double x, y;
-        if (app->lights[i].kind == LRR_LIGHT_SUN ||
-            !view_camera_project(&app->cam, app->lights[i].position, w, h, &x, &y))
+        if (app->L.light[i].kind == LRR_LIGHT_SUN ||
+            !view_camera_project(&app->cam, app->L.light[i].position, w, h, &x, &y))
             continue;
         double dd = hypot(x - app->mx, y - app->my);
         if (dd < best_d) {
@@ -87,14 +99,14 @@ static long pick_light(view_app *app)
     return best;
 }
 
-static void on_button(GLFWwindow *win, int button, int action, int mods)
+/* A button at the mouse's position: left picks a light (else orbits), right pans. */
+void view_input_button(view_app *app, int left, int press)
 {
-    view_app *app = app_of(win);
-    if (action == GLFW_RELEASE) {
+    if (!press) {
         app->dragging = app->orbiting = app->panning = 0;
         return;
     }
-    if (button == GLFW_MOUSE_BUTTON_LEFT) {
+    if (left) {
         long i = pick_light(app);
         if (i >= 0) {
             app->selected = i;
@@ -102,19 +114,26 @@ static void on_button(GLFWwindow *win, int button, int action, int mods)
         } else {
             app->orbiting = 1;
         }
-    } else if (button == GLFW_MOUSE_BUTTON_RIGHT) {
+    } else {
         app->panning = 1;
     }
 }
 
-static void on_cursor(GLFWwindow *win, double x, double y)
+static void on_button(GLFWwindow *win, int button, int action, int mods)
 {
-    view_app *app = app_of(win);
+    (void)mods;
+    if (button == GLFW_MOUSE_BUTTON_LEFT || button == GLFW_MOUSE_BUTTON_RIGHT)
+        view_input_button(app_of(win), button == GLFW_MOUSE_BUTTON_LEFT,
+                          action != GLFW_RELEASE);
+}
+
+void view_input_cursor(view_app *app, double x, double y)
+{
     double dx = x - app->mx, dy = y - app->my;
     app->mx = x;
     app->my = y;
     if (app->dragging && app->selected >= 0) {
-        lrr_light_source *l = &app->lights[app->selected];
+        lrr_light_source *l = &app->L.light[app->selected];
         double nrm[3];
         if (surface_point(app, l->position, nrm)) {
             if (l->kind == LRR_LIGHT_SPOT) /* a spot faces back onto the surface it is on */
@@ -130,10 +149,21 @@ static void on_cursor(GLFWwindow *win, double x, double y)
     }
 }
 
+static void on_cursor(GLFWwindow *win, double x, double y)
+{
+    view_input_cursor(app_of(win), x, y);
+}
+
+/* Each notch towards the scene brings the eye 10% closer to the target. */
+void view_input_scroll(view_app *app, double notches)
+{
+    app->cam.dist = fmax(1e-3 * app->diag, app->cam.dist * pow(0.9, notches));
+}
+
 static void on_scroll(GLFWwindow *win, double xoff, double yoff)
 {
-    view_app *app = app_of(win);
-    app->cam.dist = fmax(1e-3 * app->diag, app->cam.dist * pow(0.9, yoff));
+    (void)xoff;
+    view_input_scroll(app_of(win), yoff);
 }
 
 /* A new point light where the mouse points (else at the camera's target), bright enough to
@@ -152,7 +182,7 @@ static void new_light(view_app *app)
     l.cone_angle = (float)(35 * M_PI / 180);
     l.cone_softness = (float)(10 * M_PI / 180);
     view_add_light(app, &l);
-    app->selected = (long)app->nlights - 1;
+    app->selected = (long)app->L.count - 1;
 }
 
 /* T, +, -, C on the selected light. */
@@ -163,9 +193,9 @@ static void edit_light(view_app *app, int key)
     static const int kinds[] = {LRR_LIGHT_POINT, LRR_LIGHT_SPOT, LRR_LIGHT_SUN};
     if (app->selected < 0)
         return;
-    lrr_light_source *l = &app->lights[app->selected];
+    lrr_light_source *l = &app->L.light[app->selected];
     float level = fmaxf(l->rgb[0], fmaxf(l->rgb[1], l->rgb[2]));
-    if (key == GLFW_KEY_T) {
+    if (key == VK_TYPE) {
         int k = 0;
         while (k < 3 && kinds[k] != l->kind)
             k++;
@@ -185,12 +215,11 @@ static void edit_light(view_app *app, int key)
             for (int j = 0; j < 3; j++)
                 l->rgb[j] *= (float)(app->diag * app->diag / 10);
         }
-    } else if (key == GLFW_KEY_EQUAL || key == GLFW_KEY_KP_ADD || key == GLFW_KEY_MINUS ||
-               key == GLFW_KEY_KP_SUBTRACT) {
-        float f = key == GLFW_KEY_EQUAL || key == GLFW_KEY_KP_ADD ? 1.25f : 0.8f;
+    } else if (key == VK_BRIGHTER || key == VK_DIMMER) {
+        float f = key == VK_BRIGHTER ? 1.25f : 0.8f;
         for (int j = 0; j < 3; j++)
             l->rgb[j] *= f;
-    } else if (key == GLFW_KEY_C) {
+    } else if (key == VK_COLOUR) {
         app->colour = (app->colour + 1) % 6;
         for (int j = 0; j < 3; j++)
             l->rgb[j] = level * colours[app->colour][j];
@@ -198,27 +227,49 @@ static void edit_light(view_app *app, int key)
     app->dirty = 1;
 }
 
-static void on_key(GLFWwindow *win, int key, int scancode, int action, int mods)
+void view_input_key(view_app *app, int key)
 {
-    view_app *app = app_of(win);
-    if (action == GLFW_RELEASE)
-        return;
     switch (key) {
-    case GLFW_KEY_ESCAPE: glfwSetWindowShouldClose(win, GLFW_TRUE); break;
-    case GLFW_KEY_N: new_light(app); break;
-    case GLFW_KEY_DELETE:
-    case GLFW_KEY_BACKSPACE:
+    case VK_QUIT: glfwSetWindowShouldClose(app->win, GLFW_TRUE); break;
+    case VK_NEW: new_light(app); break;
+    case VK_DELETE:
         if (app->selected >= 0)
             view_remove_light(app, (size_t)app->selected);
         break;
-    case GLFW_KEY_P: app->want_shot = 1; break;
-    case GLFW_KEY_F: app->smooth = !app->smooth; app->reupload = 1; break;
-    case GLFW_KEY_L: app->emitters = !app->emitters; app->dirty = 1; break;
-    case GLFW_KEY_LEFT_BRACKET: app->exposure /= 1.25; break;
-    case GLFW_KEY_RIGHT_BRACKET: app->exposure *= 1.25; break;
-    case GLFW_KEY_0: view_auto_exposure(app, app->w.shown); break;
+    case VK_PICTURE: app->want_shot = 1; break;
+    case VK_FLAT: app->smooth = !app->smooth; app->reupload = 1; break;
+    case VK_EMITTERS: app->emitters = !app->emitters; app->dirty = 1; break;
+    case VK_EXPOSURE_DOWN: app->exposure /= 1.25; break;
+    case VK_EXPOSURE_UP: app->exposure *= 1.25; break;
+    case VK_EXPOSURE_AUTO: view_auto_exposure(app, app->w.shown); break;
     default: edit_light(app, key);
     }
+}
+
+/* The GLFW key's enum view_key, or -1. */
+static int view_key_of(int key)
+{
+    static const int map[][2] = {
+        {GLFW_KEY_ESCAPE, VK_QUIT},           {GLFW_KEY_N, VK_NEW},
+        {GLFW_KEY_DELETE, VK_DELETE},         {GLFW_KEY_BACKSPACE, VK_DELETE},
+        {GLFW_KEY_P, VK_PICTURE},             {GLFW_KEY_F, VK_FLAT},
+        {GLFW_KEY_L, VK_EMITTERS},            {GLFW_KEY_LEFT_BRACKET, VK_EXPOSURE_DOWN},
+        {GLFW_KEY_RIGHT_BRACKET, VK_EXPOSURE_UP}, {GLFW_KEY_0, VK_EXPOSURE_AUTO},
+        {GLFW_KEY_T, VK_TYPE},                {GLFW_KEY_C, VK_COLOUR},
+        {GLFW_KEY_EQUAL, VK_BRIGHTER},        {GLFW_KEY_KP_ADD, VK_BRIGHTER},
+        {GLFW_KEY_MINUS, VK_DIMMER},          {GLFW_KEY_KP_SUBTRACT, VK_DIMMER}};
+    for (size_t i = 0; i < sizeof map / sizeof *map; i++)
+        if (map[i][0] == key)
+            return map[i][1];
+    return -1;
+}
+
+static void on_key(GLFWwindow *win, int key, int scancode, int action, int mods)
+{
+    (void)scancode, (void)mods;
+    int vk = view_key_of(key);
+    if (action != GLFW_RELEASE && vk >= 0)
+        view_input_key(app_of(win), vk);
 }
 
 void view_input_fly(view_app *app, double dt)
