@@ -60,7 +60,7 @@ class Context:
         status = fn(*args)
         if status != 0:
             recorded, message = self.last_error()
-            raise LrrError(status, message if recorded == status else "")
+            raise LrrError(status, message if recorded != 0 else "")
         return status
 
 
@@ -182,6 +182,7 @@ class Scene:
 # ---------------------------------------------------------------- operators
 _FORMFACTOR = {"auto": 0, "raster": 1, "raycast": 2}
 _SPLIT = {"variance": 0, "area": 1}
+_BACKEND = {"cpu": _ffi.BACKEND_CPU, "opencl": _ffi.BACKEND_OPENCL}
 
 
 def build_operator(scene, hemicube=128, seed=1, threads=0, no_rotation=False,
@@ -196,7 +197,7 @@ def build_operator(scene, hemicube=128, seed=1, threads=0, no_rotation=False,
         raise LrrError(ERR_INVALID_ARG, "build: adaptive and clusters exclude each other")
     for name, value, table in (("formfactor", formfactor, _FORMFACTOR),
                                ("adaptive_split", adaptive_split, _SPLIT),
-                               ("backend", backend, {"cpu": 0, "opencl": 0})):
+                               ("backend", backend, _BACKEND)):
         if value not in table:
             raise LrrError(ERR_INVALID_ARG, "build: %s '%s' is not one of %s"
                            % (name, value, ", ".join(table)))
@@ -205,8 +206,7 @@ def build_operator(scene, hemicube=128, seed=1, threads=0, no_rotation=False,
     o = _ffi.BuildOptions(size=ctypes.sizeof(_ffi.BuildOptions),
                           hemicube_resolution=hemicube, seed=seed, threads=threads,
                           progress=cb, no_rotation=int(no_rotation),
-                          backend=_ffi.BACKEND_OPENCL if backend == "opencl"
-                          else _ffi.BACKEND_CPU,
+                          backend=_BACKEND[backend],
                           memory_budget=memory_budget,
                           adaptive_patches=clusters or adaptive,
                           adaptive_samples=adaptive_samples,
@@ -495,13 +495,12 @@ class Solver:
     """An lrr_solver: one backend's buffers for an operator (which it keeps alive)."""
 
     def __init__(self, op, backend="cpu"):
-        kinds = {"cpu": _ffi.BACKEND_CPU, "opencl": _ffi.BACKEND_OPENCL}
-        if backend not in kinds:
+        if backend not in _BACKEND:
             raise LrrError(ERR_INVALID_ARG, "solver: backend '%s' is not cpu or opencl"
                            % backend)
         self.op = op
         h = ctypes.c_void_p()
-        op.context.call(lib.lrr_solver_create, op.h, kinds[backend], ctypes.byref(h))
+        op.context.call(lib.lrr_solver_create, op.h, _BACKEND[backend], ctypes.byref(h))
         self._h = h
 
     @property

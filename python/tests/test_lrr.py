@@ -80,6 +80,21 @@ def layout_program():
     return "\n".join(lines + ["    return 0;", "}", ""])
 
 
+def dense_model(op, e, rho=None):
+    """numpy's dense solve of the low-rank model (I − diag(rho_c) F̄ Vᵀ) B_c = E_c
+    (docs/METHOD.md: V_jp = w_j = d_p A_j / A_p), from the operator's arrays alone."""
+    n, off, area = op.n, op.patch_offsets, op.area.astype(np.float64)
+    vt = np.zeros((op.k, n))
+    for p in range(op.k):
+        j = slice(off[p], off[p + 1])
+        vt[p, j] = (off[p + 1] - off[p]) * area[j] / area[j].sum()
+    fv = op.fbar().astype(np.float64) @ vt
+    rho = (op.reflectance if rho is None else rho).astype(np.float64)
+    e = np.asarray(e, np.float64)
+    return np.stack([np.linalg.solve(np.eye(n) - rho[:, c:c + 1] * fv, e[:, c])
+                     for c in range(3)], axis=1)
+
+
 class Layout(unittest.TestCase):
     def test_struct_mirrors_match_c(self):
         """Every sizeof, and every field's offset and size, of the ctypes mirrors equals the
@@ -172,20 +187,40 @@ class Solve(unittest.TestCase):
         """B equals numpy's dense solve of (I − diag(rho_c) F̄ Vᵀ) B_c = E_c
         (docs/METHOD.md, V_jp = w_j = d_p A_j / A_p), computed from the operator's arrays."""
         op = self.op
-        n, k = op.n, op.k
-        off, area = op.patch_offsets, op.area.astype(np.float64)
-        vt = np.zeros((k, n))
-        for p in range(k):
-            j = slice(off[p], off[p + 1])
-            vt[p, j] = (off[p + 1] - off[p]) * area[j] / area[j].sum()
-        fv = op.fbar().astype(np.float64) @ vt
-        rho = op.reflectance.astype(np.float64)
-        e = np.random.default_rng(9).random((n, 3))
-        want = np.stack([np.linalg.solve(np.eye(n) - rho[:, c:c + 1] * fv, e[:, c])
-                         for c in range(3)], axis=1)
+        e = np.random.default_rng(9).random((op.n, 3))
+        want = dense_model(op, e)
         err = max_rel(op.solve(e), want)
         print("\n  dense model solve: max relative difference %.2e" % err, file=sys.stderr)
         self.assertLess(err, 1e-5)
+
+    def test_set_reflectance_and_save(self):
+        """New reflectances give the dense model's B with them; an operator saved and loaded
+        back solves to the same bits."""
+        op = lrr.build("cornell", patches=36, levels=1, hemicube=16)
+        rho = op.reflectance * np.float32([0.5, 1.2, 0.9])
+        op.set_reflectance(rho)
+        np.testing.assert_array_equal(op.reflectance, rho)
+        want = dense_model(op, op.emission, rho)
+        b = op.solve()
+        self.assertLess(max_rel(b, want), 1e-5)
+        path = os.path.join(tmpdir(), "rho.lrr")
+        op.save(path)
+        back = lrr.load(path)
+        np.testing.assert_array_equal(back.solve(), b)
+
+    def test_progress_cancels(self):
+        """A progress callback sees done <= total and cancels the build by returning True."""
+        seen = []
+
+        def progress(done, total):
+            seen.append((done, total))
+            return done > 0
+
+        sc = lrr.Scene.builtin("cornell").subdivide(patches=36, levels=1)
+        with self.assertRaises(lrr.LrrError) as cm:
+            lrr.build_operator(sc, hemicube=16, progress=progress, threads=1)
+        self.assertEqual(cm.exception.status, lrr.STATUS["ERR_CANCELLED"])
+        self.assertTrue(seen and all(0 <= d <= t for d, t in seen), seen)
 
     def test_batch_equals_single(self):
         rng = np.random.default_rng(1)
