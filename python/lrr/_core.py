@@ -266,6 +266,7 @@ class Operator:
         self._h, self.context = handle, context
         self._solver = None
         self._lighting = None
+        self._nk = None
 
     @property
     def h(self):
@@ -305,13 +306,22 @@ class Operator:
         d["hierarchy"] = "clusters" if i.hierarchy == 1 else "quadtree"
         return d
 
+    def _sizes(self):
+        # n and k are fixed for the operator's life: read once, since every frame needs n
+        if self._nk is None:
+            i = self.info
+            self._nk = (i["n"], i["k"])
+        return self._nk
+
     @property
     def n(self):
-        return self.info["n"]
+        """Subpatches."""
+        return self._sizes()[0]
 
     @property
     def k(self):
-        return self.info["k"]
+        """Patches."""
+        return self._sizes()[1]
 
     def _rows(self, fn, width=3):
         p = fn(self.h)
@@ -516,6 +526,21 @@ class Solver:
             self._h = None
 
     __del__ = close
+
+    PATHS = ("auto", "full", "sparse", "incremental")
+
+    @property
+    def last_path(self):
+        """The path the last frame took: "full", "sparse" or "incremental"."""
+        return self.PATHS[lib.lrr_solver_last_path(self.h)]
+
+    def set_path(self, name):
+        """Forces a path ("full", "sparse", "incremental") or "auto", the default: each
+        frame takes the cheapest (lrr_solver_set_path)."""
+        if name not in self.PATHS:
+            raise LrrError(ERR_INVALID_ARG, "solver: path '%s' is not one of %s"
+                           % (name, ", ".join(self.PATHS)))
+        self.op.context.call(lib.lrr_solver_set_path, self.h, self.PATHS.index(name))
 
     @property
     def kernel(self):

@@ -157,6 +157,8 @@ _PROTOTYPES = {
     "lrr_solver_destroy": (None, [_P]),
     "lrr_solver_kernel": (_STR, [_P]),
     "lrr_solve": (_S, [_P, c_float_p, c_float_p]),
+    "lrr_solver_set_path": (_S, [_P, ctypes.c_int]),
+    "lrr_solver_last_path": (ctypes.c_int, [_P]),
     "lrr_solve_batch": (_S, [_P, c_size_t, c_float_p, c_float_p]),
     "lrr_lighting_create": (_S, [_P, ctypes.POINTER(_P)]),
     "lrr_lighting_destroy": (None, [_P]),

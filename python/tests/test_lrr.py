@@ -222,12 +222,24 @@ class Solve(unittest.TestCase):
         self.assertEqual(cm.exception.status, lrr.STATUS["ERR_CANCELLED"])
         self.assertTrue(seen and all(0 <= d <= t for d, t in seen), seen)
 
-    def test_batch_equals_single(self):
+    def test_batch_and_paths_agree(self):
+        """solve_batch, and each forced path of a solver, give the one-frame full solve."""
         rng = np.random.default_rng(1)
         es = rng.random((3, self.op.n, 3), dtype=np.float32)
-        bs = self.op.solve_batch(es)
-        for e, b in zip(es, bs):
-            self.assertLess(max_rel(b, self.op.solve(e)), 1e-6)
+        es[2] = 0
+        es[2, :4] = 1  # one patch emits: the sparse path can serve it
+        full = self.op.solver()
+        full.set_path("full")
+        want = [full.solve(e) for e in es]
+        self.assertEqual(full.last_path, "full")
+        for b, w in zip(self.op.solve_batch(es), want):
+            self.assertLess(max_rel(b, w), 1e-6)
+        sparse = self.op.solver()
+        sparse.set_path("sparse")
+        self.assertLess(max_rel(sparse.solve(es[2]), want[2]), 1e-5)
+        self.assertEqual(sparse.last_path, "sparse")
+        with self.assertRaises(lrr.LrrError):
+            sparse.set_path("fastest")
 
     def test_furnace(self):
         """A sealed box, uniform rho and E (docs/METHOD.md "Exact cases"): B = E/(1 − rho)."""
