@@ -34,12 +34,21 @@ class Context:
     its context alive; one context may serve many objects. Not shared between threads that
     run calls at the same time (the error record is the context's)."""
 
-    def __init__(self):
+    def __init__(self, on_error=None):
+        """on_error(status, message), if given, sees every error lrr reports on this
+        context (lrr_context_set_error_callback), in the thread that hit it; exceptions it
+        raises are printed and dropped (ctypes cannot carry them through C)."""
         h = ctypes.c_void_p()
         status = lib.lrr_context_create(ctypes.byref(h))
         if status != 0:
             raise LrrError(status, "lrr_context_create failed")
         self._h = h
+        self._on_error = None
+        if on_error is not None:
+            # kept on self: lrr holds only the C pointer, which dies with this object
+            self._on_error = _ffi.ERROR_FN(
+                lambda user, st, msg: on_error(st, msg.decode(errors="replace")))
+            lib.lrr_context_set_error_callback(h, self._on_error, None)
 
     def __del__(self):
         if getattr(self, "_h", None):

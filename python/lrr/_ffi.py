@@ -17,6 +17,9 @@ c_size_t_p = ctypes.POINTER(ctypes.c_size_t)
 # lrr_progress_fn: int (*)(void *user, size_t done, size_t total)
 PROGRESS_FN = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, c_size_t, c_size_t)
 
+# lrr_error_fn: void (*)(void *user, lrr_status status, const char *message)
+ERROR_FN = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_int, ctypes.c_char_p)
+
 BACKEND_CPU = 301
 BACKEND_OPENCL = 302
 BACK_FACE_WORST = 5
@@ -128,6 +131,7 @@ _PROTOTYPES = {
     "lrr_context_create": (_S, [ctypes.POINTER(_P)]),
     "lrr_context_destroy": (None, [_P]),
     "lrr_context_last_error": (_S, [_P, ctypes.c_char_p, c_size_t]),
+    "lrr_context_set_error_callback": (None, [_P, ERROR_FN, ctypes.c_void_p]),
     "lrr_scene_load": (_S, [_P, _STR, ctypes.POINTER(_P)]),
     "lrr_scene_builtin": (_S, [_P, _STR, ctypes.POINTER(_P)]),
     "lrr_scene_create": (_S, [_P, c_size_t, c_float_p, c_float_p, c_float_p, _STR,

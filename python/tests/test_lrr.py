@@ -280,6 +280,15 @@ class Errors(unittest.TestCase):
         self.assertIn("subpatch 7, channel 2", str(cm.exception))
         self.assertEqual(self.op.solve(np.zeros_like(e)).max(), 0)  # still usable
 
+    def test_error_callback_sees_the_message(self):
+        seen = []
+        ctx = lrr.Context(on_error=lambda status, message: seen.append((status, message)))
+        missing = os.path.join(tmpdir(), "gone.lrr")
+        with self.assertRaises(lrr.LrrError) as cm:
+            lrr.load(missing, context=ctx)
+        self.assertEqual(seen, [(cm.exception.status, str(cm.exception))])
+        self.assertIn(missing, seen[0][1])
+
     def test_missing_file(self):
         missing = os.path.join(tmpdir(), "no-such.lrr")
         with self.assertRaises(lrr.LrrError) as cm:
