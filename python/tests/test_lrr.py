@@ -255,6 +255,37 @@ class Solve(unittest.TestCase):
         self.assertTrue(np.all(err < 1e-4), err)
 
 
+class Build(unittest.TestCase):
+    def test_scene_file_like_lrr_info(self):
+        """A scene file subdivided by build() has the patches `lrr info` reports for the
+        same options, and its stored emission is the file's (a lamp: every subpatch emits)."""
+        quad = os.path.join(SRCDIR, "tests", "data", "quad.obj")
+        info = run_lrr("info", quad, "--patches", "8", "--levels", "1")
+        sc = lrr.Scene.open(quad).subdivide(patches=8, levels=1)
+        self.assertEqual(sc.info["patches"], int(info["patches"]))
+        self.assertEqual(sc.info["subpatches"], int(info["subpatches"]))
+        op = lrr.build_operator(sc, hemicube=16, formfactor="raycast")
+        self.assertEqual((op.n, op.k), (int(info["subpatches"]), int(info["patches"])))
+        self.assertEqual(op.info["formfactor_method"], 2)  # LRR_FORMFACTOR_RAYCAST
+        self.assertTrue(np.all(op.emission > 0))
+        # a lone emitting quad sees nothing: B = E
+        np.testing.assert_array_equal(op.solve(), op.emission)
+
+    def test_options_reach_lrr(self):
+        op = lrr.build("cornell-closed", patches=40, levels=0, hemicube=24, seed=7,
+                       no_rotation=True, storage="f16")
+        i = op.info
+        self.assertEqual((i["hemicube_resolution"], i["seed"], i["no_rotation"], i["storage"],
+                          i["triangles"]), (24, 7, 1, "f16", 38))
+        with self.assertRaises(lrr.LrrError) as cm:
+            lrr.build("cornell", patches=36, levels=0, hemicube=7)
+        self.assertIn("7", str(cm.exception))
+        missing = os.path.join(tmpdir(), "nothing.obj")
+        with self.assertRaises(lrr.LrrError) as cm:
+            lrr.build(missing)
+        self.assertIn(missing, str(cm.exception))
+
+
 class Errors(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
