@@ -104,6 +104,33 @@ static void cpu_model(char *buf, size_t len)
     fclose(f);
 }
 
+/* "caches: L1d 48K, L2 1024K, L3 32768K" from sysfs (cpu0's view; the size a core sees) */
+static void print_caches(void)
+{
+    char line[160] = "", path[96], level[16], type[32], size[32];
+    for (int i = 0; i < 8; i++) {
+        FILE *f;
+        int ok = 1;
+        const char *want[3] = {"level", "type", "size"};
+        char *out[3] = {level, type, size};
+        for (int j = 0; j < 3 && ok; j++) {
+            snprintf(path, sizeof path, "/sys/devices/system/cpu/cpu0/cache/index%d/%s", i,
+                     want[j]);
+            ok = (f = fopen(path, "r")) && fscanf(f, "%15s", out[j]) == 1;
+            if (f)
+                fclose(f);
+        }
+        if (!ok)
+            break;
+        if (strcmp(type, "Instruction") == 0)
+            continue;
+        size_t len = strlen(line);
+        snprintf(line + len, sizeof line - len, "%sL%s%s %s", len ? ", " : "", level,
+                 strcmp(type, "Data") == 0 ? "d" : "", size);
+    }
+    printf("caches: %s\n", line[0] ? line : "unknown");
+}
+
 void print_machine(void)
 {
     char cpu[256], date[64];
@@ -113,6 +140,7 @@ void print_machine(void)
     localtime_r(&t, &tm);
     strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S %z", &tm);
     printf("cpu: %s\n", cpu);
+    print_caches();
     printf("cores_online: %ld\n", sysconf(_SC_NPROCESSORS_ONLN));
     printf("threads_openmp: %d\n", omp_get_max_threads());
     printf("threads_openblas: %d\n", openblas_get_num_threads());
