@@ -66,11 +66,11 @@ static int print_version(void)
     printf("lrr %s\n", lib);
     /* the library's optional dependencies, then the tool's own (configure --without-X) */
     const char *features = lrr_features();
+    printf("features:%s%s", *features ? " " : "", features);
 #ifdef LRR_VIEWER
-    printf("features: %s%sviewer\n", features, *features ? " " : "");
-#else
-    printf("features: %s\n", features);
+    fputs(" viewer", stdout);
 #endif
+    putchar('\n');
     return CLI_EXIT_OK;
 }
 
