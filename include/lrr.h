@@ -78,6 +78,13 @@ LRR_API const char *lrr_strerror(lrr_status status);
  * header and library agree. Thread safety: any thread. */
 LRR_API const char *lrr_version_string(void);
 LRR_API unsigned lrr_version(void); /* MAJOR*10000 + MINOR*100 + PATCH */
+/* The optional features built into this library (configure --without-X), space-separated
+ * in this order: "assimp" (scene files, lrr_scene_load), "cgal" (lrr_scene_check),
+ * "openexr" (.exr probes, lrr_render_exr), "opencl" (LRR_BACKEND_OPENCL; a device is still
+ * needed at run time); "" when none. A function that needs a feature not built returns
+ * LRR_ERR_UNSUPPORTED, "lrr was built without X". Later versions may add names. Static
+ * string; thread safety: any thread. */
+LRR_API const char *lrr_features(void);
 
 /* ---------------------------------------------------------------- context */
 typedef struct lrr_context lrr_context;
@@ -102,7 +109,8 @@ LRR_API lrr_status lrr_context_last_error(lrr_context *ctx, char *msg, size_t ms
 /* ---------------------------------------------------------------- scene */
 typedef struct lrr_scene lrr_scene;
 
-/* Imports OBJ(+MTL: Kd = reflectance, Ke = emission), PLY or glTF 2.0 through assimp.
+/* Imports OBJ(+MTL: Kd = reflectance, Ke = emission), PLY or glTF 2.0 through assimp
+ * (LRR_ERR_UNSUPPORTED naming the file when built without it: lrr_features()).
  * Triangles are one-sided: the front is the side from which the vertices run
  * counter-clockwise. Zero-area triangles are skipped and counted (see lrr_scene_info);
  * NaN/Inf coordinates, reflectance outside [0,1), negative emission and an empty scene are
@@ -206,6 +214,7 @@ typedef struct lrr_check_report {
     unsigned char *fix;
     size_t upside_down_sheets; /* open connected sheets reported as LRR_CHECK_UPSIDE_DOWN */
 } lrr_check_report;
+/* LRR_ERR_UNSUPPORTED when built without CGAL (lrr_features()). */
 LRR_API LRR_NODISCARD lrr_status lrr_scene_check(lrr_context *ctx, const char *name,
                                                  lrr_check_report **out) LRR_NONNULL(1, 2, 3);
 LRR_API void lrr_check_report_destroy(lrr_check_report *report);
@@ -652,7 +661,8 @@ LRR_API LRR_NODISCARD lrr_status lrr_render_png(const lrr_operator *op, const fl
 /* The same picture as lrr_render_png (same options, camera and rasteriser), written as
  * OpenEXR: linear radiosity (W/m², what the PNG tone maps; no exposure, no curve) in float
  * R, G, B channels (ZIP compression), 0 where no surface is seen. Written atomically: path
- * is never a partial file. Thread safety: any thread. */
+ * is never a partial file. LRR_ERR_UNSUPPORTED naming path when built without OpenEXR
+ * (lrr_features()). Thread safety: any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_render_exr(const lrr_operator *op, const float *radiosity,
                                                 const lrr_render_options *opts,
                                                 const char *path) LRR_NONNULL(1, 2, 4);
@@ -758,6 +768,7 @@ typedef struct lrr_probe lrr_probe;
  * column x, row y and channel. Sizes a header claims are checked against the file before
  * anything is allocated for them: a truncated .hdr is an error (not black rows), and an
  * OpenEXR file whose chunk would unpack to more than 256 MiB is refused (LRR_ERR_FORMAT).
+ * Built without OpenEXR (lrr_features()), a .exr path gives LRR_ERR_UNSUPPORTED naming it.
  * Thread safety: any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_probe_load(lrr_context *ctx, const char *path,
                                                 lrr_probe **out) LRR_NONNULL(1, 2, 3);

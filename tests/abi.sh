@@ -29,6 +29,15 @@ report header map "declared LRR_API in lrr.h but not in lib/liblrr.map" || fail=
 report map header "in lib/liblrr.map but not declared LRR_API in lrr.h" || fail=1
 report map so "in lib/liblrr.map but not defined by liblrr.so" || fail=1
 report so map "exported by liblrr.so but not in lib/liblrr.map" || fail=1
+# Only lrr_* (and the version nodes LRR_1, LRR_1.1, ...) may be defined, whatever the map
+# says: a C++ template instance or a helper of the dependencies must stay local.
+others=$(nm -D --defined-only "$so" | awk '{print $3}' | sed 's/@.*//' |
+         grep -v -e '^lrr_' -e '^LRR_[0-9.]*$' | sort -u)
+if [ -n "$others" ]; then
+    echo "abi: $(echo "$others" | wc -l) exported symbols are not lrr_*:"
+    echo "$others" | sed 's/^/abi:   /'
+    fail=1
+fi
 if ! nm -D --defined-only "$so" | grep -q ' lrr_solve@@LRR_1$'; then
     echo "abi: lrr_solve is not versioned LRR_1 (is the version script applied?)"
     fail=1

@@ -10,6 +10,12 @@ if [ ! -x "$BENCH" ]; then
     echo "FAIL: LRR_BENCH_BIN='$BENCH' is not an executable"
     exit 1
 fi
+# lrr-bench's default scenes include the shipped OBJ files: a build without assimp
+# (configure --without-assimp) cannot load them.
+if [ -x "${LRR_BIN:-}" ] && ! "$LRR_BIN" --version | grep -q '^features:.* assimp\( \|$\)'; then
+    echo "SKIP: lrr was built without assimp (lrr-bench's default scenes are OBJ files)"
+    exit 77
+fi
 T=$(mktemp -d "$TMPROOT/bench.XXXXXX") || { echo "FAIL: cannot create a directory in $TMPROOT"; exit 1; }
 
 failures=0

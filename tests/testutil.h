@@ -89,4 +89,33 @@ static inline void tu_tmp_path(char *buf, size_t len, const char *name)
     snprintf(buf, len, "%s/%s.%ld", dir && *dir ? dir : "/tmp", name, (long)getpid());
 }
 
+/* True when the library was built with the optional feature name ("assimp", "cgal",
+ * "openexr", "opencl": lrr_features(), configure --without-X). */
+static inline int tu_has_feature(const char *name)
+{
+    size_t n = strlen(name);
+    for (const char *p = lrr_features(); (p = strstr(p, name)) != NULL; p += n)
+        if ((p == lrr_features() || p[-1] == ' ') && (p[n] == ' ' || p[n] == '\0'))
+            return 1;
+    return 0;
+}
+
+/* Skips the current cmocka test, saying why, when the library lacks the feature. */
+#define TU_REQUIRE(feature)                                                                   \
+    do {                                                                                      \
+        if (!tu_has_feature(feature)) {                                                       \
+            print_message("skipped: lrr was built without %s\n", (feature));                  \
+            skip();                                                                           \
+        }                                                                                     \
+    } while (0)
+
+/* For main: a whole test program that needs the feature exits 77 (automake: SKIP). */
+#define TU_REQUIRE_PROGRAM(prog, feature)                                                     \
+    do {                                                                                      \
+        if (!tu_has_feature(feature)) {                                                       \
+            printf("%s: skipped: lrr was built without %s\n", (prog), (feature));            \
+            return 77;                                                                        \
+        }                                                                                     \
+    } while (0)
+
 #endif

@@ -50,7 +50,7 @@ static const char main_help[] =
     "\n"
     "Options:\n"
     "  -h, --help           show this help (COMMAND --help: help on a command)\n"
-    "  -V, --version        print the library version\n"
+    "  -V, --version        print the library version and the optional features built\n"
     "\n"
     "Exit status: 0 success, 1 failure, 2 bad command line, 3 a reference solve that did\n"
     "not converge.\n";
@@ -64,6 +64,13 @@ static int print_version(void)
         return CLI_EXIT_FAIL;
     }
     printf("lrr %s\n", lib);
+    /* the library's optional dependencies, then the tool's own (configure --without-X) */
+    const char *features = lrr_features();
+    printf("features:%s%s", *features ? " " : "", features);
+#ifdef LRR_VIEWER
+    fputs(" viewer", stdout);
+#endif
+    putchar('\n');
     return CLI_EXIT_OK;
 }
 

@@ -35,6 +35,35 @@ const char *lrr_strerror(lrr_status status)
 const char *lrr_version_string(void) { return LRR_VERSION_STRING; }
 unsigned lrr_version(void) { return LRR_VERSION; }
 
+/* configure's optional dependencies (config.h), in the order lrr.h documents */
+#ifdef LRR_HAVE_ASSIMP
+#define LRR__FEATURE_ASSIMP " assimp"
+#else
+#define LRR__FEATURE_ASSIMP ""
+#endif
+#ifdef LRR_HAVE_CGAL
+#define LRR__FEATURE_CGAL " cgal"
+#else
+#define LRR__FEATURE_CGAL ""
+#endif
+#ifdef LRR_HAVE_OPENEXR
+#define LRR__FEATURE_OPENEXR " openexr"
+#else
+#define LRR__FEATURE_OPENEXR ""
+#endif
+#ifdef LRR_HAVE_OPENCL
+#define LRR__FEATURE_OPENCL " opencl"
+#else
+#define LRR__FEATURE_OPENCL ""
+#endif
+
+const char *lrr_features(void)
+{
+    static const char list[] =
+        LRR__FEATURE_ASSIMP LRR__FEATURE_CGAL LRR__FEATURE_OPENEXR LRR__FEATURE_OPENCL;
+    return list[0] ? list + 1 : list; /* each name has a leading space */
+}
+
 lrr_status lrr_context_create(lrr_context **out)
 {
     *out = NULL;

@@ -3,6 +3,7 @@
  * no partial file ever appears under its name. Only lrr__render_encode_exr is visible to the
  * C side; no exception escapes. */
 #include "config.h"
+#ifdef LRR_HAVE_OPENEXR
 
 #include <cstdint>
 #include <cstdlib>
@@ -128,3 +129,22 @@ extern "C" lrr_status lrr__render_encode_exr(lrr_context *ctx, const char *path,
         return lrr__error(ctx, LRR_ERR_IO, "render %s: OpenEXR encoding failed", path);
     }
 }
+#else /* !LRR_HAVE_OPENEXR */
+
+/* configure --without-openexr: .exr pictures are refused, naming the file. */
+extern "C" {
+#include "output/render_internal.h"
+}
+
+extern "C" lrr_status lrr__render_encode_exr(lrr_context *ctx, const char *path, unsigned width,
+                                             unsigned height, const float *rgb,
+                                             unsigned char **data, size_t *len)
+{
+    *data = nullptr;
+    *len = 0;
+    return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                      "render %s: lrr was built without OpenEXR: cannot write .exr files "
+                      "(write a .png)",
+                      path);
+}
+#endif

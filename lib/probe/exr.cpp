@@ -1,6 +1,7 @@
 /* OpenEXR probe reading (C++: OpenEXR's C API cannot decode DWA-compressed files, its C++
  * reading API can). Only lrr__exr_read_rgb is visible to the C side; no exception escapes. */
 #include "config.h"
+#ifdef LRR_HAVE_OPENEXR
 
 #include <cstdint>
 #include <cstdio>
@@ -382,3 +383,21 @@ extern "C" lrr_status lrr__exr_read_rgb(lrr_context *ctx, const char *path, floa
         return lrr__error(ctx, LRR_ERR_FORMAT, "'%s': cannot read the OpenEXR file", path);
     }
 }
+#else /* !LRR_HAVE_OPENEXR */
+
+/* configure --without-openexr: .exr probes are refused, naming the file. */
+extern "C" {
+#include "probe/probe.h"
+}
+
+extern "C" lrr_status lrr__exr_read_rgb(lrr_context *ctx, const char *path, float **rgb,
+                                        size_t *width, size_t *height)
+{
+    *rgb = nullptr;
+    *width = *height = 0;
+    return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                      "'%s': lrr was built without OpenEXR: cannot read .exr files "
+                      "(a Radiance .hdr probe works)",
+                      path);
+}
+#endif

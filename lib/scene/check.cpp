@@ -27,6 +27,7 @@
 
 #include <sys/stat.h>
 
+#ifdef LRR_HAVE_CGAL
 /* CGAL's interval filters need directed rounding, and CGAL tests for it in a static
  * initialiser that throws (so terminates the process) when it fails: loading liblrr would
  * then abort every program that links it, whether it checks scenes or not (it does under
@@ -37,6 +38,7 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/box_intersection_d.h>
 #include <CGAL/intersections.h>
+#endif
 
 #include <embree3/rtcore.h> /* C++ headers (templates): outside extern "C" */
 extern "C" {
@@ -44,6 +46,7 @@ extern "C" {
 #include "scene/scene.h"
 }
 
+#ifdef LRR_HAVE_CGAL
 namespace {
 
 typedef CGAL::Exact_predicates_inexact_constructions_kernel K;
@@ -457,6 +460,7 @@ bool is_file(const char *name)
 }
 
 } // namespace
+#endif /* LRR_HAVE_CGAL */
 
 extern "C" void lrr_check_report_destroy(lrr_check_report *r)
 {
@@ -471,6 +475,7 @@ extern "C" void lrr_check_report_destroy(lrr_check_report *r)
     std::free(r);
 }
 
+#ifdef LRR_HAVE_CGAL
 /* CGAL's own test (Interval_nt's Test_runtime_rounding_modes): with the rounding mode set
  * upwards, -(-a·b) and a·b differ unless rounding modes are ignored. */
 static bool rounding_works()
@@ -555,3 +560,12 @@ extern "C" lrr_status lrr_scene_check(lrr_context *ctx, const char *name, lrr_ch
     *out = r;
     return LRR_OK;
 }
+#else /* !LRR_HAVE_CGAL */
+/* configure --without-cgal: no scene check. */
+extern "C" lrr_status lrr_scene_check(lrr_context *ctx, const char *name, lrr_check_report **out)
+{
+    *out = nullptr;
+    return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                      "%s: scene check: lrr was built without CGAL (lrr check needs it)", name);
+}
+#endif

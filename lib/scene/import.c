@@ -26,6 +26,7 @@
  * message may belong to another import. That is assimp's, and only affects message text. */
 #include "config.h"
 #include "scene/scene.h"
+#ifdef LRR_HAVE_ASSIMP
 
 #include <assimp/cimport.h>
 #include <assimp/material.h>
@@ -569,3 +570,30 @@ lrr_status lrr__scene_import_raw(lrr_context *ctx, const char *path, size_t *n_t
     free_state(&s);
     return st;
 }
+#else /* !LRR_HAVE_ASSIMP */
+
+/* configure --without-assimp: no scene files, only the built-in scenes. */
+static lrr_status no_assimp(lrr_context *ctx, const char *path)
+{
+    return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                      "%s: lrr was built without assimp: cannot read scene files "
+                      "(built-in scenes: cornell, cornell-closed)",
+                      path);
+}
+
+lrr_status lrr_scene_load(lrr_context *ctx, const char *path, lrr_scene **out)
+{
+    *out = NULL;
+    return no_assimp(ctx, path);
+}
+
+lrr_status lrr__scene_import_raw(lrr_context *ctx, const char *path, size_t *n_tri,
+                                 float **vert, float **rho, float **emission,
+                                 size_t **face_ids)
+{
+    *n_tri = 0;
+    *vert = *rho = *emission = NULL;
+    *face_ids = NULL;
+    return no_assimp(ctx, path);
+}
+#endif

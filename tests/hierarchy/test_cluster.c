@@ -464,6 +464,7 @@ static void test_errors(void **state)
 static void test_real_house(void **state)
 {
     (void)state;
+    TU_REQUIRE("assimp");
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     lrr_scene *s;

@@ -147,6 +147,7 @@ static void test_errors_atomic(void **state)
 
 int main(void)
 {
+    TU_REQUIRE_PROGRAM("test_exr", "openexr");
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_linear_values),
         cmocka_unit_test(test_errors_atomic),

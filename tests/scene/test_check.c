@@ -162,6 +162,8 @@ static void test_upside_down_sheet(void **state)
 
 int main(void)
 {
+    TU_REQUIRE_PROGRAM("test_check", "cgal");
+    TU_REQUIRE_PROGRAM("test_check", "assimp"); /* the cases are .obj files */
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_closed_box_clean, setup, teardown),
         cmocka_unit_test_setup_teardown(test_flipped_face_named, setup, teardown),

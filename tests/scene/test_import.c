@@ -608,6 +608,7 @@ static void test_shipped_cornell_matches_builtin(void **state)
 
 int main(void)
 {
+    TU_REQUIRE_PROGRAM("test_import", "assimp");
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_obj_mtl, setup, teardown),
         cmocka_unit_test_setup_teardown(test_ply_default_material, setup, teardown),

@@ -74,6 +74,7 @@ static void test_bunny_room(void **state)
 
 int main(void)
 {
+    TU_REQUIRE_PROGRAM("test_real", "assimp");
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fzk_haus),
         cmocka_unit_test(test_bunny_room),
