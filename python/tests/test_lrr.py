@@ -24,6 +24,13 @@ BUILDDIR = os.environ.get("LRR_BUILDDIR", SRCDIR)
 LRR_BIN = os.environ.get("LRR_BIN", os.path.join(BUILDDIR, "lrr"))
 
 
+def built_with(feature):
+    """Whether this liblrr has an optional feature (lrr_features(): assimp, openexr, ...)."""
+    f = ctypes.CDLL(os.environ.get("LRR_LIBRARY", "liblrr.so.1")).lrr_features
+    f.restype = ctypes.c_char_p
+    return feature in f().decode().split()
+
+
 def tmpdir():
     return tempfile.mkdtemp(prefix="python.", dir=os.environ.get("LRR_TEST_TMP"))
 
@@ -256,6 +263,7 @@ class Solve(unittest.TestCase):
 
 
 class Build(unittest.TestCase):
+    @unittest.skipUnless(built_with("assimp"), "lrr was built without assimp (scene files)")
     def test_scene_file_like_lrr_info(self):
         """A scene file subdivided by build() has the patches `lrr info` reports for the
         same options, and its stored emission is the file's (a lamp: every subpatch emits)."""
