@@ -1151,6 +1151,17 @@ EOF
     else
         fail "check --fix fzk_haus.obj: $(grep -c '^f ' "$T/fzk_fixed.obj") faces, $(grep -c '^v ' "$T/fzk_fixed.obj") vertices (input $(obj_used_positions "$fzk")), $(grep -c '^usemtl ' "$T/fzk_fixed.obj") usemtl (blocks $(obj_runs "$fzk"))"
     fi
+    # and it loads back as the same scene: lrr info's triangles, patches, area, emitters
+    # and bounds agree; only the 3 zero-area triangles lrr skipped on input are gone
+    run info "$fzk"
+    sed '1d; s/^skipped: 3$/skipped: 0/' "$T/out" > "$T/fzk_info"
+    run info "$T/fzk_fixed.obj"
+    if [ "$rc" -eq 0 ] && sed 1d "$T/out" | cmp -s - "$T/fzk_info" &&
+        grep -qx 'triangles: 35907' "$T/out"; then
+        pass "check --fix fzk_haus.obj loads back: the same triangles, area, emitters and bounds as the input"
+    else
+        fail "lrr info of the fixed fzk_haus.obj (exit $rc) differs:"; sed 1d "$T/out" | diff "$T/fzk_info" - | sed 's/^/    /'
+    fi
     run check "${LRR_DATA_DIR:-data}/scenes/bunny_room.obj"
     if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 72525 ] && [ "$(value intersecting_pairs)" = 0 ] &&
         [ "$(value contacts)" = 0 ] && [ "$(value open_edges)" = 227 ] &&

@@ -123,7 +123,8 @@ static lrr_status names_from_scene(lrr_context *ctx, const struct aiScene *sc,
         (st = lrr__calloc(ctx, &w.material, r->triangles, sizeof(size_t), "check names")) ||
         (st = lrr__calloc(ctx, &w.group, r->triangles, sizeof(size_t), "check names")))
         goto done;
-    for (unsigned m = 0, base = 0; m < sc->mNumMeshes; m++) {
+    size_t base = 0;
+    for (unsigned m = 0; m < sc->mNumMeshes; m++) {
         w.face_base[m] = base;
         base += sc->mMeshes[m] ? sc->mMeshes[m]->mNumFaces : 0;
     }
