@@ -32,7 +32,7 @@ for page in lrr.1 lrr-bench.1 lrr.3; do
         fi
     done
     name=${page%.*}
-    if MANWIDTH=80 man -l "$src" >"$T/out" 2>"$T/err" && [ ! -s "$T/err" ] &&
+    if LC_ALL=C MANWIDTH=80 man -l "$src" >"$T/out" 2>"$T/err" && [ ! -s "$T/err" ] &&
         grep -q '^NAME' "$T/out" && grep -q "^ *$name - " "$T/out" &&
         grep -q '^SEE ALSO' "$T/out"; then
         pass "$page: man -l renders ($(wc -l < "$T/out") lines, NAME and SEE ALSO)"
