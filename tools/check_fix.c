@@ -7,7 +7,10 @@
  * run of faces with the same material. Polygons come out as the triangles lrr made of them;
  * textures and other MTL statements are not carried over (lrr reads none of them).
  * The previous writer gave each triangle its own three vertices, a 'usemtl' per face and
- * numbered materials, and matched materials pairwise: 3.3 s at 160k triangles.
+ * numbered materials, and matched materials pairwise (quadratic in the worst case). Measured
+ * (CPU seconds of the writing alone, names included; loaded 2-core machine): two bunny rooms,
+ * 145k triangles, 0.63-0.72 s before, 0.23-0.29 s now (22.2 MB -> 5.1 MB); four FZK houses,
+ * 144k triangles, 1.5-2.0 s before, 0.16-0.24 s now (19.8 MB -> 4.7 MB).
  *
  * Both files go through the atomic writer (cli_outfile), written in full before either is
  * renamed: a failure leaves no half-written file and no new .mtl beside an old .obj. */
