@@ -213,11 +213,24 @@ typedef struct lrr_check_report {
     size_t *face;
     unsigned char *fix;
     size_t upside_down_sheets; /* open connected sheets reported as LRR_CHECK_UPSIDE_DOWN */
+    /* The file's names (1.1), filled by lrr_check_report_names, else NULL/0:
+     * material[t] indexes material_names (n_materials), group[t]
+     * group_names (n_groups: the node, OBJ object or group, each triangle came from; ""
+     * when unnamed). */
+    size_t *material, *group;
+    char **material_names, **group_names;
+    size_t n_materials, n_groups;
 } lrr_check_report;
 /* LRR_ERR_UNSUPPORTED when built without CGAL (lrr_features()). */
 LRR_API LRR_NODISCARD lrr_status lrr_scene_check(lrr_context *ctx, const char *name,
                                                  lrr_check_report **out) LRR_NONNULL(1, 2, 3);
 LRR_API void lrr_check_report_destroy(lrr_check_report *report);
+/* Fills report's material, group and their names (left NULL/0 when the scene has none, or
+ * is built in) from the scene `name` that lrr_scene_check read: one more read of the file,
+ * so that writing the repair can keep them (lrr check --fix). */
+LRR_API LRR_NODISCARD lrr_status lrr_check_report_names(lrr_context *ctx, const char *name,
+                                                        lrr_check_report *report)
+    LRR_NONNULL(1, 2, 3);
 
 /* Maps a point given by barycentric coordinates (b1, b2 of vertices 1 and 2; b0 = 1-b1-b2)
  * inside input triangle `triangle` to its subpatch index; returns (size_t)-1 when out of

@@ -28,8 +28,10 @@ static const char check_help[] =
     "facing down into its room).\n"
     "\n" SCENE_HELP "\n"
     "  --fix OUT.obj        write the scene without degenerates and with each closed\n"
-    "                       component oriented like its majority (OBJ + OUT.mtl with Kd/Ke,\n"
-    "                       written atomically); intersections are not repaired\n"
+    "                       component oriented like its majority: OBJ triangles on shared\n"
+    "                       vertices with the file's groups and material names, OUT.mtl\n"
+    "                       with Kd/Ke as read (both written atomically); intersections\n"
+    "                       are not repaired\n"
     "  --max-report N       print at most N finding lines (default 50; 0 = none)\n"
     "  --strict             warnings count as errors\n"
     "  -h, --help           show this help\n"
@@ -134,107 +136,6 @@ static int print_report(const check_args *a, const lrr_check_report *r)
     return rc;
 }
 
-/* ------------------------------------------------------------------ --fix */
-/* materials: distinct (rho, emission) pairs, numbered by first use; mat[t] is triangle t's.
- * Returns their count. */
-static size_t number_materials(const lrr_check_report *r, size_t *mat)
-{
-    size_t n_mat = 0;
-    for (size_t t = 0; t < r->triangles; t++) {
-        mat[t] = n_mat;
-        for (size_t u = 0; u < t; u++)
-            if (memcmp(r->rho + 3 * u, r->rho + 3 * t, 3 * sizeof(float)) == 0 &&
-                memcmp(r->emission + 3 * u, r->emission + 3 * t, 3 * sizeof(float)) == 0) {
-                mat[t] = mat[u];
-                break;
-            }
-        if (mat[t] == n_mat)
-            n_mat++;
-    }
-    return n_mat;
-}
-
-/* Commits an output file written through out.f; returns CLI_EXIT_OK or the failure. */
-static int finish_output(cli_outfile *out, const char *path)
-{
-    if (ferror(out->f)) {
-        cli_outfile_abort(out);
-        return cli_fail(LRR_ERR_IO, "'%s': write failed", path);
-    }
-    if (cli_outfile_commit(out) != 0)
-        return cli_fail(LRR_ERR_IO, "'%s': cannot write: %s", path, strerror(errno));
-    return CLI_EXIT_OK;
-}
-
-/* OUT.mtl: one material per number, Kd the reflectance and Ke the emission. */
-static int write_fixed_mtl(const lrr_check_report *r, const size_t *mat, size_t n_mat,
-                           const char *mtl)
-{
-    cli_outfile out;
-    if (cli_outfile_open(&out, mtl) != 0)
-        return cli_fail(LRR_ERR_IO, "'%s': cannot create: %s", mtl, strerror(errno));
-    fprintf(out.f, "# written by lrr check --fix\n");
-    for (size_t m = 0, t = 0; m < n_mat; m++) {
-        while (mat[t] != m)
-            t++;
-        fprintf(out.f, "newmtl m%zu\nKd %.9g %.9g %.9g\nKe %.9g %.9g %.9g\n", m,
-                (double)r->rho[3 * t], (double)r->rho[3 * t + 1], (double)r->rho[3 * t + 2],
-                (double)r->emission[3 * t], (double)r->emission[3 * t + 1],
-                (double)r->emission[3 * t + 2]);
-    }
-    return finish_output(&out, mtl);
-}
-
-/* OUT.obj: the triangles the report keeps (fix 1 drops one, fix 2 flips it), each with its
- * three own vertices. */
-static int write_fixed_triangles(const lrr_check_report *r, const size_t *mat,
-                                 const char *path, const char *mtl_base)
-{
-    cli_outfile out;
-    if (cli_outfile_open(&out, path) != 0)
-        return cli_fail(LRR_ERR_IO, "'%s': cannot create: %s", path, strerror(errno));
-    fprintf(out.f, "# written by lrr check --fix\nmtllib %s\n", mtl_base);
-    size_t v = 0;
-    for (size_t t = 0; t < r->triangles; t++) {
-        if (r->fix[t] == 1)
-            continue;
-        static const int order[2][3] = {{0, 1, 2}, {0, 2, 1}};
-        const int *o = order[r->fix[t] == 2];
-        for (int i = 0; i < 3; i++) {
-            const float *p = r->vert + 9 * t + 3 * o[i];
-            fprintf(out.f, "v %.9g %.9g %.9g\n", (double)p[0], (double)p[1], (double)p[2]);
-        }
-        fprintf(out.f, "usemtl m%zu\nf %zu %zu %zu\n", mat[t], v + 1, v + 2, v + 3);
-        v += 3;
-    }
-    return finish_output(&out, path);
-}
-
-/* OUT.obj + OUT.mtl (the extension replaced, or appended), each written atomically. */
-static int write_fixed_obj(const lrr_check_report *r, const char *path)
-{
-    size_t len = strlen(path);
-    const char *dot = strrchr(path, '.'), *slash = strrchr(path, '/');
-    size_t stem = dot && (!slash || dot > slash) ? (size_t)(dot - path) : len;
-    char *mtl = malloc(stem + 5);
-    size_t *mat = malloc((r->triangles ? r->triangles : 1) * sizeof *mat);
-    if (!mtl || !mat) {
-        free(mtl);
-        free(mat);
-        return cli_fail(LRR_ERR_NOMEM, "--fix: out of memory");
-    }
-    memcpy(mtl, path, stem);
-    memcpy(mtl + stem, ".mtl", 5);
-    const char *mtl_base = strrchr(mtl, '/') ? strrchr(mtl, '/') + 1 : mtl;
-    size_t n_mat = number_materials(r, mat);
-    int rc = write_fixed_mtl(r, mat, n_mat, mtl);
-    if (rc == CLI_EXIT_OK)
-        rc = write_fixed_triangles(r, mat, path, mtl_base);
-    free(mtl);
-    free(mat);
-    return rc;
-}
-
 /* ------------------------------------------------------------------ running */
 static int run_check(const check_args *a)
 {
@@ -255,7 +156,8 @@ static int run_check(const check_args *a)
     }
     int rc = print_report(a, r);
     if (a->fix) {
-        int frc = write_fixed_obj(r, a->fix);
+        s = lrr_check_report_names(ctx, a->scene, r);
+        int frc = s == LRR_OK ? check_write_fixed(r, a->fix) : cli_lib_error(ctx, s);
         if (frc != CLI_EXIT_OK)
             rc = frc;
     }

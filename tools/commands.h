@@ -29,6 +29,8 @@ int cmd_compare(int argc, char *argv[]);
 int cmd_demo(int argc, char *argv[]);
 int cmd_probe(int argc, char *argv[]);
 int cmd_view(int argc, char *argv[]);
+/* check_fix.c: lrr check --fix's OBJ + MTL writer; returns the exit status. */
+int check_write_fixed(const lrr_check_report *r, const char *path);
 
 /* Set by lrr_cli_main: each command returns CLI_EXIT_OK right after its command line has
  * been parsed and checked, before it touches a file or does any work (see cli.h). */

@@ -472,6 +472,7 @@ extern "C" void lrr_check_report_destroy(lrr_check_report *r)
     lrr_aligned_free(r->emission);
     lrr_aligned_free(r->face);
     std::free(r->fix);
+    lrr__check_names_free(r);
     std::free(r);
 }
 

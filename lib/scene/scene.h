@@ -190,4 +190,7 @@ lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *v
 lrr_status lrr__scene_import_raw(lrr_context *ctx, const char *path, size_t *n_tri,
                                  float **vert, float **rho, float **emission,
                                  size_t **face_ids);
+/* check_names.c: releases what lrr_check_report_names filled in (for
+ * lrr_check_report_destroy). */
+void lrr__check_names_free(lrr_check_report *r);
 #endif

@@ -4,6 +4,7 @@
 #include <unistd.h> /* getpid, used by testutil.h */
 
 #include "testutil.h"
+#include "core/internal.h" /* lrr__context_fail_after */
 
 static lrr_check_report *check(lrr_context *ctx, const char *name)
 {
@@ -109,6 +110,58 @@ static void test_missing_file(void **state)
     assert_null(r);
 }
 
+/* lrr_check_report_names (what lrr check --fix writes): office.obj's 'g'/'usemtl' blocks in
+ * file order, each triangle with its block's group and material name; a built-in scene and
+ * a scene read without it have none; every allocation failing in turn gives LRR_ERR_NOMEM
+ * and leaves no names (nor leaks: the sanitizer pass). */
+static void test_report_names(void **state)
+{
+    static const char *const blocks[][3] = {
+        /* group, material, triangles: counted from data/office.obj's f lines per block */
+        {"floor", "floor", "2"},         {"ceiling", "ceiling", "2"}, {"right_wall", "wall_blue", "2"},
+        {"walls", "wall", "6"},          {"light", "light", "2"},     {"table_top", "wood", "12"},
+        {"table_legs", "wood", "48"},    {"box", "red", "12"},        {"cabinet", "grey", "12"},
+        {"chair", "green", "24"}};
+    lrr_context *ctx = *state;
+    lrr_check_report *r = check(ctx, LRR_DATA_DIR "/office.obj");
+    assert_null(r->material);
+    assert_null(r->material_names);
+    LRR_CHECK(ctx, lrr_check_report_names(ctx, LRR_DATA_DIR "/office.obj", r));
+    assert_non_null(r->material);
+    assert_non_null(r->group);
+    size_t t = 0;
+    for (size_t b = 0; b < sizeof blocks / sizeof blocks[0]; b++)
+        for (int k = 0; k < atoi(blocks[b][2]); k++, t++) {
+            assert_true(r->material[t] < r->n_materials);
+            assert_true(r->group[t] < r->n_groups);
+            assert_string_equal(r->group_names[r->group[t]], blocks[b][0]);
+            assert_string_equal(r->material_names[r->material[t]], blocks[b][1]);
+        }
+    assert_int_equal(t, r->triangles);
+    /* all allocation failures in turn: NOMEM and no names, until the call succeeds */
+    unsigned long fail_at = 1;
+    for (;; fail_at++) {
+        lrr__context_fail_after(ctx, fail_at);
+        lrr_status st = lrr_check_report_names(ctx, LRR_DATA_DIR "/office.obj", r);
+        lrr__context_fail_after(ctx, 0);
+        if (st == LRR_OK)
+            break;
+        assert_int_equal(st, LRR_ERR_NOMEM);
+        assert_null(r->material);
+        assert_null(r->group_names);
+        assert_true(fail_at < 100);
+    }
+    assert_true(fail_at > 3);
+    assert_string_equal(r->material_names[r->material[0]], "floor");
+    lrr_check_report_destroy(r);
+    r = check(ctx, "cornell");
+    LRR_CHECK(ctx, lrr_check_report_names(ctx, "cornell", r));
+    assert_null(r->material);
+    assert_null(r->group_names);
+    assert_int_equal(r->n_materials, 0);
+    lrr_check_report_destroy(r);
+}
+
 static int setup(void **state)
 {
     lrr_context *ctx = NULL;
@@ -173,6 +226,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_cornell_contacts_only, setup, teardown),
         cmocka_unit_test_setup_teardown(test_missing_file, setup, teardown),
         cmocka_unit_test_setup_teardown(test_upside_down_sheet, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_report_names, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
