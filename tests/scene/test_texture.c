@@ -621,6 +621,48 @@ static void test_emissive_strength(void **state)
     remove(glb);
 }
 
+/* Every allocation of a textured import failed in turn (lib/core/error.c's injection): the
+ * load returns LRR_ERR_NOMEM and nothing else, and leaves no scene (the leak checks of the
+ * sanitizer pass see the rest). External texture, embedded texture, emissive strength. */
+static void test_allocation_failures(void **state)
+{
+    (void)state;
+    const char *files[3] = {LRR_DATA_DIR "/textured/BoxTextured.gltf",
+                            LRR_DATA_DIR "/textured/BoxTextured.glb",
+                            LRR_TEST_DATA "/quad_strength.gltf"};
+    for (int k = 0; k < 3; k++) {
+        unsigned long total = 0;
+        for (unsigned long n = 1;; n++) {
+            lrr_context *ctx;
+            assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+            lrr__context_fail_after(ctx, n);
+            lrr_scene *s = NULL;
+            lrr_status st = lrr_scene_load(ctx, files[k], &s);
+            if (st == LRR_OK) {
+                st = lrr_scene_subdivide(s, &(lrr_subdivision){.levels = 1});
+                float rho[3 * 12 * 4];
+                if (st == LRR_OK)
+                    st = lrr_scene_subpatches(s, NULL, NULL, NULL, rho, NULL);
+            } else
+                assert_null(s);
+            unsigned long made = lrr__context_alloc_count(ctx);
+            lrr_scene_destroy(s);
+            lrr_context_destroy(ctx);
+            if (st == LRR_OK) { /* the n-th allocation was never made: all were tried */
+                assert_true(made < n);
+                total = made;
+                break;
+            }
+            assert_int_equal(made, n); /* the failure stopped the load at once */
+            if (st != LRR_ERR_NOMEM)
+                fail_msg("%s: allocation %lu failed gives %s", files[k], n, lrr_strerror(st));
+        }
+        assert_true(total > 5);
+        print_message("%s: each of %lu allocations failed in turn: LRR_ERR_NOMEM\n",
+                      files[k], total);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -632,6 +674,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_gltf_base_color_texture, setup, teardown),
         cmocka_unit_test_setup_teardown(test_embedded_equals_external, setup, teardown),
         cmocka_unit_test_setup_teardown(test_emissive_strength, setup, teardown),
+        cmocka_unit_test(test_allocation_failures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
