@@ -153,6 +153,28 @@ static lrr_status strength_of(lrr_context *ctx, const char *path, const cJSON *m
     return LRR_OK;
 }
 
+/* KHR_texture_transform on a texture lrr integrates would move the texture on the surface;
+ * assimp 5.2 reads it into a UV transform we do not apply, so refuse rather than place the
+ * texture wrongly. */
+static lrr_status check_transform(lrr_context *ctx, const char *path, const cJSON *mat, int j)
+{
+    const cJSON *pbr = cJSON_GetObjectItemCaseSensitive(mat, "pbrMetallicRoughness");
+    const cJSON *info[2] = {cJSON_GetObjectItemCaseSensitive(pbr, "baseColorTexture"),
+                            cJSON_GetObjectItemCaseSensitive(mat, "emissiveTexture")};
+    for (int k = 0; k < 2; k++) {
+        const cJSON *ext = cJSON_GetObjectItemCaseSensitive(info[k], "extensions");
+        if (!cJSON_GetObjectItemCaseSensitive(ext, "KHR_texture_transform"))
+            continue;
+        const cJSON *name = cJSON_GetObjectItemCaseSensitive(mat, "name");
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "file %s: material %d '%s': its %s uses KHR_texture_transform, which "
+                          "lrr does not apply (the texture would be misplaced)",
+                          path, j, cJSON_IsString(name) ? name->valuestring : "(unnamed)",
+                          k ? "emissiveTexture" : "baseColorTexture");
+    }
+    return LRR_OK;
+}
+
 lrr_status lrr__gltf_emissive_strength(lrr_context *ctx, const char *path,
                                        const struct aiScene *scene, float **strength)
 {
@@ -188,7 +210,8 @@ lrr_status lrr__gltf_emissive_strength(lrr_context *ctx, const char *path,
     for (int j = 0; j < n && st == LRR_OK; j++) {
         const cJSON *mat = cJSON_GetArrayItem(mats, j);
         double k;
-        if ((st = strength_of(ctx, path, mat, j, &k)) || k < 0)
+        if ((st = check_transform(ctx, path, mat, j)) ||
+            (st = strength_of(ctx, path, mat, j, &k)) || k < 0)
             continue;
         const cJSON *name = cJSON_GetObjectItemCaseSensitive(mat, "name");
         const char *nm = cJSON_IsString(name) ? name->valuestring : NULL;

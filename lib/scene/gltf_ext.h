@@ -13,7 +13,8 @@ struct aiScene;
  * number >= 0 is an error naming the material); assimp's materials are matched to the
  * JSON's by name (assimp 5.2 numbers them in the order meshes first use them, not the
  * file's), and a material with the extension whose name is missing or not unique is an
- * error. With scene = NULL the JSON is only checked (before assimp reads the file, so
+ * error. A base colour or emissive texture with KHR_texture_transform is refused
+ * (LRR_ERR_UNSUPPORTED, naming the material). With scene = NULL the JSON is only checked (before assimp reads the file, so
  * that a bad value is reported by material, not as a file assimp cannot read). */
 lrr_status lrr__gltf_emissive_strength(lrr_context *ctx, const char *path,
                                        const struct aiScene *scene, float **strength);

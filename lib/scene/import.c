@@ -215,6 +215,15 @@ static lrr_status material_texture(import_state *s, unsigned i, enum aiTextureTy
         if (!(factor[c] >= 0) || !isfinite(factor[c]))
             return lrr__error(s->ctx, LRR_ERR_MATERIAL, "%s: its factor[%d] is %g", what, c,
                               (double)factor[c]);
+    /* MTL -o/-s options; glTF KHR_texture_transform is refused earlier (gltf_ext.c) */
+    struct aiUVTransform tr;
+    if (aiGetMaterialUVTransform(m, _AI_MATKEY_UVTRANSFORM_BASE, type, 0, &tr) ==
+            aiReturn_SUCCESS &&
+        (tr.mTranslation.x != 0 || tr.mTranslation.y != 0 || tr.mScaling.x != 1 ||
+         tr.mScaling.y != 1 || tr.mRotation != 0))
+        return lrr__error(s->ctx, LRR_ERR_UNSUPPORTED,
+                          "%s: has a UV transform (offset, scale or rotation), which lrr does "
+                          "not apply (the texture would be misplaced)", what);
     if (s->mat_uv[i] != UINT_MAX && s->mat_uv[i] != uv)
         return lrr__error(s->ctx, LRR_ERR_UNSUPPORTED,
                           "%s: uses UV set %u, the material's other texture set %u (lrr "

@@ -487,6 +487,19 @@ static void test_gltf_base_color_texture(void **state)
         check_texel_per_subpatch(ctx, s, (const float[]){0.5f, 0.8f, 0.9f}, false);
         lrr_scene_destroy(s);
     }
+    /* a texture transform lrr does not apply is refused, naming the material */
+    write_gltf(gltf,
+               "{\"name\": \"moved\", \"pbrMetallicRoughness\": {\"baseColorTexture\": "
+               "{\"index\": 0, \"extensions\": {\"KHR_texture_transform\": "
+               "{\"offset\": [0.5, 0]}}}}}",
+               b64, false);
+    lrr_scene *s = NULL;
+    assert_int_equal(lrr_scene_load(ctx, gltf, &s), LRR_ERR_UNSUPPORTED);
+    assert_null(s);
+    char msg[512];
+    lrr_context_last_error(ctx, msg, sizeof msg);
+    assert_non_null(strstr(msg, "'moved'"));
+    assert_non_null(strstr(msg, "KHR_texture_transform"));
     remove(gltf);
     remove(glb);
 }
