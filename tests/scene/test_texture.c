@@ -583,6 +583,47 @@ static void test_embedded_equals_external(void **state)
     rmdir(dir);
 }
 
+/* The operator takes the textured reflectance per subpatch, also when clusters renumber the
+ * subpatches: mapped back to the scene's order it is lrr_scene_subpatches' exactly. */
+static void test_operator_keeps_textures(void **state)
+{
+    lrr_context *ctx = *state;
+    for (int cluster = 0; cluster < 2; cluster++) {
+        lrr_scene *s;
+        LRR_CHECK(ctx, lrr_scene_load(ctx, LRR_DATA_DIR "/textured/BoxTextured.glb", &s));
+        LRR_CHECK(ctx, lrr_scene_subdivide(s, &(lrr_subdivision){.levels = cluster ? 0 : 1,
+                                                                  .target_patches = 48}));
+        lrr_scene_info si;
+        lrr_scene_get_info(s, &si, sizeof si);
+        size_t n = si.subpatches;
+        float *want = malloc(n * 3 * sizeof *want), *got = malloc(n * 3 * sizeof *got);
+        assert_true(want && got);
+        LRR_CHECK(ctx, lrr_scene_subpatches(s, NULL, NULL, NULL, want, NULL));
+        lrr_build_options bo = lrr_build_options_defaults();
+        bo.hemicube_resolution = 16;
+        bo.seed = 1;
+        bo.threads = 1;
+        if (cluster) {
+            bo.hierarchy = LRR_HIERARCHY_CLUSTER;
+            bo.adaptive_patches = 6;
+        }
+        lrr_operator *op;
+        LRR_CHECK(ctx, lrr_operator_build(s, &bo, &op));
+        lrr_operator_info oi;
+        lrr_operator_get_info(op, &oi, sizeof oi);
+        assert_int_equal(oi.n, n);
+        lrr_operator_scene_order(op, lrr_operator_reflectance(op), got);
+        for (size_t i = 0; i < 3 * n; i++)
+            assert_true(got[i] == want[i]);
+        if (cluster) /* the clusters did renumber them */
+            assert_true(memcmp(lrr_operator_reflectance(op), want, 3 * n * sizeof *want) != 0);
+        lrr_operator_destroy(op);
+        lrr_scene_destroy(s);
+        free(want);
+        free(got);
+    }
+}
+
 /* ------------------------------------------------------------------ emissive strength */
 
 static void test_emissive_strength(void **state)
@@ -688,6 +729,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_embedded_equals_external, setup, teardown),
         cmocka_unit_test_setup_teardown(test_emissive_strength, setup, teardown),
         cmocka_unit_test(test_allocation_failures),
+        cmocka_unit_test_setup_teardown(test_operator_keeps_textures, setup, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
