@@ -41,6 +41,7 @@
 #include <assimp/version.h>
 
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -165,8 +166,8 @@ static lrr_status read_whole(lrr_context *ctx, const char *name, const char *wha
     char eb[128];
     FILE *f = fopen(name, "rb");
     struct stat st;
-    if (!f || fstat(fileno(f), &st) != 0 || S_ISDIR(st.st_mode)) {
-        int e = f ? (S_ISDIR(st.st_mode) ? EISDIR : errno) : errno;
+    int e = f ? (fstat(fileno(f), &st) != 0 ? errno : S_ISDIR(st.st_mode) ? EISDIR : 0) : errno;
+    if (e) {
         if (f)
             fclose(f);
         return lrr__error(ctx, LRR_ERR_IO, "%s: cannot open %s: %s", what, name,
