@@ -114,7 +114,12 @@ typedef struct lrr_scene lrr_scene;
  * Triangles are one-sided: the front is the side from which the vertices run
  * counter-clockwise. Zero-area triangles are skipped and counted (see lrr_scene_info);
  * NaN/Inf coordinates, reflectance outside [0,1), negative emission and an empty scene are
- * errors naming the file and face. Thread safety: any thread. */
+ * errors naming the file and face. Diffuse and emissive textures (map_Kd, map_Ke;
+ * baseColorTexture, emissiveTexture; files relative to the scene, or embedded) multiply
+ * the colours: each subpatch gets the texture's mean over it (linear: 8-bit images are
+ * sRGB-decoded; reflectance clamped below 1, counted in lrr_scene_info.clamped_texels); a
+ * missing or corrupt texture is an error naming the file and material. glTF
+ * KHR_materials_emissive_strength multiplies the emission. Thread safety: any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_scene_load(lrr_context *ctx, const char *path,
                                                 lrr_scene **out) LRR_NONNULL(1, 2, 3);
 
@@ -169,6 +174,9 @@ typedef struct lrr_scene_info {
     double area;             /* total area, scene units² */
     double max_patch_area;   /* the threshold in force */
     double bounds_min[3], bounds_max[3];
+    size_t textures;         /* decoded material textures (reflectance and emission) */
+    size_t clamped_texels;   /* reflectance texels with a channel × factor >= 1 (clamped
+                                just below 1) */
 } lrr_scene_info;
 
 /* Thread safety: any thread (read only). */
@@ -239,7 +247,7 @@ LRR_API size_t lrr_scene_subpatch_at(const lrr_scene *scene, size_t triangle, do
                                      double b2) LRR_NONNULL(1);
 
 /* Per-subpatch geometry (each array n entries, NULL to skip): centre n×3, normal n×3,
- * area n, reflectance n×3, emission n×3. */
+ * area n, reflectance n×3, emission n×3 (a textured material's mean over each subpatch). */
 LRR_API LRR_NODISCARD lrr_status lrr_scene_subpatches(const lrr_scene *scene, float *centre,
                                                       float *normal, float *area, float *rho,
                                                       float *emission) LRR_NONNULL(1);

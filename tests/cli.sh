@@ -944,6 +944,34 @@ if [ -f "$PROBE" ]; then
     fi
 fi
 
+# ---------------------------------------------------------------- textures
+# The shipped textured glTF (data/textured/SOURCE.md): one texture, its white texels × the
+# default factor 1 clamped below 1, counted by lrr info and warned about by lrr preprocess;
+# a missing texture is a runtime error naming the file and the material.
+BOXTEX=${LRR_DATA_DIR:-data}/textured/BoxTextured.gltf
+run info "$BOXTEX"
+if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 12 ] && [ "$(value textures)" = 1 ] &&
+    [ "$(value clamped_texels)" -gt 0 ] && [ "$(value clamped_texels)" -lt $((211 * 211)) ]; then
+    pass "info BoxTextured.gltf: textures 1, clamped_texels $(value clamped_texels)"
+else
+    fail "info $BOXTEX (exit $rc): textures '$(value textures)' clamped '$(value clamped_texels)'"
+    show_err
+fi
+run preprocess "$BOXTEX" --patches 12 --levels 1 --hemicube 16 -o "$T/boxtex.lrr"
+if [ "$rc" -eq 0 ] && grep -q "warning: [0-9]* texel(s) of reflectance textures" "$T/err"; then
+    pass "preprocess BoxTextured.gltf: warns about the clamped texels"
+else
+    fail "preprocess $BOXTEX (exit $rc)"; show_err
+fi
+sed 's/CesiumLogoFlat.png/no-such-texture.png/' "$BOXTEX" > "$T/BoxTextured.gltf"
+cp "${LRR_DATA_DIR:-data}/textured/BoxTextured0.bin" "$T/"
+run info "$T/BoxTextured.gltf"
+if [ "$rc" -eq 1 ] && grep -q "material 'Texture'" "$T/err" && grep -q "no-such-texture.png" "$T/err"; then
+    pass "info with a missing texture: exit 1, $(head -n 1 "$T/err")"
+else
+    fail "info with a missing texture (exit $rc)"; show_err
+fi
+
 # ---------------------------------------------------------------- lrr check
 # obj_used_positions FILE.obj: the distinct positions (parsed as numbers) its faces use
 obj_used_positions() {
@@ -992,6 +1020,14 @@ if [ -z "$check_skip" ]; then
     else
         fail "check $OFFICE (exit $rc): $(grep -E '^(triangles|degenerate|intersecting_pairs|coplanar_overlaps|contacts|open_edges|inconsistent_components):' "$T/out" | tr '\n' ' ')"
         show_err
+    fi
+    # a textured scene: the doctor reads it like any other (the closed cube is clean)
+    run check "$BOXTEX"
+    if [ "$rc" -eq 0 ] && [ "$(value triangles)" = 12 ] && [ "$(value open_edges)" = 0 ] &&
+        [ "$(value result)" = clean ]; then
+        pass "check BoxTextured.gltf (textured): clean"
+    else
+        fail "check $BOXTEX (exit $rc): result '$(value result)'"; show_err
     fi
     cat > "$T/broken.obj" <<'EOF'
 v 0 0 0

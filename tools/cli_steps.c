@@ -66,6 +66,8 @@ void print_scene_info(const char *name, const lrr_scene *scene)
     printf("d: %zu\n", si.d);
     printf("area: %.9g\n", si.area);
     printf("emitters: %zu\n", si.emitters);
+    printf("textures: %zu\n", si.textures);
+    printf("clamped_texels: %zu\n", si.clamped_texels);
     printf("max_patch_area: %.9g\n", si.max_patch_area);
     printf("bounds_min: %.9g %.9g %.9g\n", si.bounds_min[0], si.bounds_min[1],
            si.bounds_min[2]);

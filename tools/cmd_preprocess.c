@@ -222,6 +222,10 @@ static void note_skipped(const preprocess_args *a, const lrr_scene *scene)
     if (si.skipped)
         fprintf(stderr, "lrr preprocess: note: %zu zero-area triangle(s) skipped; "
                         "'lrr check %s' reports them and more\n", si.skipped, a->scene);
+    if (si.clamped_texels)
+        fprintf(stderr, "lrr preprocess: warning: %zu texel(s) of reflectance textures (times "
+                        "their material's factor) were >= 1 and are clamped just below 1\n",
+                si.clamped_texels);
 }
 
 /* Builds the operator (*op, also on some failures: the caller destroys it), stores F̄ as

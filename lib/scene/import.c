@@ -12,30 +12,40 @@
  * Materials (checked against Debian 12's assimp 5.2.5):
  *   rho      = glTF base colour factor (AI_MATKEY_BASE_COLOR), otherwise the diffuse colour
  *              (AI_MATKEY_COLOR_DIFFUSE = Kd in MTL).
- *   emission = AI_MATKEY_COLOR_EMISSIVE (Ke in MTL, emissiveFactor in glTF), times
- *              AI_MATKEY_EMISSIVE_INTENSITY where assimp provides it (newer assimp maps
- *              KHR_materials_emissive_strength to it). assimp 5.2 reads MTL's Ke correctly,
- *              including negative values, so no MTL parser of our own is needed.
+ *   emission = AI_MATKEY_COLOR_EMISSIVE (Ke in MTL, emissiveFactor in glTF), times the
+ *              glTF KHR_materials_emissive_strength, which we read from the JSON ourselves
+ *              (gltf_ext.c: assimp 5.2 ignores it), else AI_MATKEY_EMISSIVE_INTENSITY where
+ *              assimp provides it. assimp 5.2 reads MTL's Ke correctly, including negative
+ *              values, so no MTL parser of our own is needed.
+ *   textures = the diffuse / base colour and the emissive texture (map_Kd, map_Ke;
+ *              baseColorTexture, emissiveTexture), decoded into linear RGB times the colour
+ *              above (texture.c); each triangle keeps its corner UVs and lrr_scene_subpatches
+ *              integrates the texture over each subpatch (docs/METHOD.md "Textures").
  *   Faces without a material colour of their own get DEFAULT_RHO grey and no emission:
  *   assimp's stand-in materials (OBJ faces without usemtl: "DefaultMaterial", diffuse 0.6;
  *   every PLY, for which assimp invents a white material; glTF primitives without a material,
  *   for which assimp appends the spec's white default) would otherwise give rho = 1 or an
- *   arbitrary grey. Textures and vertex colours are ignored.
+ *   arbitrary grey. Vertex colours are ignored.
  *
  * assimp keeps its last error string in a global; with several threads importing at once the
  * message may belong to another import. That is assimp's, and only affects message text. */
 #include "config.h"
 #include "scene/scene.h"
+#include "scene/gltf_ext.h"
+#include "scene/texture.h"
 #ifdef LRR_HAVE_ASSIMP
 
 #include <assimp/cimport.h>
 #include <assimp/material.h>
 #include <assimp/scene.h>
+#include <assimp/texture.h>
 #include <assimp/version.h>
 
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 #include <sys/stat.h>
@@ -52,6 +62,9 @@ typedef struct import_state {
     const char *path;
     const struct aiScene *scene;
     float *mat_rho, *mat_em;       /* per material ×3 */
+    uint32_t *mat_rho_tex, *mat_em_tex; /* per material: texture index or LRR__NO_TEXTURE */
+    unsigned *mat_uv;              /* per material: the UV channel its textures use */
+    lrr__scene_textures *tx;       /* NULL until a material has a texture */
     size_t *face_base;             /* per mesh: global index of its first face */
     /* output */
     size_t n_tri;
@@ -59,6 +72,7 @@ typedef struct import_state {
     size_t *face_ids;
     /* scratch for one polygon */
     double *poly;  /* max_poly×3 */
+    double *poly_uv; /* max_poly×2 */
     unsigned *idx; /* max_poly */
     unsigned *tri; /* (max_poly-2)×3 */
 } import_state;
@@ -91,54 +105,6 @@ static lrr_status check_readable(lrr_context *ctx, const char *path)
     }
     fclose(f);
     return LRR_OK;
-}
-
-/* Whether the first `limit` bytes of the file contain `needle` (streamed; needle shorter
- * than 64 bytes). */
-static bool file_contains(const char *path, const char *needle, uint64_t limit)
-{
-    size_t len = strlen(needle);
-    FILE *f = fopen(path, "rb");
-    if (!f || len == 0 || len >= 64) {
-        if (f)
-            fclose(f);
-        return false;
-    }
-    char buf[4096 + 64];
-    size_t keep = 0;
-    bool found = false;
-    while (limit > 0 && !found) {
-        size_t want = limit < 4096 ? (size_t)limit : 4096;
-        size_t got = fread(buf + keep, 1, want, f);
-        if (got == 0)
-            break;
-        limit -= got;
-        size_t have = keep + got;
-        for (size_t i = 0; i + len <= have && !found; i++)
-            found = memcmp(buf + i, needle, len) == 0;
-        keep = have < len - 1 ? have : len - 1;
-        memmove(buf, buf + have - keep, keep);
-    }
-    fclose(f);
-    return found;
-}
-
-/* How much of a glTF file holds its JSON: all of a .gltf, the header and first chunk of a
- * .glb (so that a large binary buffer is not scanned). */
-static uint64_t gltf_json_extent(const char *path)
-{
-    if (!has_extension(path, "glb"))
-        return UINT64_MAX;
-    unsigned char h[20];
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return 0;
-    size_t got = fread(h, 1, sizeof h, f);
-    fclose(f);
-    if (got != sizeof h)
-        return 0;
-    uint64_t chunk = h[12] | (uint64_t)h[13] << 8 | (uint64_t)h[14] << 16 | (uint64_t)h[15] << 24;
-    return 20 + chunk;
 }
 
 /* ------------------------------------------------------------------ PLY check */
@@ -181,18 +147,172 @@ static bool get_colour(const struct aiMaterial *m, const char *key, unsigned typ
     return true;
 }
 
-/* Fills rho and emission (×3 per material) following the rules in the header comment. */
-static lrr_status read_materials(lrr_context *ctx, const char *path,
-                                 const struct aiScene *scene, float *rho, float *em)
+/* ------------------------------------------------------------------ textures */
+
+#define MAX_TEXTURE_FILE (1u << 30) /* bytes; stb_image takes an int length */
+
+static const char *material_name(const struct aiMaterial *m, struct aiString *buf)
 {
+    if (m && aiGetMaterialString(m, AI_MATKEY_NAME, buf) == aiReturn_SUCCESS && buf->length > 0)
+        return buf->data;
+    return "(unnamed)";
+}
+
+/* Reads file `name` into *data (caller frees). Errors name `what`. */
+static lrr_status read_whole(lrr_context *ctx, const char *name, const char *what,
+                             unsigned char **data, size_t *len)
+{
+    *data = NULL;
+    *len = 0;
+    char eb[128];
+    FILE *f = fopen(name, "rb");
+    struct stat st;
+    int e = f ? (fstat(fileno(f), &st) != 0 ? errno : S_ISDIR(st.st_mode) ? EISDIR : 0) : errno;
+    if (e) {
+        if (f)
+            fclose(f);
+        return lrr__error(ctx, LRR_ERR_IO, "%s: cannot open %s: %s", what, name,
+                          lrr__errno_text(e, eb, sizeof eb));
+    }
+    if (st.st_size <= 0 || (uint64_t)st.st_size > MAX_TEXTURE_FILE) {
+        fclose(f);
+        return lrr__error(ctx, LRR_ERR_FORMAT, "%s: %s has %lld bytes (not an image)", what,
+                          name, (long long)st.st_size);
+    }
+    *len = (size_t)st.st_size;
+    lrr_status rc = lrr__calloc(ctx, data, *len, 1, what);
+    if (rc == LRR_OK && fread(*data, 1, *len, f) != *len) {
+        lrr_aligned_free(*data);
+        *data = NULL;
+        rc = lrr__error(ctx, LRR_ERR_IO, "%s: cannot read %s", what, name);
+    }
+    fclose(f);
+    return rc;
+}
+
+/* The texture of `type` on material i, decoded into s->tx (times factor; clamped below 1
+ * for reflectance), or *index = LRR__NO_TEXTURE when it has none. A missing or corrupt
+ * texture is an error naming the file and the material: a flat colour instead would change
+ * the radiosity without anyone noticing. */
+static lrr_status material_texture(import_state *s, unsigned i, enum aiTextureType type,
+                                   const float factor[3], bool clamp, uint32_t *index)
+{
+    const struct aiMaterial *m = s->scene->mMaterials[i];
+    *index = LRR__NO_TEXTURE;
+    if (type == aiTextureType_DIFFUSE && aiGetMaterialTextureCount(m, type) == 0)
+        type = aiTextureType_BASE_COLOR;
+    if (aiGetMaterialTextureCount(m, type) == 0)
+        return LRR_OK;
+    struct aiString tp, mn;
+    unsigned uv = 0;
+    if (aiGetMaterialTexture(m, type, 0, &tp, NULL, &uv, NULL, NULL, NULL, NULL) !=
+        aiReturn_SUCCESS)
+        return LRR_OK;
+    char what[1024 + 512];
+    if (snprintf(what, sizeof what, "file %s: material '%s': %s texture '%s'", s->path,
+             material_name(m, &mn), type == aiTextureType_EMISSIVE ? "emissive" : "diffuse",
+             tp.data) >= (int)sizeof what)
+        what[sizeof what - 1] = '\0'; /* a shortened message still names the file first */
+    for (int c = 0; c < 3; c++)
+        if (!(factor[c] >= 0) || !isfinite(factor[c]))
+            return lrr__error(s->ctx, LRR_ERR_MATERIAL, "%s: its factor[%d] is %g", what, c,
+                              (double)factor[c]);
+    /* MTL -o/-s options; glTF KHR_texture_transform is refused earlier (gltf_ext.c) */
+    struct aiUVTransform tr;
+    if (aiGetMaterialUVTransform(m, _AI_MATKEY_UVTRANSFORM_BASE, type, 0, &tr) ==
+            aiReturn_SUCCESS &&
+        (tr.mTranslation.x != 0 || tr.mTranslation.y != 0 || tr.mScaling.x != 1 ||
+         tr.mScaling.y != 1 || tr.mRotation != 0))
+        return lrr__error(s->ctx, LRR_ERR_UNSUPPORTED,
+                          "%s: has a UV transform (offset, scale or rotation), which lrr does "
+                          "not apply (the texture would be misplaced)", what);
+    if (s->mat_uv[i] != UINT_MAX && s->mat_uv[i] != uv)
+        return lrr__error(s->ctx, LRR_ERR_UNSUPPORTED,
+                          "%s: uses UV set %u, the material's other texture set %u (lrr "
+                          "supports one per material)", what, uv, s->mat_uv[i]);
+    s->mat_uv[i] = uv;
+    if (!s->tx) {
+        s->tx = lrr__zalloc(s->ctx, sizeof *s->tx);
+        if (!s->tx)
+            return lrr__error(s->ctx, LRR_ERR_NOMEM, "%s: cannot allocate", what);
+    }
+    lrr__scene_textures *tx = s->tx;
+    /* at most two textures per material: the table never needs more than 2·materials */
+    if (!tx->tex && (lrr__calloc(s->ctx, &tx->tex, s->scene->mNumMaterials, 2 * sizeof *tx->tex,
+                                 "texture table")))
+        return LRR_ERR_NOMEM;
+    lrr__texture *t = &tx->tex[tx->n_tex];
+    lrr_status st;
+    const struct aiTexture *emb = NULL;
+    if (tp.data[0] == '*') { /* embedded (GLB, data URIs): "*N" */
+        char *end;
+        unsigned long k = strtoul(tp.data + 1, &end, 10);
+        if (*end || k >= s->scene->mNumTextures || !s->scene->mTextures ||
+            !s->scene->mTextures[k] || !s->scene->mTextures[k]->pcData)
+            return lrr__error(s->ctx, LRR_ERR_FORMAT, "%s: no such embedded texture (%u)",
+                              what, s->scene->mNumTextures);
+        emb = s->scene->mTextures[k];
+    }
+    if (emb && emb->mHeight == 0)
+        st = lrr__texture_decode(s->ctx, (const unsigned char *)emb->pcData, emb->mWidth,
+                                 factor, clamp, what, t, &tx->clamped_texels);
+    else if (emb)
+        st = lrr__texture_from_bgra(s->ctx, (const unsigned char *)emb->pcData, emb->mWidth,
+                                    emb->mHeight, factor, clamp, what, t, &tx->clamped_texels);
+    else {
+        /* relative to the model's folder; MTL files written on Windows use '\' */
+        char name[4096];
+        const char *slash = strrchr(s->path, '/');
+        int dir = tp.data[0] == '/' || !slash ? 0 : (int)(slash - s->path + 1);
+        if (snprintf(name, sizeof name, "%.*s%s", dir, s->path, tp.data) >= (int)sizeof name)
+            return lrr__error(s->ctx, LRR_ERR_IO, "%s: path too long", what);
+        for (char *q = name + dir; *q; q++)
+            if (*q == '\\')
+                *q = '/';
+        unsigned char *data;
+        size_t len;
+        if ((st = read_whole(s->ctx, name, what, &data, &len)))
+            return st;
+        st = lrr__texture_decode(s->ctx, data, len, factor, clamp, what, t,
+                                 &tx->clamped_texels);
+        lrr_aligned_free(data);
+    }
+    if (st != LRR_OK)
+        return st;
+    for (int a = 0; a < 2; a++) {
+        int mode = aiTextureMapMode_Wrap;
+        if (aiGetMaterialIntegerArray(m, a ? _AI_MATKEY_MAPPINGMODE_V_BASE
+                                           : _AI_MATKEY_MAPPINGMODE_U_BASE,
+                                      type, 0, &mode, NULL) != aiReturn_SUCCESS)
+            mode = aiTextureMapMode_Wrap;
+        t->wrap[a] = mode == aiTextureMapMode_Clamp    ? LRR__WRAP_CLAMP
+                     : mode == aiTextureMapMode_Mirror ? LRR__WRAP_MIRROR
+                                                       : LRR__WRAP_REPEAT;
+    }
+    *index = (uint32_t)tx->n_tex++;
+    return LRR_OK;
+}
+
+/* Fills s->mat_rho and s->mat_em (×3 per material) following the rules in the header
+ * comment, and the textures. */
+static lrr_status read_materials(import_state *s)
+{
+    lrr_context *ctx = s->ctx;
+    const char *path = s->path;
+    const struct aiScene *scene = s->scene;
     bool ply = has_extension(path, "ply");
     bool gltf = has_extension(path, "gltf") || has_extension(path, "glb");
-    bool any_intensity = false;
-    for (unsigned i = 0; i < scene->mNumMaterials; i++) {
+    float *strength = NULL;
+    lrr_status st = LRR_OK;
+    if (gltf && (st = lrr__gltf_emissive_strength(ctx, path, scene, &strength)))
+        return st;
+    for (unsigned i = 0; i < scene->mNumMaterials && st == LRR_OK; i++) {
         const struct aiMaterial *m = scene->mMaterials[i];
-        float *r = rho + 3 * (size_t)i, *e = em + 3 * (size_t)i;
+        float *r = s->mat_rho + 3 * (size_t)i, *e = s->mat_em + 3 * (size_t)i;
         r[0] = r[1] = r[2] = DEFAULT_RHO;
         e[0] = e[1] = e[2] = 0.0f;
+        s->mat_rho_tex[i] = s->mat_em_tex[i] = LRR__NO_TEXTURE;
+        s->mat_uv[i] = UINT_MAX;
         if (!m || ply)
             continue;
         struct aiString name;
@@ -205,32 +325,37 @@ static lrr_status read_materials(lrr_context *ctx, const char *path,
                         get_colour(m, AI_MATKEY_COLOR_DIFFUSE, c) ||
                         get_colour(m, AI_MATKEY_BASE_COLOR, c);
         bool have_em = get_colour(m, AI_MATKEY_COLOR_EMISSIVE, ke);
+        bool textured = aiGetMaterialTextureCount(m, aiTextureType_DIFFUSE) > 0 ||
+                        aiGetMaterialTextureCount(m, aiTextureType_BASE_COLOR) > 0 ||
+                        aiGetMaterialTextureCount(m, aiTextureType_EMISSIVE) > 0;
         /* assimp appends the glTF spec's default material (white, unnamed) last; a file's
          * own unnamed white non-emitting material would be rejected (rho = 1) anyway. */
-        if (gltf && i + 1 == scene->mNumMaterials && !named && have_rho && c[0] == 1.0f &&
-            c[1] == 1.0f && c[2] == 1.0f && ke[0] == 0.0f && ke[1] == 0.0f && ke[2] == 0.0f)
+        if (gltf && i + 1 == scene->mNumMaterials && !named && have_rho && !textured &&
+            c[0] == 1.0f && c[1] == 1.0f && c[2] == 1.0f && ke[0] == 0.0f && ke[1] == 0.0f &&
+            ke[2] == 0.0f)
             continue;
         if (have_rho)
             memcpy(r, c, sizeof c);
-        if (have_em) {
-            float s = 1.0f;
-            if (aiGetMaterialFloatArray(m, AI_MATKEY_EMISSIVE_INTENSITY, &s, NULL) ==
-                aiReturn_SUCCESS)
-                any_intensity = true;
-            else
-                s = 1.0f;
-            for (int k = 0; k < 3; k++)
-                e[k] = ke[k] * s;
-        }
+        float k = 1.0f;
+        if (strength && strength[i] >= 0) /* KHR_materials_emissive_strength (gltf_ext.c) */
+            k = strength[i];
+        else if (aiGetMaterialFloatArray(m, AI_MATKEY_EMISSIVE_INTENSITY, &k, NULL) !=
+                 aiReturn_SUCCESS)
+            k = 1.0f;
+        if (have_em)
+            for (int j = 0; j < 3; j++)
+                e[j] = ke[j] * k;
+        float ef[3] = {e[0], e[1], e[2]};
+        if (!have_em) /* OBJ map_Ke without Ke: the texture alone, times the strength */
+            ef[0] = ef[1] = ef[2] = k;
+        if ((st = material_texture(s, i, aiTextureType_DIFFUSE, r, true, &s->mat_rho_tex[i])) ||
+            (st = material_texture(s, i, aiTextureType_EMISSIVE, ef, false,
+                                   &s->mat_em_tex[i])))
+            break;
     }
-    /* emissiveFactor is limited to [0,1] in glTF; brighter lights need the strength
-     * extension. Silently dropping it would give wrong radiosity, so refuse instead. */
-    if (gltf && !any_intensity &&
-        file_contains(path, "KHR_materials_emissive_strength", gltf_json_extent(path)))
-        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
-                          "file %s: uses KHR_materials_emissive_strength, which the installed "
-                          "assimp %u.%u does not read; emission would be wrong",
-                          path, aiGetVersionMajor(), aiGetVersionMinor());
+    free(strength);
+    if (st != LRR_OK)
+        return st;
     return LRR_OK;
 }
 
@@ -371,17 +496,44 @@ static lrr_status count_node(import_state *s, const struct aiNode *node, unsigne
     return LRR_OK;
 }
 
+/* Appends one triangle; uv (3 corners × 2, or NULL) places it in its material's textures,
+ * whose mean over the triangle is its flat rho and E (what `lrr check` and the validation
+ * see; lrr_scene_subpatches integrates each subpatch). */
 static void emit(import_state *s, const double *a, const double *b, const double *c,
-                 const float *rho, const float *em, size_t face)
+                 const double *const uv[3], unsigned mat, size_t face)
 {
     size_t t = s->n_tri++;
     const double *q[3] = {a, b, c};
     for (int i = 0; i < 3; i++)
         for (int j = 0; j < 3; j++)
             s->vert[9 * t + 3 * i + j] = (float)q[i][j];
-    memcpy(s->rho + 3 * t, rho, 3 * sizeof *rho);
-    memcpy(s->em + 3 * t, em, 3 * sizeof *em);
+    memcpy(s->rho + 3 * t, s->mat_rho + 3 * (size_t)mat, 3 * sizeof *s->rho);
+    memcpy(s->em + 3 * t, s->mat_em + 3 * (size_t)mat, 3 * sizeof *s->em);
     s->face_ids[t] = face;
+    lrr__scene_textures *tx = s->tx;
+    if (!tx)
+        return;
+    uint32_t rt = uv ? s->mat_rho_tex[mat] : LRR__NO_TEXTURE;
+    uint32_t et = uv ? s->mat_em_tex[mat] : LRR__NO_TEXTURE;
+    tx->rho_tex[t] = rt;
+    tx->em_tex[t] = et;
+    double u[6] = {0};
+    for (int i = 0; i < 3 && uv; i++)
+        for (int j = 0; j < 2; j++)
+            u[2 * i + j] = uv[i][j];
+    for (int i = 0; i < 6; i++)
+        tx->uv[6 * t + i] = (float)u[i];
+    double m[3];
+    if (rt != LRR__NO_TEXTURE) {
+        lrr__texture_mean(&tx->tex[rt], u, m);
+        for (int k = 0; k < 3; k++)
+            s->rho[3 * t + k] = fminf((float)m[k], LRR__RHO_MAX);
+    }
+    if (et != LRR__NO_TEXTURE) {
+        lrr__texture_mean(&tx->tex[et], u, m);
+        for (int k = 0; k < 3; k++)
+            s->em[3 * t + k] = (float)m[k];
+    }
 }
 
 static lrr_status fill_node(import_state *s, const struct aiNode *node,
@@ -397,12 +549,23 @@ static lrr_status fill_node(import_state *s, const struct aiNode *node,
     for (unsigned i = 0; i < node->mNumMeshes; i++) {
         unsigned mi = node->mMeshes[i];
         const struct aiMesh *mesh = sc->mMeshes[mi];
-        if (mesh->mMaterialIndex >= sc->mNumMaterials)
+        unsigned mat = mesh->mMaterialIndex;
+        if (mat >= sc->mNumMaterials)
             return lrr__error(s->ctx, LRR_ERR_FORMAT,
                               "file %s: mesh %u uses material %u of %u", s->path, mi,
-                              mesh->mMaterialIndex, sc->mNumMaterials);
-        const float *rho = s->mat_rho + 3 * (size_t)mesh->mMaterialIndex;
-        const float *em = s->mat_em + 3 * (size_t)mesh->mMaterialIndex;
+                              mat, sc->mNumMaterials);
+        const struct aiVector3D *tc = NULL;
+        if (s->mat_rho_tex[mat] != LRR__NO_TEXTURE || s->mat_em_tex[mat] != LRR__NO_TEXTURE) {
+            unsigned ch = s->mat_uv[mat];
+            tc = ch < AI_MAX_NUMBER_OF_TEXTURECOORDS ? mesh->mTextureCoords[ch] : NULL;
+            if (!tc) {
+                struct aiString mn;
+                return lrr__error(s->ctx, LRR_ERR_FORMAT,
+                                  "file %s: mesh %u has no texture coordinates (UV set %u) "
+                                  "for the texture of its material '%s'",
+                                  s->path, mi, ch, material_name(sc->mMaterials[mat], &mn));
+            }
+        }
         for (unsigned f = 0; f < mesh->mNumFaces; f++) {
             const struct aiFace *face = &mesh->mFaces[f];
             unsigned ni = face->mNumIndices;
@@ -416,16 +579,28 @@ static lrr_status fill_node(import_state *s, const struct aiNode *node,
                                       "file %s: face %zu refers to vertex %u of %u", s->path,
                                       id, vi, mesh->mNumVertices);
                 transform(&world, mesh->mVertices[vi], s->poly + 3 * (size_t)j);
+                if (!tc)
+                    continue;
+                s->poly_uv[2 * (size_t)j] = tc[vi].x;
+                s->poly_uv[2 * (size_t)j + 1] = tc[vi].y;
+                if (!isfinite(s->poly_uv[2 * (size_t)j] + s->poly_uv[2 * (size_t)j + 1]))
+                    return lrr__error(s->ctx, LRR_ERR_FORMAT,
+                                      "file %s: face %zu: texture coordinate of vertex %u is "
+                                      "not finite", s->path, id, vi);
             }
             triangulate(ni, s->poly, s->idx, s->tri);
             for (unsigned t = 0; t + 2 < ni; t++) {
-                const double *a = s->poly + 3 * (size_t)s->tri[3 * t];
-                const double *b = s->poly + 3 * (size_t)s->tri[3 * t + 1];
-                const double *c = s->poly + 3 * (size_t)s->tri[3 * t + 2];
-                if (flip)
-                    emit(s, a, c, b, rho, em, id);
-                else
-                    emit(s, a, b, c, rho, em, id);
+                unsigned k[3] = {s->tri[3 * t], s->tri[3 * t + 1], s->tri[3 * t + 2]};
+                if (flip) {
+                    unsigned x = k[1];
+                    k[1] = k[2];
+                    k[2] = x;
+                }
+                const double *uv[3] = {s->poly_uv + 2 * (size_t)k[0],
+                                       s->poly_uv + 2 * (size_t)k[1],
+                                       s->poly_uv + 2 * (size_t)k[2]};
+                emit(s, s->poly + 3 * (size_t)k[0], s->poly + 3 * (size_t)k[1],
+                     s->poly + 3 * (size_t)k[2], tc ? uv : NULL, mat, id);
             }
         }
     }
@@ -443,12 +618,17 @@ static void free_state(import_state *s)
 {
     lrr_aligned_free(s->mat_rho);
     lrr_aligned_free(s->mat_em);
+    lrr_aligned_free(s->mat_rho_tex);
+    lrr_aligned_free(s->mat_em_tex);
+    lrr_aligned_free(s->mat_uv);
+    lrr__scene_textures_free(s->tx);
     lrr_aligned_free(s->face_base);
     lrr_aligned_free(s->vert);
     lrr_aligned_free(s->rho);
     lrr_aligned_free(s->em);
     lrr_aligned_free(s->face_ids);
     lrr_aligned_free(s->poly);
+    lrr_aligned_free(s->poly_uv);
     lrr_aligned_free(s->idx);
     lrr_aligned_free(s->tri);
 }
@@ -471,7 +651,13 @@ static lrr_status convert(import_state *s)
                           "material reflectance")) ||
         (st = lrr__calloc(ctx, &s->mat_em, sc->mNumMaterials, 3 * sizeof(float),
                           "material emission")) ||
-        (st = read_materials(ctx, s->path, sc, s->mat_rho, s->mat_em)))
+        (st = lrr__calloc(ctx, &s->mat_rho_tex, sc->mNumMaterials, sizeof(uint32_t),
+                          "material textures")) ||
+        (st = lrr__calloc(ctx, &s->mat_em_tex, sc->mNumMaterials, sizeof(uint32_t),
+                          "material textures")) ||
+        (st = lrr__calloc(ctx, &s->mat_uv, sc->mNumMaterials, sizeof(unsigned),
+                          "material UV sets")) ||
+        (st = read_materials(s)))
         return st;
 
     /* face_ids: a polygon's index counted over assimp's meshes in order (mesh 0's faces
@@ -499,9 +685,17 @@ static lrr_status convert(import_state *s)
         (st = lrr__calloc(ctx, &s->em, n_tri, 3 * sizeof(float), "imported emission")) ||
         (st = lrr__calloc(ctx, &s->face_ids, n_tri, sizeof(size_t), "imported face ids")) ||
         (st = lrr__calloc(ctx, &s->poly, max_poly, 3 * sizeof(double), "polygon scratch")) ||
+        (st = lrr__calloc(ctx, &s->poly_uv, max_poly, 2 * sizeof(double), "polygon scratch")) ||
         (st = lrr__calloc(ctx, &s->idx, max_poly, sizeof(unsigned), "polygon scratch")) ||
         (st = lrr__calloc(ctx, &s->tri, max_poly - 2, 3 * sizeof(unsigned),
                           "polygon scratch")))
+        return st;
+    if (s->tx && ((st = lrr__calloc(ctx, &s->tx->uv, n_tri, 6 * sizeof(float),
+                                    "texture coordinates")) ||
+                  (st = lrr__calloc(ctx, &s->tx->rho_tex, n_tri, sizeof(uint32_t),
+                                    "triangle textures")) ||
+                  (st = lrr__calloc(ctx, &s->tx->em_tex, n_tri, sizeof(uint32_t),
+                                    "triangle textures"))))
         return st;
     struct aiMatrix4x4 identity;
     aiIdentityMatrix4(&identity);
@@ -517,6 +711,10 @@ static lrr_status import_file(lrr_context *ctx, const char *path, import_state *
     lrr_status st = check_readable(ctx, path);
     if (st == LRR_OK)
         st = check_if_ply(ctx, path);
+    float *strength = NULL;
+    if (st == LRR_OK && (has_extension(path, "gltf") || has_extension(path, "glb")))
+        st = lrr__gltf_emissive_strength(ctx, path, NULL, &strength);
+    free(strength);
     if (st != LRR_OK)
         return st;
     /* No post-processing: triangulation, normals and winding are ours (see the top). */
@@ -543,6 +741,14 @@ lrr_status lrr_scene_load(lrr_context *ctx, const char *path, lrr_scene **out)
     if (st == LRR_OK)
         st = lrr__scene_from_arrays(ctx, s.n_tri, s.vert, s.rho, s.em, s.face_ids, path,
                                     LRR__SCENE_FILE, out);
+    if (st == LRR_OK && s.tx) {
+        lrr__scene_textures *tx = s.tx;
+        s.tx = NULL;
+        if ((st = lrr__scene_attach_textures(*out, s.n_tri, s.vert, tx))) {
+            lrr_scene_destroy(*out);
+            *out = NULL;
+        }
+    }
     free_state(&s);
     return st;
 }

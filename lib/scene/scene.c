@@ -2,6 +2,7 @@
  * choice of patch depths (docs/METHOD.md "Triangles" and "Patches"). */
 #include "config.h"
 #include "scene/scene.h"
+#include "scene/texture.h"
 
 #include <float.h>
 #include <math.h>
@@ -23,6 +24,8 @@ static bool degenerate(const float *v)
     }
     return !(lrr__tri_area(v) > 1e-10 * l2) || l2 == 0;
 }
+
+bool lrr__triangle_degenerate(const float *v) { return degenerate(v); }
 
 lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *vert,
                                   const float *rho, const float *emission,
@@ -111,6 +114,7 @@ void lrr_scene_destroy(lrr_scene *s)
     lrr__geometry_free(&s->geom);
     lrr_aligned_free(s->rho);
     lrr_aligned_free(s->emission);
+    lrr__scene_textures_free(s->textures);
     lrr__context_release(s->ctx);
     free(s);
 }
@@ -380,6 +384,10 @@ void lrr_scene_get_info(const lrr_scene *s, lrr_scene_info *out, size_t out_size
         info->d = s->geom.d;
     }
     info->max_patch_area = s->max_patch_area;
+    if (s->textures) {
+        info->textures = s->textures->n_tex;
+        info->clamped_texels = s->textures->clamped_texels;
+    }
     for (int j = 0; j < 3; j++) {
         info->bounds_min[j] = INFINITY;
         info->bounds_max[j] = -INFINITY;
@@ -413,11 +421,55 @@ lrr_status lrr_scene_subpatches(const lrr_scene *s, float *centre, float *normal
         return lrr__error(s->ctx, LRR_ERR_INVALID_ARG,
                           "the scene is not subdivided: call lrr_scene_subdivide first");
     lrr__subpatch_frames(&s->geom, centre, normal, area);
-    for (size_t t = 0; t < s->geom.n_tri; t++)
-        for (size_t i = s->geom.sub0[t]; i < s->geom.sub0[t + 1]; i++)
+    const lrr__scene_textures *tx = s->textures;
+    #pragma omp parallel for schedule(dynamic, 16)
+    for (size_t t = 0; t < s->geom.n_tri; t++) {
+        /* A textured triangle's subpatches take the texture's mean over their UV triangles
+         * (texture.c); the texture already holds the material's factor and the clamp. */
+        uint32_t rt = tx ? tx->rho_tex[t] : LRR__NO_TEXTURE;
+        uint32_t et = tx ? tx->em_tex[t] : LRR__NO_TEXTURE;
+        unsigned depth = s->geom.depth[t] + s->geom.levels;
+        for (size_t i = s->geom.sub0[t]; i < s->geom.sub0[t + 1]; i++) {
+            double uv[6], r[3], e[3];
+            if ((rho && rt != LRR__NO_TEXTURE) || (emission && et != LRR__NO_TEXTURE))
+                lrr__subtriangle_uv(tx->uv + 6 * t, depth, i - s->geom.sub0[t], uv);
+            if (rho && rt != LRR__NO_TEXTURE)
+                lrr__texture_mean(&tx->tex[rt], uv, r);
+            if (emission && et != LRR__NO_TEXTURE)
+                lrr__texture_mean(&tx->tex[et], uv, e);
             for (int c = 0; c < 3; c++) {
-                if (rho) rho[3 * i + c] = s->rho[3 * t + c];
-                if (emission) emission[3 * i + c] = s->emission[3 * t + c];
+                if (rho)
+                    rho[3 * i + c] = rt != LRR__NO_TEXTURE ? fminf((float)r[c], LRR__RHO_MAX)
+                                                           : s->rho[3 * t + c];
+                if (emission)
+                    emission[3 * i + c] = et != LRR__NO_TEXTURE ? (float)e[c]
+                                                                : s->emission[3 * t + c];
             }
+        }
+    }
+    return LRR_OK;
+}
+
+lrr_status lrr__scene_attach_textures(lrr_scene *s, size_t n_in, const float *vert_in,
+                                      lrr__scene_textures *t)
+{
+    size_t n = s->geom.n_tri, j = 0;
+    for (size_t i = 0; i < n_in && j < n; i++) {
+        if (degenerate(vert_in + 9 * i))
+            continue;
+        memmove(t->uv + 6 * j, t->uv + 6 * i, 6 * sizeof *t->uv);
+        t->rho_tex[j] = t->rho_tex[i];
+        t->em_tex[j] = t->em_tex[i];
+        j++;
+    }
+    if (j != n) {
+        lrr__scene_textures_free(t);
+        return lrr__error(s->ctx, LRR_ERR_DIM,
+                          "textures: %zu of %zu textured triangles match the scene's %zu", j,
+                          n_in, n);
+    }
+    t->n_tri = n;
+    lrr__scene_textures_free(s->textures);
+    s->textures = t;
     return LRR_OK;
 }

@@ -163,6 +163,7 @@ static inline void lrr__normalize3(double v[3])
 
 /* ------------------------------------------------------------ scene */
 enum { LRR__SCENE_FILE = 0, LRR__SCENE_CORNELL = 1, LRR__SCENE_CORNELL_CLOSED = 2 };
+typedef struct lrr__scene_textures lrr__scene_textures; /* scene/texture.h */
 
 struct lrr_scene {
     lrr_context *ctx;
@@ -172,11 +173,14 @@ struct lrr_scene {
     float *rho;           /* n_tri×3 */
     float *emission;      /* n_tri×3 */
     double max_patch_area;
+    lrr__scene_textures *textures; /* NULL: every material is flat (texture.h) */
 };
 
 /* Checks a PLY file (f at its start, file_size bytes) before assimp reads it: a strict
  * header, and a body that holds what the header declares (scene_ply.c). */
 lrr_status lrr__ply_check(lrr_context *ctx, const char *path, FILE *f, uint64_t file_size);
+/* Whether triangle v (9 floats) is dropped as zero-area by lrr__scene_from_arrays. */
+bool lrr__triangle_degenerate(const float *v);
 /* Validates and takes a copy of the arrays: NaN/Inf coordinates and bad materials are errors
  * naming `source` and the face index face_ids[t] (or t when face_ids is NULL); zero-area
  * triangles are skipped and counted. */
