@@ -5,6 +5,7 @@
 #include "config.h"
 #include "scene/gltf_ext.h"
 
+#ifdef LRR_HAVE_ASSIMP /* only assimp's import reads glTF (configure --without-assimp) */
 #include <assimp/material.h>
 #include <assimp/scene.h>
 
@@ -245,3 +246,4 @@ lrr_status lrr__gltf_emissive_strength(lrr_context *ctx, const char *path,
     *strength = s;
     return LRR_OK;
 }
+#endif /* LRR_HAVE_ASSIMP */

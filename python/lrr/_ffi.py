@@ -44,7 +44,8 @@ class SceneInfo(ctypes.Structure):
     _fields_ = [("triangles", c_size_t), ("skipped", c_size_t), ("patches", c_size_t),
                 ("subpatches", c_size_t), ("d", c_size_t), ("emitters", c_size_t),
                 ("area", ctypes.c_double), ("max_patch_area", ctypes.c_double),
-                ("bounds_min", _d3()), ("bounds_max", _d3())]
+                ("bounds_min", _d3()), ("bounds_max", _d3()),
+                ("textures", c_size_t), ("clamped_texels", c_size_t)]
 
 
 class BuildOptions(ctypes.Structure):
