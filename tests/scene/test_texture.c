@@ -271,6 +271,7 @@ static void check_texel_per_subpatch(lrr_context *ctx, lrr_scene *s, const float
 
 static void test_obj_map_kd(void **state)
 {
+    TU_REQUIRE("assimp"); /* scene files */
     lrr_context *ctx = *state;
     char png[512], obj[512], mtl[512], mtext[1024];
     tmp_path(png, sizeof png, "tex_quad", "png");
@@ -321,6 +322,7 @@ static void test_obj_map_kd(void **state)
  * is an error naming the file and the material. */
 static void test_obj_clamp_and_errors(void **state)
 {
+    TU_REQUIRE("assimp"); /* scene files */
     lrr_context *ctx = *state;
     char png[512], obj[512], mtl[512], mtext[1024], msg[512];
     tmp_path(png, sizeof png, "tex_white", "png");
@@ -470,6 +472,7 @@ static void png_base64(char *out)
  * .glb: the same closed forms as the OBJ. */
 static void test_gltf_base_color_texture(void **state)
 {
+    TU_REQUIRE("assimp"); /* scene files */
     lrr_context *ctx = *state;
     char gltf[512], glb[512], b64[1024];
     tmp_path(gltf, sizeof gltf, "tex_quad", "gltf");
@@ -531,6 +534,7 @@ static void replace_all(char *text, const char *from, const char *to)
  * reflectance exactly on every subpatch; the original differs where u is mirrored. */
 static void test_embedded_equals_external(void **state)
 {
+    TU_REQUIRE("assimp"); /* scene files */
     lrr_context *ctx = *state;
     static const char *files[3] = {"BoxTextured.gltf", "BoxTextured0.bin",
                                    "CesiumLogoFlat.png"};
@@ -587,6 +591,7 @@ static void test_embedded_equals_external(void **state)
  * subpatches: mapped back to the scene's order it is lrr_scene_subpatches' exactly. */
 static void test_operator_keeps_textures(void **state)
 {
+    TU_REQUIRE("assimp"); /* scene files */
     lrr_context *ctx = *state;
     for (int cluster = 0; cluster < 2; cluster++) {
         lrr_scene *s;
@@ -628,6 +633,7 @@ static void test_operator_keeps_textures(void **state)
 
 static void test_emissive_strength(void **state)
 {
+    TU_REQUIRE("assimp"); /* scene files */
     lrr_context *ctx = *state;
     char gltf[512], glb[512], msg[512];
     tmp_path(gltf, sizeof gltf, "strength", "gltf");
@@ -680,6 +686,7 @@ static void test_emissive_strength(void **state)
  * sanitizer pass see the rest). External texture, embedded texture, emissive strength. */
 static void test_allocation_failures(void **state)
 {
+    TU_REQUIRE("assimp"); /* scene files */
     (void)state;
     const char *files[3] = {LRR_DATA_DIR "/textured/BoxTextured.gltf",
                             LRR_DATA_DIR "/textured/BoxTextured.glb",
