@@ -80,7 +80,7 @@ sed -n '/^\.SH EXAMPLE/,/^\.SH SEE ALSO/p' "$top/man/lrr.3" | sed '1,2d;$d' | se
 builddir=$(dirname "$libdir")
 if ! command -v "${CC:-cc}" >/dev/null 2>&1 || [ ! -f "$libdir/liblrr.so" ]; then
     echo "man: no C compiler or no $libdir/liblrr.so: lrr.3's example not compiled"
-elif "${CC:-cc}" -std=c11 -Wall -Wextra -Werror -I"$top/include" -I"$builddir/include" \
+elif "${CC:-cc}" ${LRR_SANITIZE_CFLAGS:-} -std=c11 -Wall -Wextra -Werror -I"$top/include" -I"$builddir/include" \
         "$T/example.c" -L"$libdir" -llrr -o "$T/example" 2>"$T/err" &&
     LD_LIBRARY_PATH="$libdir${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}" "$T/example" >"$T/out" 2>&1 &&
     grep -Eq '^B\[0\] = [0-9.e-]+ [0-9.e-]+ [0-9.e-]+$' "$T/out"; then

@@ -25,6 +25,18 @@ if [ -z "$py" ]; then
     echo "python: no python3 with numpy found: skipped"
     exit 77
 fi
+# A sanitizer build's liblrr needs the ASan and UBSan runtimes loaded first (make check passes
+# their paths in LRR_SANITIZE_PRELOAD); python's own allocations are not ours to leak-check.
+preload=""
+for f in ${LRR_SANITIZE_PRELOAD:-}; do
+    [ -f "$f" ] && preload="$preload${preload:+ }$f"
+done
+if [ -n "$preload" ]; then
+    LD_PRELOAD="$preload${LD_PRELOAD:+ $LD_PRELOAD}"
+    ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
+    export LD_PRELOAD ASAN_OPTIONS
+    echo "python: sanitizer runtimes preloaded: $preload"
+fi
 tmp=$(mktemp -d "${LRR_TEST_TMP:-${TMPDIR:-/tmp}}/python.XXXXXX") || exit 1
 trap 'rm -rf "$tmp"' EXIT
 versions=$("$py" -c 'import sys, numpy; print(sys.version.split()[0], "numpy", numpy.__version__)')
