@@ -153,6 +153,17 @@ static size_t wrap_index(long long i, size_t n, int mode)
     }
 }
 
+/* floor(x) as an index: far-off and non-finite coordinates (a UV of 1e27, times the width)
+ * go to a fixed, defined texel instead of overflowing the conversion; that far out a double
+ * has no sub-texel precision left, so no texel is more right than another. */
+static long long texel_index(double x)
+{
+    x = floor(x);
+    if (!(x > -0x1p62))
+        return x < 0 ? -(1LL << 62) : 0; /* NaN: 0 */
+    return x < 0x1p62 ? (long long)x : 1LL << 62;
+}
+
 static const float *texel(const lrr__texture *t, long long x, long long y)
 {
     size_t ix = wrap_index(x, t->w, t->wrap[0]), iy = wrap_index(y, t->h, t->wrap[1]);
@@ -215,7 +226,7 @@ static double poly_area(const double *p, int n)
 
 static void point_value(const lrr__texture *t, double x, double y, double out[3])
 {
-    const float *v = texel(t, (long long)floor(x), (long long)floor(y));
+    const float *v = texel(t, texel_index(x), texel_index(y));
     for (int c = 0; c < 3; c++)
         out[c] = v[c];
 }
@@ -264,6 +275,12 @@ static void mean_of(const lrr__texture *t, const double uv[6], double limit, dou
     }
     if (!(total > 0)) { /* all corners on one UV point or line: the texel at the centre */
         point_value(t, (p[0] + p[2] + p[4]) / 3, (p[1] + p[3] + p[5]) / 3, out);
+        return;
+    }
+    if (!(fabs(x0) < 0x1p52 && fabs(x1) < 0x1p52 && fabs(y0) < 0x1p52 && fabs(y1) < 0x1p52)) {
+        /* beyond exact integers (clamped far-off UVs): the texel loops below could not
+         * count there, and the points the midpoint rule takes are all the same texels */
+        mean_sampled(t, p, LRR__TEXEL_SAMPLES, out);
         return;
     }
     double fx0 = floor(x0), fy0 = floor(y0);

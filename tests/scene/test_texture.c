@@ -187,6 +187,40 @@ static void test_mean_closed_forms(void **state)
         ASSERT_NEAR(m[c], 0.25 * (tl[c] + tr[c] + bl[c] + br[c]), 2e-2, "tiled, %d\n", c);
 }
 
+/* UVs far beyond any exact texel index (a fuzzed glTF had one of 1e27): every wrap mode
+ * gives a defined mean that is a mix of the image's texels (each channel within the image's
+ * range), and a clamped triangle far off to the right is the right column's colour. Under
+ * UBSan (the sanitizer pass) the conversions themselves are checked too. */
+static void test_far_uvs(void **state)
+{
+    (void)state;
+    float px[12];
+    for (int i = 0; i < 12; i++)
+        px[i] = quad_px[i] / 255.0f;
+    const float *br = px + 9;
+    for (int mode = 0; mode < 3; mode++) {
+        int wrap = mode == 0 ? LRR__WRAP_REPEAT : mode == 1 ? LRR__WRAP_MIRROR : LRR__WRAP_CLAMP;
+        lrr__texture t = {.w = 2, .h = 2, .wrap = {wrap, wrap}, .rgb = px};
+        const double far[3][6] = {{0, 0, 4e27, 0, 0, 1}, {1e27, 0.2, 1e27, 0.4, 1e27, 0.3},
+                                  {-3e300, 0, 3e300, 0.5, 0, 1}};
+        for (int k = 0; k < 3; k++) {
+            double m[3];
+            lrr__texture_mean(&t, far[k], m);
+            for (int c = 0; c < 3; c++) {
+                double lo = 1, hi = 0;
+                for (int q = 0; q < 4; q++) {
+                    lo = fmin(lo, px[3 * q + c]);
+                    hi = fmax(hi, px[3 * q + c]);
+                }
+                assert_true(isfinite(m[c]) && m[c] >= lo - 1e-7 && m[c] <= hi + 1e-7);
+            }
+            if (wrap == LRR__WRAP_CLAMP && k == 1) /* u far right, v in the lower half */
+                for (int c = 0; c < 3; c++)
+                    ASSERT_NEAR(m[c], br[c], 1e-7, "clamped far right, channel %d\n", c);
+        }
+    }
+}
+
 /* The accuracy of the midpoint rule that takes over beyond LRR__TEXEL_EXACT_MAX texels:
  * white noise of 256² texels under one triangle (the documented figure). */
 static void test_sampled_accuracy(void **state)
@@ -729,6 +763,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_mean_against_numeric, setup, teardown),
         cmocka_unit_test_setup_teardown(test_mean_closed_forms, setup, teardown),
+        cmocka_unit_test(test_far_uvs),
         cmocka_unit_test_setup_teardown(test_sampled_accuracy, setup, teardown),
         cmocka_unit_test_setup_teardown(test_obj_map_kd, setup, teardown),
         cmocka_unit_test_setup_teardown(test_obj_clamp_and_errors, setup, teardown),
