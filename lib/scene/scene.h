@@ -116,6 +116,9 @@ static inline void lrr__clamp_bary(double *b1, double *b2, double *b0)
 }
 /* Subpatch index of barycentric point (b1, b2) (b0 = 1-b1-b2) of triangle t. */
 size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2);
+/* The corners of child c (lrr__child_at's numbering) of the triangle v (3 corners of dim
+ * doubles each, dim 2 or 3: positions or texture coordinates) into out. */
+void lrr__child_corners(const double *v, int dim, unsigned c, double *out);
 /* The patch of leaf `leaf` (lrr__descend's index, depth[t] levels) of triangle t. */
 size_t lrr__patch_of_leaf(const lrr__geometry *g, size_t t, size_t leaf);
 /* Patch index only (used by the hemicube item buffer). */

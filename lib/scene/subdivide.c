@@ -297,24 +297,24 @@ size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i)
     return bsearch_le(g->sub0, 0, g->n_tri, g->origin ? g->origin[i] : i);
 }
 
-static void child_vertices(const double v[9], unsigned c, double out[9])
+void lrr__child_corners(const double *v, int dim, unsigned c, double *out)
 {
     double ab[3], bc[3], ca[3];
-    for (int j = 0; j < 3; j++) {
-        ab[j] = 0.5 * (v[j] + v[3 + j]);
-        bc[j] = 0.5 * (v[3 + j] + v[6 + j]);
-        ca[j] = 0.5 * (v[6 + j] + v[j]);
+    for (int j = 0; j < dim; j++) {
+        ab[j] = 0.5 * (v[j] + v[dim + j]);
+        bc[j] = 0.5 * (v[dim + j] + v[2 * dim + j]);
+        ca[j] = 0.5 * (v[2 * dim + j] + v[j]);
     }
     const double *p[3];
     switch (c) {
     case 0: p[0] = v; p[1] = ab; p[2] = ca; break;
-    case 1: p[0] = ab; p[1] = v + 3; p[2] = bc; break;
-    case 2: p[0] = ca; p[1] = bc; p[2] = v + 6; break;
+    case 1: p[0] = ab; p[1] = v + dim; p[2] = bc; break;
+    case 2: p[0] = ca; p[1] = bc; p[2] = v + 2 * dim; break;
     default: p[0] = bc; p[1] = ca; p[2] = ab; break;
     }
     for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            out[3 * i + j] = p[i][j];
+        for (int j = 0; j < dim; j++)
+            out[dim * i + j] = p[i][j];
 }
 
 void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9])
@@ -326,7 +326,7 @@ void lrr__subpatch_vertices(const lrr__geometry *g, size_t i, double v[9])
         v[j] = g->vert[9 * t + j];
     double tmp[9];
     for (unsigned l = depth; l-- > 0;) {
-        child_vertices(v, (unsigned)((local >> (2 * l)) & 3), tmp);
+        lrr__child_corners(v, 3, (unsigned)((local >> (2 * l)) & 3), tmp);
         memcpy(v, tmp, sizeof tmp);
     }
 }

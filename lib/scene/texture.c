@@ -334,22 +334,8 @@ void lrr__subtriangle_uv(const float uv[6], unsigned depth, size_t local, double
     for (int i = 0; i < 6; i++)
         v[i] = uv[i];
     for (unsigned l = depth; l-- > 0;) {
-        double ab[2], bc[2], ca[2], r[6];
-        for (int j = 0; j < 2; j++) {
-            ab[j] = 0.5 * (v[j] + v[2 + j]);
-            bc[j] = 0.5 * (v[2 + j] + v[4 + j]);
-            ca[j] = 0.5 * (v[4 + j] + v[j]);
-        }
-        const double *q[3];
-        switch ((local >> (2 * l)) & 3) { /* scene.h: the children's order */
-        case 0: q[0] = v; q[1] = ab; q[2] = ca; break;
-        case 1: q[0] = ab; q[1] = v + 2; q[2] = bc; break;
-        case 2: q[0] = ca; q[1] = bc; q[2] = v + 4; break;
-        default: q[0] = bc; q[1] = ca; q[2] = ab; break;
-        }
-        for (int i = 0; i < 3; i++)
-            for (int j = 0; j < 2; j++)
-                r[2 * i + j] = q[i][j];
+        double r[6];
+        lrr__child_corners(v, 2, (unsigned)((local >> (2 * l)) & 3), r);
         memcpy(v, r, sizeof r);
     }
     memcpy(out, v, sizeof v);
