@@ -141,6 +141,7 @@ int paper_step(void *user);
 void paper_free(paper_frame *f);
 /* a×b zeroed floats, 64-byte aligned (lrr_aligned_free); NULL on overflow or failure */
 float *alloc_floats(size_t a, size_t b);
+float *bench_fbar_rows(const lrr_operator *op);
 /* Builds the paper's Y_c and V from the operator (sgemm, outside any timing). */
 int paper_setup(const lrr_operator *op, const float *e, paper_frame *f);
 
@@ -149,6 +150,7 @@ typedef struct sgemv_frame {
     blasint n, k;
     const float *fbar;
     float *z[3], *out[3];
+    float *rows; /* the row-major copy fbar points to, when owned (bench_fbar_rows) */
 } sgemv_frame;
 
 int sgemv_step(void *user);

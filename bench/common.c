@@ -505,6 +505,18 @@ void paper_free(paper_frame *f)
     memset(f, 0, sizeof *f);
 }
 
+/* F̄ row-major in a new buffer (NULL when it cannot be allocated), whatever the operator's
+ * storage and layout: the OpenBLAS baselines read rows, the operator holds panels. */
+float *bench_fbar_rows(const lrr_operator *op)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi, sizeof oi);
+    float *f = alloc_floats(oi.n, oi.k);
+    for (size_t i = 0; f && i < oi.n; i++)
+        lrr_operator_fbar_row(op, i, f + i * oi.k);
+    return f;
+}
+
 float *alloc_floats(size_t a, size_t b)
 {
     if (a == 0 || b == 0 || a > SIZE_MAX / sizeof(float) / b)
@@ -537,8 +549,12 @@ int paper_setup(const lrr_operator *op, const float *e, paper_frame *f)
         return bench_fail("the paper's method: cannot allocate 4 n×k matrices (%.1f MB)",
                           4.0 * (double)n * (double)k * 4 / MB);
     }
-    const float *fbar = lrr_operator_fbar(op), *m = lrr_operator_m(op);
-    const float *rho = lrr_operator_reflectance(op);
+    float *fbar = bench_fbar_rows(op);
+    if (!fbar) {
+        paper_free(f);
+        return bench_fail("the paper's method: cannot allocate a row-major copy of F̄");
+    }
+    const float *m = lrr_operator_m(op), *rho = lrr_operator_reflectance(op);
     for (size_t i = 0; i < n; i++) {
         f->v[i * k + i / d] = 1.0f;
         for (int c = 0; c < 3; c++)
@@ -547,6 +563,8 @@ int paper_setup(const lrr_operator *op, const float *e, paper_frame *f)
     for (int c = 0; c < 3; c++) {
         cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, f->n, f->k, f->k, 1.0f, fbar,
                     f->k, m + (size_t)c * k * k, f->k, 0.0f, f->y[c], f->k);
+        if (c == 2)
+            lrr_aligned_free(fbar);
         float *y = f->y[c];
         #pragma omp parallel for schedule(static)
         for (size_t i = 0; i < n; i++) {

@@ -125,6 +125,8 @@ static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned 
     double t0 = cli_now();
     if (s == LRR_OK)
         s = lrr_operator_build(scene, &bo, &op);
+    if (s == LRR_OK) /* the checks below read F̄ as rows */
+        s = lrr_operator_set_layout(op, LRR_LAYOUT_ROWS);
     out->build_s = cli_now() - t0;
     lrr_scene_destroy(scene);
     if (s != LRR_OK)
@@ -172,6 +174,8 @@ static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, int no_rota
     if (s == LRR_OK)
         s = lrr_operator_build(scene, &bo, op);
     *seconds = cli_now() - t0;
+    if (s == LRR_OK) /* fbar_rel_l2 reads F̄ as rows */
+        s = lrr_operator_set_layout(*op, LRR_LAYOUT_ROWS);
     cli_progress_finish(&bar);
     lrr_scene_destroy(scene);
     return s == LRR_OK ? 0 : lib_fail(ctx, s, "Cornell box");

@@ -291,8 +291,6 @@ static int rt_build(rt_work *wk, const cell *c, rt_cell *r)
     wk->op = op;
     if (s != LRR_OK)
         return lib_fail(wk->ctx, s, "operator build");
-    if (!lrr_operator_fbar(op))
-        return bench_fail("%s: a fresh build is not stored as float", wk->label);
     r->n = wk->n = n;
     r->k = wk->k = k;
     r->d = wk->d = d;
@@ -462,16 +460,21 @@ static int rt_baselines(rt_work *wk, rt_cell *r)
             zt[3 * p + ch] = z[(size_t)ch * k + p];
     sf.n = (blasint)n;
     sf.k = (blasint)k;
-    sf.fbar = lrr_operator_fbar(wk->op);
+    sf.fbar = sf.rows = bench_fbar_rows(wk->op);
+    if (!sf.rows) {
+        rc = bench_fail("cannot allocate a row-major copy of F̄");
+        goto done;
+    }
     for (int ch = 0; ch < 3; ch++)
         sf.z[ch] = z + (size_t)ch * k;
     if ((rc = rt_time(sgemv_step, &sf, wk->a->repeat, &r->rows[RT_SGEMV3].t)))
         goto done;
-    sgemm_frame gf = {(blasint)n, (blasint)k, lrr_operator_fbar(wk->op), zt, wk->b};
+    sgemm_frame gf = {(blasint)n, (blasint)k, sf.rows, zt, wk->b};
     rc = rt_time(sgemm_step, &gf, wk->a->repeat, &r->rows[RT_SGEMM3].t);
 done:
     for (int ch = 0; ch < 3; ch++)
         lrr_aligned_free(sf.out[ch]);
+    lrr_aligned_free(sf.rows);
     lrr_aligned_free(z);
     lrr_aligned_free(zt);
     return rc;

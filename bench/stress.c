@@ -228,15 +228,19 @@ static int operator_row(lrr_context *ctx, const voxel_room *room, double rho,
     size_t n = oi.n, k = oi.k, d = oi.d;
     *r = (stress_row){room->name, n, k, d, rho, "lrr", 0, 0, 0, 0, NAN, "", 0, 0, INFINITY,
                       -INFINITY};
-    const float *fbar = lrr_operator_fbar(op);
+    float *row = alloc_floats(k, 1);
+    if (!row)
+        return bench_fail("cannot allocate a row of F̄");
     for (size_t i = 0; i < n; i++) {
         double sum = 0;
+        lrr_operator_fbar_row(op, i, row);
         for (size_t p = 0; p < k; p++)
-            sum += fbar[i * k + p];
+            sum += row[p];
         sum *= (double)d;
         r->row_min = fmin(r->row_min, sum);
         r->row_max = fmax(r->row_max, sum);
     }
+    lrr_aligned_free(row);
     r->cond_max = fmax(oi.condition[0], fmax(oi.condition[1], oi.condition[2]));
     lrr_solver *solver = NULL;
     lrr_status s;

@@ -389,7 +389,22 @@ LRR_API LRR_NODISCARD lrr_status lrr_storage_from_name(const char *name, lrr_sto
 LRR_API LRR_NODISCARD lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
     LRR_NONNULL(1);
 
-/* Row i of F̄ (k floats), decoded from whatever storage the operator uses. */
+/* How F̄ is laid out in memory. PANELS (what lrr_operator_build and lrr_operator_load
+ * give): blocks of 32 rows, each stored column-major, which the real-time kernels read at
+ * the memory bandwidth (docs/METHOD.md "Real-time step"); ROWS: plain n×k row-major, for
+ * callers that want lrr_operator_fbar's pointer (BLAS, their own kernels). Files always hold
+ * rows; the solvers read either. */
+typedef enum lrr_layout {
+    LRR_LAYOUT_PANELS = 0,
+    LRR_LAYOUT_ROWS = 1
+} lrr_layout;
+
+/* Rewrites F̄ in the given layout, in place (one pass; the values do not change). Destroy
+ * the operator's solvers first. Thread safety: one thread per object. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_set_layout(lrr_operator *op, lrr_layout layout)
+    LRR_NONNULL(1);
+
+/* Row i of F̄ (k floats), decoded from whatever storage and layout the operator uses. */
 LRR_API void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
     LRR_NONNULL(1, 3);
 
@@ -424,13 +439,15 @@ typedef struct lrr_operator_info {
                                    else LRR_HIERARCHY_QUADTREE */
     double formfactor_seconds;  /* the hemicubes' share of build_seconds (0 after a load) */
     double smw_seconds;         /* the factorisation's share of build_seconds (0 after a load) */
+    int layout;                 /* lrr_layout of F̄ in memory */
 } lrr_operator_info;
 /* info_size = sizeof *info (see Conventions). */
 LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info,
                                    size_t info_size) LRR_NONNULL(1, 2);
 
 /* Read-only views valid for the operator's life: F̄ (n×k row-major, ld = k; NULL unless the
- * storage is LRR_STORAGE_F32: use lrr_operator_fbar_row then), M (3 k×k row-major matrices,
+ * storage is LRR_STORAGE_F32 and the layout LRR_LAYOUT_ROWS: use lrr_operator_set_layout or
+ * lrr_operator_fbar_row then), M (3 k×k row-major matrices,
  * channel-major), rho/emission/centre/normal (n×3), area (n). */
 LRR_API const float *lrr_operator_fbar(const lrr_operator *op) LRR_NONNULL(1);
 LRR_API const float *lrr_operator_m(const lrr_operator *op) LRR_NONNULL(1);

@@ -309,6 +309,8 @@ static void test_shared_scene(void **state)
             fail_msg("builder %d: %s", t, lrr_strerror((lrr_status)jobs[t].status));
         lrr_operator_get_info(jobs[t].op, &b, sizeof b);
         assert_int_equal(a.n, b.n);
+        LRR_CHECK(ctx, lrr_operator_set_layout(serial.op, LRR_LAYOUT_ROWS));
+        LRR_CHECK(ctx, lrr_operator_set_layout(jobs[t].op, LRR_LAYOUT_ROWS));
         assert_memory_equal(lrr_operator_fbar(serial.op), lrr_operator_fbar(jobs[t].op),
                             a.n * a.k * sizeof(float));
         assert_memory_equal(lrr_operator_m(serial.op), lrr_operator_m(jobs[t].op),

@@ -105,6 +105,7 @@ void print_operator_info(const lrr_operator *op)
     printf("cond_g: %.6g\n", oi.condition[1]);
     printf("cond_b: %.6g\n", oi.condition[2]);
     printf("storage: %s\n", lrr_storage_name(oi.storage));
+    printf("layout: %s\n", oi.layout == LRR_LAYOUT_ROWS ? "rows" : "panels");
     printf("memory_mb: %.3f\n", (double)oi.bytes / (1024.0 * 1024.0));
 }
 

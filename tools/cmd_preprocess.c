@@ -17,7 +17,7 @@ static const char preprocess_help[] =
     "Usage: lrr preprocess SCENE -o FILE.lrr [OPTIONS]\n"
     "Builds the low-rank operator (hemicube form factors F̄ and the k×k matrices M_c) and\n"
     "saves it atomically. Prints 'key: value' lines: n, k, d, hemicube, seed,\n"
-    "build_seconds, cond_r, cond_g, cond_b, storage, memory_mb, backend, formfactor\n"
+    "build_seconds, cond_r, cond_g, cond_b, storage, layout, memory_mb, backend, formfactor\n"
     "(raster or raycast, as used), back_face_share (the light-leak indicator: the mean\n"
     "share of the receivers' hemicubes that sees the back of a triangle; 0 for a closed\n"
     "scene with consistent orientation), up to 5 'worst_back_face: TRIANGLE SHARE' lines\n"

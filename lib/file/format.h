@@ -45,6 +45,7 @@ struct section {
     uint32_t id;
     const void *data;
     uint64_t size, offset, checksum;
+    struct rows_out *rows; /* saving FBAR held in panels: written as rows from here */
 };
 
 /* The checksum of the format comment in lrr_file.c, over len bytes. */

@@ -210,7 +210,7 @@ static lrr_status find_sections(struct reader *r, const struct header *hd,
     bool seen[SEC_KNOWN] = {false};
     for (uint32_t i = 0; i < hd->count; i++) {
         const unsigned char *e = table + i * ENTRY_SIZE;
-        struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24)};
+        struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24), NULL};
         if (s.id < 1 || s.id > SEC_KNOWN || (s.id == SEC_ROWSCALE && hd->dtype == DTYPE_F32) ||
             (s.id == SEC_PATCHES && (!hd->adaptive || hd->clusters)) ||
             (s.id == SEC_CLUSTERS && !hd->clusters))
@@ -554,7 +554,8 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
         (st = read_section(&r, &sec[SEC_FBAR - 1],
                            dtype == DTYPE_F32 ? (void *)op->fbar : (void *)op->fbar16)) ||
         (dtype != DTYPE_F32 && (st = read_section(&r, &sec[SEC_ROWSCALE - 1], op->row_scale))) ||
-        (st = read_section(&r, &sec[SEC_M - 1], op->m)) || (st = check_values(&r, op)))
+        (st = read_section(&r, &sec[SEC_M - 1], op->m)) || (st = check_values(&r, op)) ||
+        (st = lrr__fbar_set_panels(op, 1))) /* files hold rows; the kernels read panels */
         goto done;
     for (int c = 0; c < 3; c++)
         memcpy(&op->cond[c], info + 8 * c, 8);

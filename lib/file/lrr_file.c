@@ -95,11 +95,11 @@ static uint64_t fmix64(uint64_t h)
     return h;
 }
 
-uint64_t lrr__file_checksum(const void *data, size_t len)
+/* the checksum's running state over the next len bytes (a multiple of 8 except at the end) */
+static uint64_t checksum_run(uint64_t h, const void *data, size_t len)
 {
     const unsigned char *p = data;
     const uint64_t prime = 0x100000001b3ULL;
-    uint64_t h = 0xcbf29ce484222325ULL ^ (uint64_t)len;
     size_t words = len / 8;
     for (size_t i = 0; i < words; i++) {
         uint64_t w;
@@ -112,7 +112,35 @@ uint64_t lrr__file_checksum(const void *data, size_t len)
         memcpy(&w, p + 8 * words, tail);
         h = (h ^ w) * prime;
     }
-    return fmix64(h ^ (uint64_t)len);
+    return h;
+}
+
+static uint64_t checksum_begin(uint64_t len) { return 0xcbf29ce484222325ULL ^ len; }
+static uint64_t checksum_end(uint64_t h, uint64_t len) { return fmix64(h ^ len); }
+
+uint64_t lrr__file_checksum(const void *data, size_t len)
+{
+    return checksum_end(checksum_run(checksum_begin(len), data, len), len);
+}
+
+/* FBAR is written as rows whatever the operator's layout (operator.h), a block of
+ * LRR__PANEL rows at a time through a scratch block: a block's bytes are a multiple of 8
+ * (LRR__PANEL·k·2), so the checksum runs over the blocks as over one buffer. */
+struct rows_out {
+    const lrr_operator *op;
+    void *blk;     /* LRR__PANEL rows as stored */
+    size_t row_bytes;
+};
+
+static uint64_t rows_checksum(struct rows_out *ro, uint64_t len)
+{
+    uint64_t h = checksum_begin(len);
+    for (size_t i = 0; i < ro->op->n; i += LRR__PANEL) {
+        size_t i1 = i + LRR__PANEL < ro->op->n ? i + LRR__PANEL : ro->op->n;
+        lrr__fbar_copy_rows(ro->op, i, i1, ro->blk);
+        h = checksum_run(h, ro->blk, (i1 - i) * ro->row_bytes);
+    }
+    return checksum_end(h, len);
 }
 
 static uint64_t align_up(uint64_t x) { return (x + (ALIGN - 1)) & ~(uint64_t)(ALIGN - 1); }
@@ -199,7 +227,8 @@ static size_t lay_out(const lrr_operator *op, int adaptive, struct section *sec,
     uint64_t pos = HEADER_SIZE + tsize;
     for (int s = 0; s < count; s++) {
         sec[s].offset = align_up(pos);
-        sec[s].checksum = lrr__file_checksum(sec[s].data, (size_t)sec[s].size);
+        sec[s].checksum = sec[s].rows ? rows_checksum(sec[s].rows, sec[s].size)
+                                      : lrr__file_checksum(sec[s].data, (size_t)sec[s].size);
         pos = sec[s].offset + sec[s].size; /* below the in-memory sizes: cannot overflow */
         unsigned char *e = table + s * ENTRY_SIZE;
         put32(e, sec[s].id);
@@ -238,7 +267,14 @@ static lrr_status write_file(lrr_context *ctx, const char *path, const unsigned 
         w_bytes(&w, table, tsize);
         for (int s = 0; s < count; s++) {
             w_pad_to(&w, sec[s].offset);
-            w_bytes(&w, sec[s].data, (size_t)sec[s].size);
+            struct rows_out *ro = sec[s].rows;
+            for (size_t i = 0; ro && i < ro->op->n && !w.file.err; i += LRR__PANEL) {
+                size_t i1 = i + LRR__PANEL < ro->op->n ? i + LRR__PANEL : ro->op->n;
+                lrr__fbar_copy_rows(ro->op, i, i1, ro->blk);
+                w_bytes(&w, ro->blk, (i1 - i) * ro->row_bytes);
+            }
+            if (!ro)
+                w_bytes(&w, sec[s].data, (size_t)sec[s].size);
         }
         lrr__atomic_commit(&w.file);
     }
@@ -284,13 +320,23 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         return st;
 
     const void *fbar_data = half ? (const void *)op->fbar16 : (const void *)op->fbar;
+    struct rows_out ro = {op, NULL, op->k * (half ? sizeof(uint16_t) : sizeof(float))};
+    if (op->panels && (st = lrr__calloc(ctx, &ro.blk, LRR__PANEL, ro.row_bytes,
+                                        "a block of F̄ rows"))) {
+        lrr_aligned_free(geom);
+        lrr_aligned_free(patches);
+        return st;
+    }
     struct section sec[SEC_KNOWN] = {
-        {SEC_GEOMETRY, geom, geom_size, 0, 0},  {SEC_RHO, op->rho, rho_size, 0, 0},
-        {SEC_EMISSION, op->emission, rho_size, 0, 0}, {SEC_FBAR, fbar_data, fbar_size, 0, 0},
-        {SEC_M, op->m, m_size, 0, 0},           {SEC_INFO, info, INFO_SIZE, 0, 0},
-        {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0},
-        {SEC_PATCHES, patches, (uint64_t)op->k + PATCHES_PREFIX, 0, 0},
-        {SEC_CLUSTERS, patches, clusters_size, 0, 0},
+        {SEC_GEOMETRY, geom, geom_size, 0, 0, NULL},
+        {SEC_RHO, op->rho, rho_size, 0, 0, NULL},
+        {SEC_EMISSION, op->emission, rho_size, 0, 0, NULL},
+        {SEC_FBAR, fbar_data, fbar_size, 0, 0, op->panels ? &ro : NULL},
+        {SEC_M, op->m, m_size, 0, 0, NULL},
+        {SEC_INFO, info, INFO_SIZE, 0, 0, NULL},
+        {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0, NULL},
+        {SEC_PATCHES, patches, (uint64_t)op->k + PATCHES_PREFIX, 0, 0, NULL},
+        {SEC_CLUSTERS, patches, clusters_size, 0, 0, NULL},
     };
     int count = SEC_COUNT;
     if (half)
@@ -302,6 +348,7 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     const size_t tsize = lay_out(op, adaptive, sec, count, table, header);
 
     st = write_file(ctx, path, header, table, tsize, sec, count);
+    lrr_aligned_free(ro.blk);
     lrr_aligned_free(geom);
     lrr_aligned_free(patches);
     return st;

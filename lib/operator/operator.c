@@ -212,6 +212,11 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
         return st;
     }
     op->smw_seconds = lrr__now() - t1;
+    if ((st = lrr__fbar_set_panels(op, 1))) {
+        lrr_aligned_free(back);
+        lrr_operator_destroy(op);
+        return st;
+    }
     back_face_summary(op, back);
     lrr_aligned_free(back);
     op->build_seconds = lrr__now() - t0;
@@ -225,9 +230,12 @@ lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown storage %d", (int)storage);
     if (storage == op->storage)
         return LRR_OK;
+    const int panels = op->panels;
     lrr_status st = lrr__fbar_convert(op, storage);
     /* M must invert I − Vᵀ R F̄ for the F̄ the kernels now read */
-    return st ? st : lrr__smw_factor(op);
+    if (!st)
+        st = lrr__smw_factor(op);
+    return st ? st : lrr__fbar_set_panels(op, panels);
 }
 
 lrr_status lrr_operator_set_reflectance(lrr_operator *op, const float *rho)
@@ -272,6 +280,7 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_
     info->selection_seconds = op->selection_seconds;
     info->formfactor_seconds = op->formfactor_seconds;
     info->smw_seconds = op->smw_seconds;
+    info->layout = op->panels ? LRR_LAYOUT_PANELS : LRR_LAYOUT_ROWS;
     info->hierarchy = op->geom.origin ? LRR_HIERARCHY_CLUSTER : LRR_HIERARCHY_QUADTREE;
     info->triangles = op->geom.n_tri;
     memcpy(info->condition, op->cond, sizeof op->cond);
@@ -291,7 +300,6 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_
     lrr__info_write(out, out_size, info, sizeof *info);
 }
 
-const float *lrr_operator_fbar(const lrr_operator *op) { return op->fbar; }
 const float *lrr_operator_m(const lrr_operator *op) { return op->m; }
 const float *lrr_operator_reflectance(const lrr_operator *op) { return op->rho; }
 const float *lrr_operator_emission(const lrr_operator *op) { return op->emission; }

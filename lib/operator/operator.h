@@ -17,7 +17,8 @@ struct lrr_operator {
                                   derived from geom (lrr__patch_weights) */
     float *centre, *normal;    /* n×3, derived from geom (not stored in files) */
     lrr_storage storage;       /* which of fbar / fbar16 holds F̄ */
-    float *fbar;               /* n×k row-major, 64-byte aligned: F̄_ip = F_{i→p}/d (F32) */
+    int panels;                /* F̄ in panels (layout.c, lrr__fbar_index) rather than rows */
+    float *fbar;               /* n×k, 64-byte aligned: F̄_ip = F_{i→p}/d (F32) */
     uint16_t *fbar16;          /* n×k binary16 or bfloat16 (F16, BF16), F̄_ip / row_scale_i */
     float *row_scale;          /* n powers of two (F16, BF16; all 1 for BF16) */
     float *m;                  /* 3×k×k row-major: M_c = G_c^{-1} */
@@ -45,9 +46,34 @@ uint16_t lrr__f32_to_f16(float f);
 float lrr__f16_to_f32(uint16_t h);
 uint16_t lrr__f32_to_bf16(float f);
 float lrr__bf16_to_f32(uint16_t b);
-/* Rewrites F̄ in `storage` (storage.c); M is then stale: lrr_operator_set_storage
- * refactors. */
+/* Rewrites F̄ in `storage` (storage.c), as rows whatever the layout was; M is then stale:
+ * lrr_operator_set_storage refactors and restores the layout. */
 lrr_status lrr__fbar_convert(lrr_operator *op, lrr_storage storage);
+
+/* layout.c: F̄ in panels. Rows [0, n − n % LRR__PANEL) are held in blocks of LRR__PANEL
+ * rows, each block column-major (entry (i, q) at i0·k + LRR__PANEL·q + (i − i0), i0 the
+ * block's first row), so that the real-time kernel multiplies a block's column by the
+ * broadcast z_q with vertical FMAs and no horizontal sums; the last n % LRR__PANEL rows stay
+ * row-major behind them. Each block occupies the bytes its rows occupy row-major, so the
+ * two layouts convert in place, block by block. */
+#define LRR__PANEL 32
+static inline size_t lrr__fbar_panel_rows(const lrr_operator *op)
+{
+    return op->panels ? op->n - op->n % LRR__PANEL : 0;
+}
+/* the element index of F̄_iq in fbar / fbar16 */
+static inline size_t lrr__fbar_index(const lrr_operator *op, size_t i, size_t q)
+{
+    if (i >= lrr__fbar_panel_rows(op))
+        return i * op->k + q;
+    size_t r = i % LRR__PANEL;
+    return (i - r) * op->k + LRR__PANEL * q + r;
+}
+/* Rewrites F̄ in place into panels (1) or rows (0); a no-op when it already is. Needs one
+ * block of scratch per thread (LRR_ERR_NOMEM leaves F̄ as it was). */
+lrr_status lrr__fbar_set_panels(lrr_operator *op, int panels);
+/* Rows [i0, i1) of F̄ as stored (float, or the 16-bit codes), row-major into out. */
+void lrr__fbar_copy_rows(const lrr_operator *op, size_t i0, size_t i1, void *out);
 
 /* budget.c: the bytes an operator build holds at its peak (the layout is described there),
  * for n_tri input triangles, n subpatches, k patches, F̄ in `storage` and the resolved build

@@ -32,10 +32,11 @@ lrr_status lrr__smw_factor(lrr_operator *op)
         lrr_aligned_free(G);
         return st;
     }
-    /* with 16-bit storage, rows are decoded into one scratch row per thread */
+    /* with 16-bit storage or panels, rows are decoded into one scratch row per thread */
     float *rowbuf = NULL;
     int threads = omp_get_max_threads();
-    if (op->storage != LRR_STORAGE_F32 &&
+    const int rows = op->storage == LRR_STORAGE_F32 && !op->panels; /* read in place */
+    if (!rows &&
         (st = lrr__calloc(op->ctx, &rowbuf, (size_t)threads, k * sizeof(float),
                           "decoded F̄ rows"))) {
         lrr_aligned_free(G);
@@ -54,8 +55,8 @@ lrr_status lrr__smw_factor(lrr_operator *op)
                 double r = (double)op->weight[i] * op->rho[3 * i + c];
                 if (r == 0)
                     continue; /* black subpatches reflect nothing */
-                const float *fi = op->fbar ? op->fbar + i * k : scratch;
-                if (!op->fbar)
+                const float *fi = rows ? op->fbar + i * k : scratch;
+                if (!rows)
                     lrr_operator_fbar_row(op, i, scratch);
                 for (size_t q = 0; q < k; q++)
                     gp[q] -= r * fi[q];

@@ -121,14 +121,14 @@ void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
 {
     const size_t k = op->k;
     if (op->storage == LRR_STORAGE_F32) {
-        memcpy(out, op->fbar + i * k, k * sizeof(float));
+        lrr__fbar_copy_rows(op, i, i + 1, out);
         return;
     }
-    const uint16_t *row = op->fbar16 + i * k;
     const float s = op->row_scale[i];
-    for (size_t q = 0; q < k; q++)
-        out[q] = s * (op->storage == LRR_STORAGE_F16 ? lrr__f16_to_f32(row[q])
-                                                     : lrr__bf16_to_f32(row[q]));
+    for (size_t q = 0; q < k; q++) {
+        uint16_t h = op->fbar16[lrr__fbar_index(op, i, q)];
+        out[q] = s * (op->storage == LRR_STORAGE_F16 ? lrr__f16_to_f32(h) : lrr__bf16_to_f32(h));
+    }
 }
 
 lrr_status lrr__fbar_convert(lrr_operator *op, lrr_storage storage)
@@ -162,6 +162,13 @@ lrr_status lrr__fbar_convert(lrr_operator *op, lrr_storage storage)
             for (size_t i = 0; i < n; i++)
                 lrr_operator_fbar_row(op, i, tmp + i * k);
         }
+        if (!tmp && op->panels) /* float source in panels: rows of it, in place */
+            st = lrr__fbar_set_panels(op, 0);
+        if (st) {
+            lrr_aligned_free(f16);
+            lrr_aligned_free(scale);
+            return st;
+        }
         const float *src = tmp ? tmp : op->fbar;
         #pragma omp parallel for schedule(static)
         for (size_t i = 0; i < n; i++) {
@@ -181,5 +188,6 @@ lrr_status lrr__fbar_convert(lrr_operator *op, lrr_storage storage)
     op->fbar16 = f16;
     op->row_scale = scale;
     op->storage = storage;
+    op->panels = 0; /* the new arrays were written as rows */
     return LRR_OK;
 }

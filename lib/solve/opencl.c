@@ -135,7 +135,8 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
     const int storage = cl->op->storage == LRR_STORAGE_F16    ? 1
                         : cl->op->storage == LRR_STORAGE_BF16 ? 2
                                                               : 0;
-    snprintf(opts, sizeof opts, "-DSTORAGE=%d -DWG=%zu", storage, cl->group_size);
+    snprintf(opts, sizeof opts, "-DSTORAGE=%d -DWG=%zu -DPANEL=%d", storage, cl->group_size,
+             LRR__PANEL);
     err = clBuildProgram(cl->program, 1, &dev, opts, NULL, NULL);
     if (err != CL_SUCCESS) {
         char log[LOG_MAX + 1] = "";
@@ -170,7 +171,8 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
 static lrr_status set_args(lrr__cl_solver *cl)
 {
     const lrr_operator *op = cl->op;
-    const cl_uint un = (cl_uint)op->n, uk = (cl_uint)op->k;
+    const cl_uint un = (cl_uint)op->n, uk = (cl_uint)op->k,
+                  unp = (cl_uint)lrr__fbar_panel_rows(op);
     struct {
         cl_kernel kn;
         cl_uint index;
@@ -206,6 +208,8 @@ static lrr_status set_args(lrr__cl_solver *cl)
             err = clSetKernelArg(prod[i], 6, sizeof uk, &uk);
         if (err == CL_SUCCESS)
             err = clSetKernelArg(prod[i], 7, sizeof(cl_mem), bufs[5]);
+        if (err == CL_SUCCESS)
+            err = clSetKernelArg(prod[i], 8, sizeof unp, &unp);
         if (err != CL_SUCCESS)
             return lrr__cl_fail(op->ctx, err, "clSetKernelArg", what);
     }
@@ -256,7 +260,10 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
     clGetDeviceInfo(dev, CL_DEVICE_TYPE, sizeof type, &type, NULL);
     clGetDeviceInfo(dev, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
     snprintf(cl->name, sizeof cl->name, "opencl:%s", dn);
-    cl->use_groups = !(type & CL_DEVICE_TYPE_CPU);
+    /* A group per row coalesces the loads of a row-major F̄ on a GPU; in panels, the items
+     * of fbar_rows (one per row) already read adjacent addresses at every step, as a GPU
+     * wants, without the reduction. Neither measured on a GPU yet (none was lent). */
+    cl->use_groups = !(type & CL_DEVICE_TYPE_CPU) && lrr__fbar_panel_rows(op) == 0;
     cl->group_size = 1;
     while (cl->group_size * 2 <= GROUP_SIZE && cl->group_size * 2 <= max_wg)
         cl->group_size *= 2;

@@ -5,7 +5,9 @@
  *     B_c = E_c + rho_c * (Fbar z_c)    fbar_rows / fbar_groups: Fbar read once for all
  *                                       three channels, the epilogue fused
  * E, rho, B are n x 3 interleaved; w and z 3 x k channel-major; M three k x k row-major
- * blocks. Fbar is n x k row-major in the operator's storage, chosen by -DSTORAGE=:
+ * blocks. Fbar is n x k in the operator's storage, rows [0, np) in panels of PANEL rows
+ * stored column-major and the rest row-major (lib/operator/operator.h; np = 0: all rows),
+ * its elements chosen by -DSTORAGE=:
  *     0  float
  *     1  IEEE binary16 (vload_half, which needs no cl_khr_fp16), row i times scale[i]
  *     2  bfloat16 (the high half of a float), row i times scale[i] (all 1)
@@ -18,6 +20,15 @@
 #ifndef WG
 #define WG 64
 #endif
+#ifndef PANEL
+#define PANEL 32
+#endif
+
+/* Row i's first entry and the distance between its entries: in a panel, consecutive rows
+ * are adjacent, so the work-items of fbar_rows read contiguous memory (coalesced on a GPU,
+ * vectorisable across items on a CPU). */
+#define ROW_BASE(i) ((i) < np ? (size_t)((i) / PANEL * PANEL) * k + (i) % PANEL : (size_t)(i) * k)
+#define ROW_STEP(i) ((i) < np ? PANEL : 1u)
 
 #if STORAGE == 0
 #define FBAR_T float
@@ -67,20 +78,22 @@ __kernel void smw(__global const float *m, __global const float *w, uint k, __gl
     z[(size_t)c * k + r] = t;
 }
 
-/* CPU devices: one work-item per row, walking its k entries in order (the prefetchers and
- * the compiler's vectoriser across work-items do the rest). Measured on PoCL (2 CPU cores):
- * 7.7 ms a frame, against 46-150 ms for column-major layouts of the same matrix. */
+/* One work-item per row, walking its k entries in order: CPU devices, and GPUs when F̄ is in
+ * panels (neighbouring items then read neighbouring addresses). Measured on PoCL (2 CPU
+ * cores), F̄ as rows: 7.7 ms a frame, against 46-150 ms for column-major layouts of the
+ * same matrix; panels: see docs/METHOD.md "Real-time step". */
 __kernel void fbar_rows(__global const FBAR_T *fbar, __global const float *scale,
                         __global const float *z, __global const float *E,
-                        __global const float *rho, uint n, uint k, __global float *B)
+                        __global const float *rho, uint n, uint k, __global float *B, uint np)
 {
     const uint i = get_global_id(0);
     if (i >= n)
         return;
-    __global const FBAR_T *row = fbar + (size_t)i * k;
+    __global const FBAR_T *row = fbar + ROW_BASE(i);
+    const size_t step = ROW_STEP(i);
     float t0 = 0, t1 = 0, t2 = 0;
     for (uint j = 0; j < k; j++) {
-        const float f = LOAD(row, j);
+        const float f = LOAD(row, j * step);
         t0 += f * z[j];
         t1 += f * z[k + j];
         t2 += f * z[2 * k + j];
@@ -103,14 +116,15 @@ __kernel void fbar_rows(__global const FBAR_T *fbar, __global const float *scale
 __kernel __attribute__((reqd_work_group_size(WG, 1, 1)))
 void fbar_groups(__global const FBAR_T *fbar, __global const float *scale,
                  __global const float *z, __global const float *E, __global const float *rho,
-                 uint n, uint k, __global float *B)
+                 uint n, uint k, __global float *B, uint np)
 {
     __local float red[3 * WG];
     const uint i = get_group_id(0), l = get_local_id(0);
-    __global const FBAR_T *row = fbar + (size_t)i * k;
+    __global const FBAR_T *row = fbar + ROW_BASE(i);
+    const size_t step = ROW_STEP(i);
     float t0 = 0, t1 = 0, t2 = 0;
     for (uint j = l; j < k; j += WG) {
-        const float f = LOAD(row, j);
+        const float f = LOAD(row, j * step);
         t0 += f * z[j];
         t1 += f * z[k + j];
         t2 += f * z[2 * k + j];

@@ -471,10 +471,13 @@ __attribute__((target("avx512f"))) static void gemv_rows_avx512(const float *a, 
 
 
 static const lrr__kernel kernels[] = {
-    {"c", fbar_rows_c, f16_rows_c, bf16_rows_c, gemv_rows_c},
+    {"c", fbar_rows_c, f16_rows_c, bf16_rows_c, gemv_rows_c, lrr__panels_f32_c,
+     lrr__panels_f16_c, lrr__panels_bf16_c},
 #ifdef LRR_X86
-    {"avx2", fbar_rows_avx2, f16_rows_avx2, bf16_rows_avx2, gemv_rows_avx2},
-    {"avx512", fbar_rows_avx512, f16_rows_avx512, bf16_rows_avx512, gemv_rows_avx512},
+    {"avx2", fbar_rows_avx2, f16_rows_avx2, bf16_rows_avx2, gemv_rows_avx2,
+     lrr__panels_f32_avx2, lrr__panels_f16_avx2, lrr__panels_bf16_avx2},
+    {"avx512", fbar_rows_avx512, f16_rows_avx512, bf16_rows_avx512, gemv_rows_avx512,
+     lrr__panels_f32_avx512, lrr__panels_f16_avx512, lrr__panels_bf16_avx512},
 #endif
 };
 
@@ -529,7 +532,7 @@ lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, size_t k,
     return LRR_OK;
 }
 
-/* Rows per OpenMP chunk: a multiple of 4 so the vector kernels' row groups stay whole. */
+/* Rows per OpenMP chunk: a multiple of the panel height (and of the row kernels' groups). */
 #define ROW_BLOCK 64
 
 void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z)
@@ -549,6 +552,8 @@ void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float 
     const size_t n = op->n, k = op->k;
     const size_t blocks = (n + ROW_BLOCK - 1) / ROW_BLOCK;
     const lrr_storage storage = op->storage;
+    const size_t np = lrr__fbar_panel_rows(op); /* rows [0, np) in panels, the rest rows */
+    _Static_assert(ROW_BLOCK % LRR__PANEL == 0, "blocks of whole panels");
     #pragma omp parallel for schedule(static) if (n * k >= LRR__PARALLEL_MIN)
     for (size_t b = 0; b < blocks; b++) {
         size_t i0 = b * ROW_BLOCK, i1 = i0 + ROW_BLOCK < n ? i0 + ROW_BLOCK : n;
@@ -560,11 +565,16 @@ void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float 
             memcpy(B + 3 * i0, E + 3 * i0, 3 * (i1 - i0) * sizeof(float));
             continue;
         }
-        if (storage == LRR_STORAGE_F16)
-            kn->f16_rows(op->fbar16, op->row_scale, i0, i1, k, z, E, rho, B);
-        else if (storage == LRR_STORAGE_BF16)
-            kn->bf16_rows(op->fbar16, op->row_scale, i0, i1, k, z, E, rho, B);
-        else
-            kn->fbar_rows(op->fbar, i0, i1, k, z, E, rho, B);
+        size_t im = i1 < np ? i1 : i0 > np ? i0 : np; /* [i0, im) panels, [im, i1) rows */
+        if (storage == LRR_STORAGE_F16) {
+            kn->f16_panels(op->fbar16, op->row_scale, i0, im, k, z, E, rho, B);
+            kn->f16_rows(op->fbar16, op->row_scale, im, i1, k, z, E, rho, B);
+        } else if (storage == LRR_STORAGE_BF16) {
+            kn->bf16_panels(op->fbar16, op->row_scale, i0, im, k, z, E, rho, B);
+            kn->bf16_rows(op->fbar16, op->row_scale, im, i1, k, z, E, rho, B);
+        } else {
+            kn->fbar_panels(op->fbar, i0, im, k, z, E, rho, B);
+            kn->fbar_rows(op->fbar, im, i1, k, z, E, rho, B);
+        }
     }
 }

@@ -19,7 +19,27 @@ typedef struct lrr__kernel {
                       size_t k, const float *z, const float *E, const float *rho, float *B);
     /* rows [i0, i1) of y = A x, A row-major with k columns */
     void (*gemv_rows)(const float *a, size_t i0, size_t i1, size_t k, const float *x, float *y);
+    /* fbar_rows and the 16-bit pair over F̄ in panels (operator.h), rows [i0, i1) a whole
+     * number of panels (panel_kernel.c) */
+    void (*fbar_panels)(const float *fbar, size_t i0, size_t i1, size_t k, const float *z,
+                        const float *E, const float *rho, float *B);
+    void (*f16_panels)(const uint16_t *fbar, const float *scale, size_t i0, size_t i1,
+                       size_t k, const float *z, const float *E, const float *rho, float *B);
+    void (*bf16_panels)(const uint16_t *fbar, const float *scale, size_t i0, size_t i1,
+                        size_t k, const float *z, const float *E, const float *rho, float *B);
 } lrr__kernel;
+
+/* panel_kernel.c's variants (the signatures of lrr__kernel's *_panels) */
+#define LRR__DECLARE_PANELS(ISA)                                                             \
+    void lrr__panels_f32_##ISA(const float *, size_t, size_t, size_t, const float *,       \
+                               const float *, const float *, float *);                     \
+    void lrr__panels_f16_##ISA(const uint16_t *, const float *, size_t, size_t, size_t,    \
+                               const float *, const float *, const float *, float *);      \
+    void lrr__panels_bf16_##ISA(const uint16_t *, const float *, size_t, size_t, size_t,   \
+                                const float *, const float *, const float *, float *);
+LRR__DECLARE_PANELS(c)
+LRR__DECLARE_PANELS(avx2)
+LRR__DECLARE_PANELS(avx512)
 
 /* The fastest variant this CPU runs for rows of k entries, or the one named by force
  * (LRR_SIMD: c, avx2, avx512). */

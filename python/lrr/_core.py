@@ -312,6 +312,7 @@ class Operator:
         lib.lrr_operator_get_info(self.h, ctypes.byref(i), ctypes.sizeof(i))
         d = _struct_dict(i)
         d["storage"] = lib.lrr_storage_name(i.storage).decode()
+        d["layout"] = "rows" if i.layout == 1 else "panels"
         d["hierarchy"] = "clusters" if i.hierarchy == 1 else "quadtree"
         return d
 
@@ -421,6 +422,15 @@ class Operator:
         self.context.call(lib.lrr_storage_from_name, str(storage).encode(), ctypes.byref(s))
         self._drop_solver()  # lrr: destroy the operator's solvers first
         self.context.call(lib.lrr_operator_set_storage, self.h, s.value)
+
+    def set_layout(self, layout):
+        """'panels' (what build and load give; the fast one) or 'rows' (lrr_operator_set_layout):
+        where F̄'s entries sit in memory, never their values."""
+        names = {"panels": 0, "rows": 1}
+        if layout not in names:
+            raise ValueError("layout must be 'panels' or 'rows', not %r" % (layout,))
+        self._drop_solver()  # lrr: destroy the operator's solvers first
+        self.context.call(lib.lrr_operator_set_layout, self.h, names[layout])
 
     def _drop_solver(self):
         if self._solver is not None:

@@ -82,7 +82,8 @@ class OperatorInfo(ctypes.Structure):
                 ("worst_back_face_share", ctypes.c_double * BACK_FACE_WORST),
                 ("hierarchy", ctypes.c_int),
                 ("formfactor_seconds", ctypes.c_double),
-                ("smw_seconds", ctypes.c_double)]
+                ("smw_seconds", ctypes.c_double),
+                ("layout", ctypes.c_int)]
 
 
 class LightSource(ctypes.Structure):
@@ -146,6 +147,7 @@ _PROTOTYPES = {
     "lrr_operator_load": (_S, [_P, _STR, ctypes.POINTER(_P)]),
     "lrr_operator_set_reflectance": (_S, [_P, c_float_p]),
     "lrr_operator_set_storage": (_S, [_P, ctypes.c_int]),
+    "lrr_operator_set_layout": (_S, [_P, ctypes.c_int]),
     "lrr_storage_from_name": (_S, [_STR, ctypes.POINTER(ctypes.c_int)]),
     "lrr_storage_name": (_STR, [ctypes.c_int]),
     "lrr_operator_get_info": (None, [_P, ctypes.POINTER(OperatorInfo), c_size_t]),

@@ -200,6 +200,20 @@ class Solve(unittest.TestCase):
         print("\n  dense model solve: max relative difference %.2e" % err, file=sys.stderr)
         self.assertLess(err, 1e-5)
 
+    def test_layout_keeps_values(self):
+        """Panels and rows hold the same F̄ and solve to the dense model's B (to float
+        rounding: the kernels sum in different orders)."""
+        op = lrr.build("cornell", patches=36, levels=1, hemicube=16)
+        self.assertEqual(op.info["layout"], "panels")
+        f, b = op.fbar(), op.solve()
+        op.set_layout("rows")
+        self.assertEqual(op.info["layout"], "rows")
+        np.testing.assert_array_equal(op.fbar(), f)
+        self.assertLess(max_rel(op.solve(), b), 1e-6)
+        self.assertLess(max_rel(b, dense_model(op, op.emission)), 1e-5)
+        with self.assertRaises(ValueError):
+            op.set_layout("columns")
+
     def test_set_reflectance_and_save(self):
         """New reflectances give the dense model's B with them; an operator saved and loaded
         back solves to the same bits."""

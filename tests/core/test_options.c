@@ -91,6 +91,9 @@ static void test_defaults_equal_null(void **state)
     lrr_operator_get_info(b, &ib, sizeof ib);
     assert_int_equal(ia.hemicube_resolution, ib.hemicube_resolution);
     assert_int_equal(ia.n, ib.n);
+    assert_int_equal(ia.layout, LRR_LAYOUT_PANELS);
+    LRR_CHECK(ctx, lrr_operator_set_layout(a, LRR_LAYOUT_ROWS));
+    LRR_CHECK(ctx, lrr_operator_set_layout(b, LRR_LAYOUT_ROWS));
     assert_memory_equal(lrr_operator_fbar(a), lrr_operator_fbar(b),
                         ia.n * ia.k * sizeof(float));
     assert_memory_equal(lrr_operator_m(a), lrr_operator_m(b), 3 * ia.k * ia.k * sizeof(float));

@@ -256,6 +256,7 @@ static void roundtrip(lrr_context *ctx, const lrr_operator *op, const char *name
     LRR_CHECK(ctx, lrr_operator_save(op, p1));
     lrr_operator *back = NULL;
     LRR_CHECK(ctx, lrr_operator_load(ctx, p1, &back));
+    LRR_CHECK(ctx, lrr_operator_set_layout(back, LRR_LAYOUT_ROWS)); /* read as rows below */
     assert_non_null(back);
     assert_same_operator(op, back);
     LRR_CHECK(ctx, lrr_operator_save(back, p2));
@@ -287,6 +288,7 @@ static void test_roundtrip_cornell(void **state)
     lrr_build_options opts = {.hemicube_resolution = 32, .seed = 7};
     lrr_operator *op;
     LRR_CHECK(fx->ctx, lrr_operator_build(scene, &opts, &op));
+    LRR_CHECK(fx->ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
     lrr_scene_destroy(scene);
     roundtrip(fx->ctx, op, "test_file_cornell.lrr");
 
@@ -296,6 +298,7 @@ static void test_roundtrip_cornell(void **state)
     LRR_CHECK(fx->ctx, lrr_operator_save(op, p));
     lrr_operator *back;
     LRR_CHECK(fx->ctx, lrr_operator_load(fx->ctx, p, &back));
+    LRR_CHECK(fx->ctx, lrr_operator_set_layout(back, LRR_LAYOUT_ROWS)); /* read as rows below */
     lrr_operator_info a, b;
     lrr_operator_get_info(op, &a, sizeof a);
     lrr_operator_get_info(back, &b, sizeof b);

@@ -50,6 +50,7 @@ static lrr_operator *build(lrr_context *ctx, size_t ntri, const float *v, double
     lrr_build_options o = {.hemicube_resolution = R, .seed = seed};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
     lrr_scene_destroy(s);
     free(rho);
     free(em);
@@ -163,8 +164,11 @@ static void test_reproducible(void **state)
                       o2 = {.hemicube_resolution = 32, .seed = 5, .threads = 2},
                       o3 = {.hemicube_resolution = 32, .seed = 6, .threads = 2};
     LRR_CHECK(ctx, lrr_operator_build(s, &o1, &a));
+    LRR_CHECK(ctx, lrr_operator_set_layout(a, LRR_LAYOUT_ROWS)); /* read as rows below */
     LRR_CHECK(ctx, lrr_operator_build(s, &o2, &b));
+    LRR_CHECK(ctx, lrr_operator_set_layout(b, LRR_LAYOUT_ROWS)); /* read as rows below */
     LRR_CHECK(ctx, lrr_operator_build(s, &o3, &c));
+    LRR_CHECK(ctx, lrr_operator_set_layout(c, LRR_LAYOUT_ROWS)); /* read as rows below */
     assert_memory_equal(a->fbar, b->fbar, a->n * a->k * sizeof(float));
     assert_true(memcmp(a->fbar, c->fbar, a->n * a->k * sizeof(float)) != 0);
     /* without the rotation the seed changes nothing, and the flag survives a file */
@@ -172,7 +176,9 @@ static void test_reproducible(void **state)
     lrr_build_options o4 = {.hemicube_resolution = 32, .seed = 5, .threads = 2, .no_rotation = 1},
                       o5 = {.hemicube_resolution = 32, .seed = 6, .threads = 2, .no_rotation = 1};
     LRR_CHECK(ctx, lrr_operator_build(s, &o4, &d));
+    LRR_CHECK(ctx, lrr_operator_set_layout(d, LRR_LAYOUT_ROWS)); /* read as rows below */
     LRR_CHECK(ctx, lrr_operator_build(s, &o5, &e));
+    LRR_CHECK(ctx, lrr_operator_set_layout(e, LRR_LAYOUT_ROWS)); /* read as rows below */
     assert_memory_equal(d->fbar, e->fbar, d->n * d->k * sizeof(float));
     assert_true(memcmp(a->fbar, d->fbar, a->n * a->k * sizeof(float)) != 0);
     char path[256];
@@ -180,6 +186,7 @@ static void test_reproducible(void **state)
     LRR_CHECK(ctx, lrr_operator_save(d, path));
     lrr_operator *back;
     LRR_CHECK(ctx, lrr_operator_load(ctx, path, &back));
+    LRR_CHECK(ctx, lrr_operator_set_layout(back, LRR_LAYOUT_ROWS)); /* read as rows below */
     lrr_operator_info info;
     lrr_operator_get_info(back, &info, sizeof info);
     assert_int_equal(info.no_rotation, 1);
@@ -227,6 +234,7 @@ static void test_back_face_share(void **state)
             lrr_build_options o = {.hemicube_resolution = 128, .seed = 3, .formfactor_method = m};
             lrr_operator *op;
             LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+            LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
             lrr_operator_info info;
             lrr_operator_get_info(op, &info, sizeof info);
             print_message("%s wall, %s: back_face_share %.6f (F/2 = %.6f), worst %zu %.6f, "
@@ -256,6 +264,7 @@ static void test_back_face_share(void **state)
                 LRR_CHECK(ctx, lrr_operator_save(op, path));
                 lrr_operator *back;
                 LRR_CHECK(ctx, lrr_operator_load(ctx, path, &back));
+                LRR_CHECK(ctx, lrr_operator_set_layout(back, LRR_LAYOUT_ROWS)); /* read as rows below */
                 lrr_operator_get_info(back, &info, sizeof info);
                 assert_true(info.back_face_share == 0 && info.worst_back_face_share[0] == 0);
                 assert_true(info.worst_back_face_triangle[0] == SIZE_MAX);

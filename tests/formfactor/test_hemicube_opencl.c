@@ -23,8 +23,10 @@ static void compare(int closed)
     lrr_build_options o = {.hemicube_resolution = 32, .seed = 2};
     lrr_operator *cpu, *dev;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &cpu));
+    LRR_CHECK(ctx, lrr_operator_set_layout(cpu, LRR_LAYOUT_ROWS)); /* read as rows below */
     o.backend = LRR_BACKEND_OPENCL;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &dev));
+    LRR_CHECK(ctx, lrr_operator_set_layout(dev, LRR_LAYOUT_ROWS)); /* read as rows below */
     assert_int_equal(cpu->n, dev->n);
     assert_int_equal(cpu->k, dev->k);
     double worst = 0, sum_row0 = 0;
@@ -81,6 +83,7 @@ static void test_errors(void **state)
     assert_null(op);
     o.backend = LRR_BACKEND_CPU; /* the same as 0 */
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
     lrr_operator_destroy(op);
     lrr_scene_destroy(s);
     lrr_context_destroy(ctx);

@@ -16,6 +16,7 @@ static lrr_operator *build_scene(lrr_context *ctx, const lrr_scene *s, unsigned 
     o.formfactor_method = method;
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
     return op;
 }
 
@@ -223,6 +224,7 @@ static void test_device_integration(void **state)
         print_message("no OpenCL device: device integration not checked\n");
     } else {
         LRR_CHECK(ctx, st);
+        LRR_CHECK(ctx, lrr_operator_set_layout(dev, LRR_LAYOUT_ROWS)); /* read as rows below */
         double worst = 0;
         for (size_t j = 0; j < cpu->n * cpu->k; j++)
             worst = fmax(worst, fabs((double)cpu->fbar[j] - dev->fbar[j]));

@@ -109,6 +109,8 @@ static void test_area_split_is_uniform(void **state)
     for (size_t p = 0; p <= ai.k; p++)
         assert_int_equal(off[p], uoff[p]);
     size_t nk = ai.n * ai.k;
+    LRR_CHECK(ctx, lrr_operator_set_layout(a, LRR_LAYOUT_ROWS));
+    LRR_CHECK(ctx, lrr_operator_set_layout(u, LRR_LAYOUT_ROWS));
     const float *fa = lrr_operator_fbar(a), *fu = lrr_operator_fbar(u);
     for (size_t i = 0; i < nk; i++)
         if (fa[i] != fu[i])
@@ -374,6 +376,8 @@ static void test_opencl_agrees(void **state)
         lrr_operator *dev;
         bo.backend = LRR_BACKEND_OPENCL;
         LRR_CHECK(ctx, lrr_operator_build(s, &bo, &dev));
+        LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS));
+        LRR_CHECK(ctx, lrr_operator_set_layout(dev, LRR_LAYOUT_ROWS));
         const float *fc = lrr_operator_fbar(op), *fd = lrr_operator_fbar(dev);
         assert_memory_equal(lrr_operator_patch_offsets(dev), lrr_operator_patch_offsets(op),
                             (oi.k + 1) * sizeof(size_t));

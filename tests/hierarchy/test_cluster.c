@@ -362,6 +362,8 @@ static void test_opencl_agrees(void **state)
         LRR_CHECK(ctx, lrr_operator_build(s, &bo, &dev));
         assert_memory_equal(lrr_operator_subpatch_origin(dev), lrr_operator_subpatch_origin(op),
                             oi.n * sizeof(size_t));
+        LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS));
+        LRR_CHECK(ctx, lrr_operator_set_layout(dev, LRR_LAYOUT_ROWS));
         const float *fc = lrr_operator_fbar(op), *fd = lrr_operator_fbar(dev);
         double worst = 0;
         for (size_t i = 0; i < oi.n * oi.k; i++)
@@ -485,6 +487,7 @@ static void test_real_house(void **state)
     assert_true(oi.k < oi.triangles / 100);
     assert_int_equal(oi.formfactor_method, LRR_FORMFACTOR_RAYCAST);
     assert_clusters(op, K);
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS));
     const float *fbar = lrr_operator_fbar(op), *e = lrr_operator_emission(op);
     const size_t *first = lrr_operator_patch_offsets(op);
     for (size_t i = 0; i < oi.n; i++) {

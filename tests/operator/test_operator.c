@@ -12,6 +12,7 @@ static lrr_operator *build_scene(lrr_context *ctx, lrr_scene *s, size_t K, unsig
     lrr_build_options o = {.hemicube_resolution = R, .seed = 3};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
     return op;
 }
 
@@ -253,6 +254,7 @@ static void test_errors(void **state)
     lrr_context_last_error(ctx, NULL, 0);
     lrr_build_options o = {.hemicube_resolution = 16};
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
     lrr_solver *sv;
     assert_int_equal(lrr_solver_create(op, (lrr_backend)12345, &sv), LRR_ERR_INVALID_ARG);
     assert_int_equal(lrr_context_last_error(ctx, NULL, 0), LRR_ERR_INVALID_ARG);

@@ -39,6 +39,7 @@ static void test_fbar_is_f_v_over_d(void **state)
     lrr_operator *op;
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
     LRR_CHECK(ctx, lrr_reference_build(s, &o, 0, &ref));
     const size_t n = op->n, k = op->k, d = op->d;
     assert_int_equal(lrr_reference_size(ref), n);
@@ -122,6 +123,7 @@ static void test_direct_equals_operator_at_d1(void **state)
     lrr_operator *op;
     lrr_reference *ref;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
     LRR_CHECK(ctx, lrr_reference_build(s, &o, 0, &ref));
     const size_t n = op->n;
     float *a = malloc(3 * n * sizeof *a), *b = malloc(3 * n * sizeof *b);

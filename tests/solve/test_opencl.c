@@ -62,8 +62,10 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
     assert_true(ref && b && batch && e2);
     memcpy(e2, e, 3 * n * sizeof *e);
     memcpy(e2 + 3 * n, op->emission, 3 * n * sizeof *e);
-    for (int si = 0; si < 3; si++) {
+    for (int sl = 0; sl < 6; sl++) { /* every storage, F̄ in panels and in rows */
+        const int si = sl % 3;
         LRR_CHECK(ctx, lrr_operator_set_storage(op, storages[si]));
+        LRR_CHECK(ctx, lrr_operator_set_layout(op, sl < 3 ? LRR_LAYOUT_PANELS : LRR_LAYOUT_ROWS));
         lrr_solver *cpu, *cl;
         LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &cpu));
         LRR_CHECK(ctx, lrr_solver_set_path(cpu, LRR_PATH_FULL));
@@ -76,8 +78,9 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
             LRR_CHECK(ctx, lrr_solve(cl, e, b));
             assert_int_equal(lrr_solver_last_path(cl), LRR_PATH_FULL);
             double r = max_rel(3 * n, b, ref);
-            print_message("%s, %s, %s kernel (%s): max |dB| / max |B| = %.2e\n", what,
-                          lrr_storage_name(storages[si]), groups ? "group" : "row",
+            print_message("%s, %s %s, %s kernel (%s): max |dB| / max |B| = %.2e\n", what,
+                          lrr_storage_name(storages[si]), sl < 3 ? "panels" : "rows",
+                          groups ? "group" : "row",
                           lrr_solver_kernel(cl), r);
             assert_true(r <= 1e-5);
         }
