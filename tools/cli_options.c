@@ -119,6 +119,8 @@ static int apply_opt(const cli_opt *o, void *target, const char *prog, const cha
         *(int *)field_at(target, o->seen) = 1;
     switch (o->kind) {
     case CLI_OPT_FLAG:
+        if (o->handle)
+            return o->handle(target, prog, NULL);
         *(int *)f = 1;
         return 0;
     case CLI_OPT_FILE:

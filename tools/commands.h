@@ -125,7 +125,7 @@ enum {
  * (cli_parse_command) reads the command line against them with getopt_long, so every option
  * is parsed, range-checked and reported with the same messages ("PROG: --NAME: ..."). */
 typedef enum cli_opt_kind {
-    CLI_OPT_FLAG,     /* no value: the int at field = 1 */
+    CLI_OPT_FLAG,     /* no value: the int at field = 1, or handle(target, prog, NULL) */
     CLI_OPT_STRING,   /* the const char * at field */
     CLI_OPT_FILE,     /* the same, refused when empty ("--NAME: the file name is empty") */
     CLI_OPT_DOUBLE,   /* the double at field: finite, in [min, max] (open ends: *_open) */
@@ -156,7 +156,7 @@ typedef struct cli_opt {
     double min, max;            /* DOUBLE, UNSIGNED, SIZE */
     int min_open, max_open;     /* DOUBLE: min (max) itself is refused */
     const cli_choice *choices;  /* CHOICE: ends with a NULL word */
-    int (*handle)(void *target, const char *prog, const char *arg); /* CUSTOM */
+    int (*handle)(void *target, const char *prog, const char *arg); /* CUSTOM, FLAG */
     const char *required;       /* "-o DIR": the option must be given, and not empty */
 } cli_opt;
 
