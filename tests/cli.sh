@@ -558,6 +558,19 @@ else
 fi
 run render "$LRRFILE" -o "$T/pic.jpg" --format tiff
 expect_rc 2 "render --format tiff is a usage error"
+# --emission-scale S scales the solve, which is linear and exact for S = 2 (a power of two):
+# S = 2 at exposure 1 is the picture of S = 1 at exposure 2, bit for bit, and not that of
+# S = 1 at exposure 1. (render listed the option but refused it as "unknown option '2'".)
+run render "$LRRFILE" -o "$T/s2.png" --width 32 --height 24 --emission-scale 2 --exposure 1
+rc1=$rc
+run render "$LRRFILE" -o "$T/x2.png" --width 32 --height 24 --emission-scale 1 --exposure 2
+rc2=$rc
+run render "$LRRFILE" -o "$T/s1.png" --width 32 --height 24 --exposure 1
+if [ "$rc1$rc2$rc" = 000 ] && cmp -s "$T/s2.png" "$T/x2.png" && ! cmp -s "$T/s2.png" "$T/s1.png"; then
+    pass "render --emission-scale 2 = --exposure 2, bit for bit"
+else
+    fail "render --emission-scale 2 vs --exposure 2 (exit $rc1 $rc2 $rc)"; show_err
+fi
 
 # ---------------------------------------------------------------- export
 run export "$LRRFILE" -o "$T/lit.glb"
@@ -625,6 +638,58 @@ run export "$LRRFILE" -o "$T/lit.glb" --exposure 0
 expect_rc 2 "export --exposure 0 is a usage error"
 run export "$LRRFILE"
 expect_rc 2 "export without -o is a usage error"
+
+# One parser reads the options of solve, render, export and animate (cli_parse_command): an
+# unknown option, a missing value and a bad number get the same message in each, exit 2.
+# usage_error CMD WANT ARGS...: lrr CMD ARGS exits 2 with "lrr CMD: WANT" on stderr
+usage_error() {
+    cmd=$1 want=$2
+    shift 2
+    run "$cmd" "$LRRFILE" "$@"
+    if [ "$rc" -eq 2 ] && grep -qF -- "lrr $cmd: $want" "$T/err" && [ ! -s "$T/out" ]; then
+        pass "$cmd $*: exit 2, $want"
+    else
+        fail "$cmd $*: exit $rc, expected 2 and 'lrr $cmd: $want': $(cat "$T/err")"
+    fi
+}
+for o in "solve --repeat" "render --width" "export --format" "animate --fov"; do
+    cmd=${o% *} o=${o#* }
+    usage_error $cmd "unknown option '--bogus'" --bogus
+    usage_error $cmd "unknown option '-x'" -x
+    usage_error $cmd "$o: a value is required" $o
+done
+usage_error animate "unknown option '--emission-scale'" --emission-scale 2 # no emission here
+set --
+while [ $# -lt 34 ]; do set -- "$@" --light 'sun dir=0,1,0 rgb=1'; done
+for o in "solve --repeat=1" "render -o$T/u.png" "export -o$T/u.glb"; do
+    cmd=${o%% *} o=${o#* }
+    usage_error $cmd "--emission-scale: a value is required" $o --emission-scale
+    usage_error $cmd "--emission-scale: 'abc' is not a number" $o --emission-scale abc
+    usage_error $cmd "--emission-scale: '-1' is out of range" $o --emission-scale=-1
+    usage_error $cmd "--sources, --probe-method and --probe-scale need --probe" $o --probe-scale 2
+    usage_error $cmd "--light: at most 16 lights" $o "$@" # 17 of them
+done
+for cmd in render animate; do
+    usage_error $cmd "--width: '0' is out of range (1..16384)" --width 0
+    usage_error $cmd "--fov: '180' is out of range (it must be less than 180)" --fov 180
+    usage_error $cmd "--camera: 'nope' is not one of cornell, fit, auto" --camera nope
+done
+usage_error solve "--repeat: '1x' is not an integer" --repeat 1x
+usage_error solve "--csv: the file name is empty" --csv ''
+usage_error export "--exposure: '0' is out of range (it must be greater than 0)" -o "$T/u.glb" \
+    --exposure 0
+usage_error export "--format: 'obj' is not one of gltf, ply" -o "$T/u.glb" --format obj
+usage_error animate "--format: 'tiff' is not one of png, exr" --format tiff
+# a required option left out: the same message and hint in each command
+usage_error render "-o OUT.png (or OUT.exr) is required" --width 8
+usage_error export "-o OUT.glb (or OUT.ply) is required" --subpatches
+usage_error animate "--lights SCRIPT is required" -o "$T/u"
+usage_error animate "-o DIR is required" --lights "$T/u.txt"
+if grep -qF "Try 'lrr animate --help'." "$T/err"; then
+    pass "animate: a required option left out suggests --help, as render's and export's do"
+else
+    fail "animate: no --help hint in: $(cat "$T/err")"
+fi
 
 # ---------------------------------------------------------------- damaged input
 size=$(wc -c <"$LRRFILE" | tr -d ' ')

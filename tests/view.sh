@@ -236,6 +236,10 @@ screenshot $T/s14.png
 scroll 2
 key P
 screenshot $T/s15.png
+fly W 0.5
+screenshot $T/s16.png
+fly QD 0.25 shift
+screenshot $T/s17.png
 EOF
 (cd "$T" && LIBGL_ALWAYS_SOFTWARE=1 xvfb-run -a -s '-screen 0 640x480x24' "$LRR_ABS" view \
     "$T/cb.lrr" --script "$T/session.txt" --width $W --height $H >"$T/session.out" 2>"$T/err")
@@ -341,6 +345,23 @@ ratio "$(shot 14 exposure)" "$(value exposure "$T/a2.out")" 1 1e-4 &&
 # scroll 2: the eye 0.9^2 of the way from the target (279.6 - 0.81 * 1079.6 = -594.876)
 near "$(comp "$(shot 15 eye)" 3)" -594.876 0.01 && pass "scroll 2: eye at $(shot 15 eye)" ||
     fail "scroll 2: eye at $(shot 15 eye)"
+# fly: the held keys through view_input_fly_keys, as the frame loop's GLFW keys: 0.4 of the
+# scene's diagonal (sqrt(556^2 + 548.8^2 + 559.2^2) = 960.7404) a second, x4 with shift.
+# eye_at NAME: the eye of screenshot NAME (by name: P's pictures are counted among them)
+eye_at() { awk -v f="$T/$1" '/^screenshot: / { at = $2 == f } at && /^eye: / { print $2; exit }' \
+    "$T/session.out"; }
+# moved A B: how far the eye moved along x, y, z from screenshot A to screenshot B
+moved() { awk -v a="$(eye_at "$1")" -v b="$(eye_at "$2")" 'BEGIN { split(a, p, ",");
+    split(b, q, ","); printf "%.4f %.4f %.4f\n", q[1] - p[1], q[2] - p[2], q[3] - p[3] }'; }
+# W 0.5 s: 0.2 diag = 192.148 forward (the camera looks along +z)
+set -- $(moved s15.png s16.png)
+near "$1" 0 1e-3 && near "$2" 0 1e-3 && near "$3" 192.148 0.01 &&
+    pass "fly W 0.5: the eye 192.148 forward ($*)" || fail "fly W 0.5: the eye moved $*"
+# Q and D 0.25 s with shift: 0.4 diag = 384.296 down and to the right (-x, seen from -z)
+set -- $(moved s16.png s17.png)
+near "$1" -384.296 0.01 && near "$2" -384.296 0.01 && near "$3" 0 1e-3 &&
+    pass "fly QD 0.25 shift: the eye 384.296 down and right ($*)" ||
+    fail "fly QD 0.25 shift: the eye moved $*"
 # P: the picture saved in the current directory
 [ "$(head -c 4 "$T/lrr-view-000.png" 2>/dev/null | tail -c 3)" = PNG ] &&
     pass "P: lrr-view-000.png written" || fail "P: no lrr-view-000.png"
@@ -360,6 +381,12 @@ printf 'frames 1\nkey X\n' >"$T/bad.txt"
 rc=$?
 [ "$rc" -eq 2 ] && grep -q "bad.txt' line 2: key: 'X'" "$T/err" &&
     pass "key X: exit 2 naming the line" || fail "key X: exit $rc: $(cat "$T/err")"
+
+printf 'frames 1\nfly WX 1\n' >"$T/bad.txt"
+"$LRR" view "$T/cb.lrr" --script "$T/bad.txt" >"$T/out" 2>"$T/err"
+rc=$?
+[ "$rc" -eq 2 ] && grep -q "bad.txt' line 2: fly: KEYS" "$T/err" &&
+    pass "fly WX: exit 2 naming the line" || fail "fly WX: exit $rc: $(cat "$T/err")"
 
 [ "$failures" -eq 0 ] || exit 1
 exit 0

@@ -1,7 +1,11 @@
 /* Option groups of the `lrr` tool's subcommands (subdivision, hemicube build, memory budget,
- * --probe) and the getopt plumbing they share: see commands.h. */
+ * --probe), the table-driven parser of solve, render, export and animate, and the getopt
+ * plumbing they share: see commands.h. */
+#include <errno.h>
 #include <getopt.h>
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -41,6 +45,191 @@ const char *one_positional(const char *prog, const char *what, int argc, char *c
         return NULL;
     }
     return argv[optind];
+}
+
+/* ------------------------------------------------------------------ option tables */
+/* The most options one command's tables may hold (render has 22). */
+#define CLI_MAX_OPTS 48
+
+static void *field_at(void *target, size_t field)
+{
+    return (char *)target + (field - 1);
+}
+
+/* "X,Y,Z": three finite numbers; 0 or -1 (reported, naming opt). */
+static int parse_vec3(const char *prog, const char *opt, const char *arg, double v[3])
+{
+    const char *p = arg;
+    for (int j = 0; j < 3; j++) {
+        char *end = NULL;
+        errno = 0;
+        v[j] = strtod(p, &end);
+        if (end == p || errno == ERANGE || !isfinite(v[j]) || *end != (j < 2 ? ',' : '\0')) {
+            cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
+            return -1;
+        }
+        p = end + 1;
+    }
+    return 0;
+}
+
+/* "--NAME: 'ARG' is not one of a, b, c" lists each value once (aliases are left out). */
+static int parse_choice(const char *prog, const char *opt, const cli_choice *ch, const char *arg,
+                        int *out)
+{
+    for (size_t i = 0; ch[i].word; i++)
+        if (strcmp(arg, ch[i].word) == 0) {
+            *out = ch[i].value;
+            return 0;
+        }
+    char list[256] = "";
+    size_t len = 0;
+    for (size_t i = 0; ch[i].word; i++) {
+        int alias = 0;
+        for (size_t j = 0; j < i; j++)
+            alias |= ch[j].value == ch[i].value;
+        if (!alias && len < sizeof list)
+            len += (size_t)snprintf(list + len, sizeof list - len, "%s%s", len ? ", " : "",
+                                    ch[i].word);
+    }
+    cli_usage_error(prog, "%s: '%s' is not one of %s", opt, arg, list);
+    return -1;
+}
+
+static int parse_double_opt(const cli_opt *o, const char *prog, const char *opt,
+                            const char *arg, double *out)
+{
+    if (cli_parse_double(prog, opt, arg, o->min, o->min_open, o->max, out) != 0)
+        return -1;
+    if (o->max_open && *out >= o->max) {
+        cli_usage_error(prog, "%s: '%s' is out of range (it must be less than %g)", opt, arg,
+                        o->max);
+        return -1;
+    }
+    return 0;
+}
+
+/* One option's value into its field; 0, or -1 after a usage message naming --NAME. */
+static int apply_opt(const cli_opt *o, void *target, const char *prog, const char *arg)
+{
+    char opt[64];
+    snprintf(opt, sizeof opt, "--%s", o->name);
+    void *f = o->field ? field_at(target, o->field) : NULL;
+    if (o->seen)
+        *(int *)field_at(target, o->seen) = 1;
+    switch (o->kind) {
+    case CLI_OPT_FLAG:
+        if (o->handle)
+            return o->handle(target, prog, NULL);
+        *(int *)f = 1;
+        return 0;
+    case CLI_OPT_FILE:
+        if (!arg[0]) {
+            cli_usage_error(prog, "%s: the file name is empty", opt);
+            return -1;
+        }
+        /* fall through */
+    case CLI_OPT_STRING:
+        *(const char **)f = arg;
+        return 0;
+    case CLI_OPT_DOUBLE:
+        return parse_double_opt(o, prog, opt, arg, f);
+    case CLI_OPT_UNSIGNED:
+        return cli_parse_unsigned(prog, opt, arg, (unsigned)o->min, (unsigned)o->max, f);
+    case CLI_OPT_SIZE:
+        return cli_parse_size(prog, opt, arg, (size_t)o->min, (size_t)o->max, f);
+    case CLI_OPT_VEC3:
+        return parse_vec3(prog, opt, arg, f);
+    case CLI_OPT_CHOICE:
+        return parse_choice(prog, opt, o->choices, arg, f);
+    case CLI_OPT_CUSTOM:
+        return o->handle(target, prog, arg);
+    }
+    return -1;
+}
+
+/* The getopt_long tables of the command's options: long option k has val 256 + k. */
+typedef struct opt_index {
+    struct option longopts[CLI_MAX_OPTS + 2];
+    char shortopts[2 * CLI_MAX_OPTS + 4];
+    const cli_opt *opt[CLI_MAX_OPTS];
+    void *target[CLI_MAX_OPTS];
+    int n;
+} opt_index;
+
+static void index_options(const cli_command *cmd, opt_index *ix)
+{
+    size_t sl = 0;
+    ix->shortopts[sl++] = ':';
+    ix->shortopts[sl++] = 'h';
+    ix->n = 0;
+    for (const cli_opt_group *g = cmd->groups; g->opts; g++)
+        for (const cli_opt *o = g->opts; o->name && ix->n < CLI_MAX_OPTS; o++) {
+            int has_arg = o->kind == CLI_OPT_FLAG ? no_argument : required_argument;
+            ix->longopts[ix->n] = (struct option){o->name, has_arg, NULL, 256 + ix->n};
+            ix->opt[ix->n] = o;
+            ix->target[ix->n++] = g->target;
+            if (o->letter) {
+                ix->shortopts[sl++] = o->letter;
+                if (has_arg == required_argument)
+                    ix->shortopts[sl++] = ':';
+            }
+        }
+    ix->longopts[ix->n] = (struct option){"help", no_argument, NULL, 'h'};
+    ix->longopts[ix->n + 1] = (struct option){NULL, 0, NULL, 0};
+    ix->shortopts[sl] = '\0';
+}
+
+/* The entry getopt_long's c stands for, or −1. */
+static int find_option(const opt_index *ix, int c)
+{
+    if (c >= 256 && c < 256 + ix->n)
+        return c - 256;
+    for (int k = 0; k < ix->n; k++)
+        if (c > 0 && ix->opt[k]->letter == c)
+            return k;
+    return -1;
+}
+
+/* Every required option given and not empty; 0 or CLI_EXIT_USAGE after a message. */
+static int check_required(const cli_command *cmd, const opt_index *ix)
+{
+    for (int k = 0; k < ix->n; k++) {
+        const cli_opt *o = ix->opt[k];
+        if (!o->required)
+            continue;
+        const char *v = *(const char **)field_at(ix->target[k], o->field);
+        if (!v || !v[0]) {
+            cli_usage_error(cmd->prog, "%s is required", o->required);
+            fprintf(stderr, "Try '%s --help'.\n", cmd->prog);
+            return CLI_EXIT_USAGE;
+        }
+    }
+    return 0;
+}
+
+int cli_parse_command(const cli_command *cmd, int argc, char *argv[], const char **positional)
+{
+    opt_index ix;
+    index_options(cmd, &ix);
+    start_getopt();
+    int c;
+    while ((c = getopt_long(argc, argv, ix.shortopts, ix.longopts, NULL)) != -1) {
+        if (c == 'h') {
+            fputs(cmd->help, stdout);
+            return CLI_EXIT_OK;
+        }
+        int k = find_option(&ix, c);
+        if (k < 0)
+            return bad_option(cmd->prog, c, argv);
+        if (apply_opt(ix.opt[k], ix.target[k], cmd->prog, optarg) != 0)
+            return CLI_EXIT_USAGE;
+    }
+    *positional = one_positional(cmd->prog, cmd->positional, argc, argv);
+    if (!*positional)
+        return CLI_EXIT_USAGE;
+    int rc = check_required(cmd, &ix);
+    return rc ? rc : CLI_RUN;
 }
 
 /* ------------------------------------------------------------------ subdivision */
@@ -172,51 +361,34 @@ void probe_args_init(probe_args *p)
     p->scale = 1.0;
 }
 
-int probe_option(probe_args *p, const char *prog, int c, const char *arg)
+/* --light SPEC, repeatable up to CLI_MAX_LIGHTS. */
+static int light_option(void *target, const char *prog, const char *arg)
 {
-    switch (c) {
-    case OPT_PROBE:
-        p->path = arg;
-        return 1;
-    case OPT_SOURCES:
-        p->probe_only_given = 1;
-        return cli_parse_size(prog, "--sources", arg, 1, 65536, &p->sources) != 0 ? -1 : 1;
-    case OPT_PROBE_METHOD:
-        p->probe_only_given = 1;
-        if (strcmp(arg, "median-cut") == 0)
-            p->median_cut = 1;
-        else if (strcmp(arg, "irradiance") == 0)
-            p->median_cut = 0;
-        else {
-            cli_usage_error(prog, "--probe-method: '%s' is not one of irradiance, median-cut",
-                            arg);
-            return -1;
-        }
-        return 1;
-    case OPT_PROBE_SCALE:
-        p->probe_only_given = 1;
-        return cli_parse_double(prog, "--probe-scale", arg, 0.0, 0, 1e300, &p->scale) != 0 ? -1
-                                                                                         : 1;
-    case OPT_NO_SCENE_EMISSION:
-        p->no_scene_emission = 1;
-        return 1;
-    case OPT_LIGHT:
-        if (p->lights == CLI_MAX_LIGHTS) {
-            cli_usage_error(prog, "--light: at most %d lights", CLI_MAX_LIGHTS);
-            return -1;
-        }
-        return cli_parse_light(prog, arg, &p->light[p->lights++]) != 0 ? -1 : 1;
-    default:
-        return 0;
+    probe_args *p = target;
+    if (p->lights == CLI_MAX_LIGHTS) {
+        cli_usage_error(prog, "--light: at most %d lights", CLI_MAX_LIGHTS);
+        return -1;
     }
+    return cli_parse_light(prog, arg, &p->light[p->lights++]);
 }
+
+static const cli_choice probe_methods[] = {{"irradiance", 0}, {"median-cut", 1}, {NULL, 0}};
+
+const cli_opt probe_opts[] = {
+    {.name = "probe", .kind = CLI_OPT_FILE, .field = CLI_FIELD(probe_args, path)},
+    {.name = "sources", .kind = CLI_OPT_SIZE, .field = CLI_FIELD(probe_args, sources),
+     .seen = CLI_FIELD(probe_args, probe_only_given), .min = 1, .max = 65536},
+    {.name = "probe-method", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(probe_args, median_cut),
+     .seen = CLI_FIELD(probe_args, probe_only_given), .choices = probe_methods},
+    {.name = "probe-scale", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(probe_args, scale),
+     .seen = CLI_FIELD(probe_args, probe_only_given), .min = 0, .max = 1e300},
+    {.name = "no-scene-emission", .kind = CLI_OPT_FLAG,
+     .field = CLI_FIELD(probe_args, no_scene_emission)},
+    {.name = "light", .kind = CLI_OPT_CUSTOM, .handle = light_option},
+    {.name = NULL}};
 
 int probe_finish(const probe_args *p, const char *prog)
 {
-    if (p->path && !p->path[0]) {
-        cli_usage_error(prog, "--probe: the file name is empty");
-        return -1;
-    }
     if (!p->path && p->probe_only_given) {
         cli_usage_error(prog, "--sources, --probe-method and --probe-scale need --probe");
         return -1;

@@ -168,7 +168,26 @@ static int find_key(const char *const *keys, const char *name)
     return -1;
 }
 
-/* mouse, click, drag, scroll, key, screenshot: the viewer's. */
+/* fly KEYS SECONDS [shift]: the held keys as CLI_SCRIPT_FLY_KEYS bits. */
+static int parse_fly(reader *r, char **w, size_t nw, cli_script_cmd *c)
+{
+    c->kind = CS_FLY;
+    c->key = 0;
+    for (const char *k = nw > 1 ? w[1] : ""; *k; k++) {
+        const char *at = strchr(CLI_SCRIPT_FLY_KEYS, *k);
+        if (!at || (c->key >> (at - CLI_SCRIPT_FLY_KEYS) & 1))
+            c->key = -1;
+        else
+            c->key |= 1 << (at - CLI_SCRIPT_FLY_KEYS);
+    }
+    c->on = nw == 4 && strcmp(w[3], "shift") == 0;
+    if (nw < 3 || nw > 4 || (nw == 4 && !c->on) || c->key <= 0 || parse_number(w[2], &c->value) ||
+        c->value < 0 || c->value > 60)
+        return fail(r, "fly: KEYS (some of W A S D Q E) SECONDS (0..60) [shift]");
+    return 0;
+}
+
+/* mouse, click, drag, scroll, key, fly, screenshot: the viewer's. */
 static int parse_input(reader *r, const char *verb, char **w, size_t nw, cli_script_cmd *c)
 {
     if (viewer_only(r, verb))
@@ -188,6 +207,8 @@ static int parse_input(reader *r, const char *verb, char **w, size_t nw, cli_scr
         r->lights = UNKNOWN; /* checked when played */
         return 0;
     }
+    if (strcmp(verb, "fly") == 0)
+        return parse_fly(r, w, nw, c);
     if (strcmp(verb, "scroll") == 0) {
         c->kind = CS_SCROLL;
         if (nw != 2 || parse_number(w[1], &c->value) || fabs(c->value) > 1000)
@@ -253,13 +274,14 @@ static int parse_statement(reader *r, char *text, char **w, size_t nw, cli_scrip
             return fail(r, "camera: the target equals the eye (no view direction)");
         return 0;
     }
-    static const char *const input[] = {"screenshot", "mouse", "click", "drag", "scroll", "key"};
+    static const char *const input[] = {"screenshot", "mouse", "click", "drag",
+                                        "scroll",     "key",   "fly"};
     for (size_t k = 0; k < sizeof input / sizeof *input; k++)
         if (strcmp(verb, input[k]) == 0)
             return parse_input(r, verb, w, nw, c);
     return fail(r, "'%s' is not a statement (light, remove, move, path, frames, emitters, "
                    "exposure, camera%s)",
-                verb, r->caps->keys ? ", screenshot, mouse, click, drag, scroll, key" : "");
+                verb, r->caps->keys ? ", screenshot, mouse, click, drag, scroll, key, fly" : "");
 }
 
 /* Frames drawn by c (0 for most), checked against the script's total. */

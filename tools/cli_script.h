@@ -47,7 +47,9 @@
     "                              (default 8), one frame each, then up\n"                     \
     "  scroll D                    the wheel, D notches (> 0 zooms in)\n"                       \
     "  key NAME                    press one of lrr view's keys: N, Delete, T, +, -, C, L,\n" \
-    "                              [, ], 0, F, P, Escape (not the held fly keys W A S D Q E)\n"
+    "                              [, ], 0, F, P, Escape\n"                                     \
+    "  fly KEYS SECONDS [shift]    hold the fly keys KEYS (some of W A S D Q E, e.g. WD) for\n" \
+    "                              SECONDS (0..60) of frame time, as in one frame\n"
 
 enum {
     CS_LIGHT = 1, /* add a light */
@@ -63,8 +65,13 @@ enum {
     CS_CLICK,     /* xy[0..1] */
     CS_DRAG,      /* xy[0..3], over `frames` frames */
     CS_SCROLL,    /* value */
-    CS_KEY        /* key: the index into the caller's key names */
+    CS_KEY,       /* key: the index into the caller's key names */
+    CS_FLY        /* key: the held fly keys, bit k for CLI_SCRIPT_FLY_KEYS[k]; value:
+                     seconds; on: shift */
 };
+
+/* The viewer's fly keys in the bit order of CS_FLY: forward, back, left, right, down, up. */
+#define CLI_SCRIPT_FLY_KEYS "WSADQE"
 
 typedef struct cli_script_cmd {
     int kind, line;
@@ -73,11 +80,11 @@ typedef struct cli_script_cmd {
     float pts[CLI_SCRIPT_MAX_POINTS][3];   /* CS_MOVE (one), CS_PATH */
     size_t points;
     unsigned frames;                       /* CS_FRAMES, CS_DRAG; frames=N of CS_MOVE, CS_PATH */
-    int on;                                /* CS_EMITTERS */
-    double value;                          /* CS_EXPOSURE, CS_SCROLL */
+    int on;                                /* CS_EMITTERS; CS_FLY: shift */
+    double value;                          /* CS_EXPOSURE, CS_SCROLL, CS_FLY */
     double eye[3], target[3];              /* CS_CAMERA */
     double xy[4];                          /* CS_MOUSE, CS_CLICK, CS_DRAG */
-    int key;                               /* CS_KEY */
+    int key;                               /* CS_KEY, CS_FLY */
     char *path;                            /* CS_SCREENSHOT */
 } cli_script_cmd;
 

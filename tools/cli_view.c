@@ -1,10 +1,8 @@
 /* The picture options that render and animate share: size, exposure and camera (--width,
  * --height, --exposure, --camera, --eye, --target, --up, --fov), checked as lrr_render_png
  * would check them so that a bad camera is a usage error naming the option. */
-#include <errno.h>
 #include <math.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 #include "commands.h"
@@ -16,72 +14,27 @@ void view_args_init(view_args *v)
     v->ro.width = v->ro.height = 0;
 }
 
-/* "X,Y,Z": three finite numbers; 0 or -1 (reported, naming opt). */
-static int parse_vec3(const char *prog, const char *opt, const char *arg, double v[3])
-{
-    const char *p = arg;
-    for (int j = 0; j < 3; j++) {
-        char *end = NULL;
-        errno = 0;
-        v[j] = strtod(p, &end);
-        if (end == p || errno == ERANGE || !isfinite(v[j]) || *end != (j < 2 ? ',' : '\0')) {
-            cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
-            return -1;
-        }
-        p = end + 1;
-    }
-    return 0;
-}
+static const cli_choice cameras[] = {{"cornell", 1}, {"fit", 0}, {"auto", -1}, {NULL, 0}};
 
-static int camera_option(view_args *v, const char *prog, const char *arg)
-{
-    v->have_camera = 1;
-    if (strcmp(arg, "cornell") == 0)
-        v->ro.use_cornell_camera = 1;
-    else if (strcmp(arg, "fit") == 0)
-        v->ro.use_cornell_camera = 0;
-    else if (strcmp(arg, "auto") == 0)
-        v->ro.use_cornell_camera = -1;
-    else {
-        cli_usage_error(prog, "--camera: '%s' is not one of cornell, fit, auto", arg);
-        return -1;
-    }
-    return 1;
-}
-
-int view_option(view_args *v, const char *prog, int c, const char *arg)
-{
-    switch (c) {
-    case OPT_WIDTH:
-        return cli_parse_unsigned(prog, "--width", arg, 1, 16384, &v->ro.width) != 0 ? -1 : 1;
-    case OPT_HEIGHT:
-        return cli_parse_unsigned(prog, "--height", arg, 1, 16384, &v->ro.height) != 0 ? -1 : 1;
-    case OPT_EXPOSURE:
-        return cli_parse_double(prog, "--exposure", arg, 0.0, 1, 1e300, &v->ro.exposure) != 0
-                   ? -1 : 1;
-    case OPT_EYE:
-        v->have_eye = 1;
-        return parse_vec3(prog, "--eye", arg, v->ro.eye) != 0 ? -1 : 1;
-    case OPT_TARGET:
-        v->have_target = 1;
-        return parse_vec3(prog, "--target", arg, v->ro.target) != 0 ? -1 : 1;
-    case OPT_UP:
-        v->have_up = 1;
-        return parse_vec3(prog, "--up", arg, v->ro.up) != 0 ? -1 : 1;
-    case OPT_FOV:
-        if (cli_parse_double(prog, "--fov", arg, 0.0, 1, 180.0, &v->ro.fov_degrees) != 0)
-            return -1;
-        if (v->ro.fov_degrees >= 180) {
-            cli_usage_error(prog, "--fov: '%s' is out of range (it must be less than 180)", arg);
-            return -1;
-        }
-        return 1;
-    case OPT_CAMERA:
-        return camera_option(v, prog, arg);
-    default:
-        return 0;
-    }
-}
+const cli_opt view_opts[] = {
+    {.name = "width", .kind = CLI_OPT_UNSIGNED, .field = CLI_FIELD(view_args, ro.width),
+     .min = 1, .max = 16384},
+    {.name = "height", .kind = CLI_OPT_UNSIGNED, .field = CLI_FIELD(view_args, ro.height),
+     .min = 1, .max = 16384},
+    {.name = "exposure", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(view_args, ro.exposure),
+     .min = 0, .min_open = 1, .max = 1e300},
+    {.name = "camera", .kind = CLI_OPT_CHOICE,
+     .field = CLI_FIELD(view_args, ro.use_cornell_camera),
+     .seen = CLI_FIELD(view_args, have_camera), .choices = cameras},
+    {.name = "eye", .kind = CLI_OPT_VEC3, .field = CLI_FIELD(view_args, ro.eye),
+     .seen = CLI_FIELD(view_args, have_eye)},
+    {.name = "target", .kind = CLI_OPT_VEC3, .field = CLI_FIELD(view_args, ro.target),
+     .seen = CLI_FIELD(view_args, have_target)},
+    {.name = "up", .kind = CLI_OPT_VEC3, .field = CLI_FIELD(view_args, ro.up),
+     .seen = CLI_FIELD(view_args, have_up)},
+    {.name = "fov", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(view_args, ro.fov_degrees),
+     .min = 0, .min_open = 1, .max = 180, .max_open = 1},
+    {.name = NULL}};
 
 /* --up must not be zero or parallel to target − eye. */
 static int check_up(const view_args *v, const char *prog)

@@ -1,6 +1,5 @@
 /* lrr animate: lights moving along paths, one picture per frame (direct light with shadows,
  * the solve, the picture), with the time of each step per frame. */
-#include <getopt.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -43,63 +42,32 @@ typedef struct animate_args {
 } animate_args;
 
 /* ------------------------------------------------------------------ options */
-static int animate_option(animate_args *a, int c, const char *arg)
-{
-    switch (c) {
-    case 'o':
-        a->output = arg;
-        return 1;
-    case OPT_LIGHTS_SCRIPT:
-        a->script = arg;
-        return 1;
-    case OPT_FORMAT:
-        if (strcmp(arg, "png") != 0 && strcmp(arg, "exr") != 0) {
-            cli_usage_error(prog, "--format: '%s' is not one of png, exr", arg);
-            return -1;
-        }
-        a->exr = strcmp(arg, "exr") == 0;
-        return 1;
-    default:
-        return view_option(&a->view, prog, c, arg);
-    }
-}
+static const cli_choice formats[] = {{"png", 0}, {"exr", 1}, {NULL, 0}};
+
+/* The options of animate alone; the picture's are view_opts. */
+static const cli_opt animate_opts[] = {
+    {.name = "lights", .kind = CLI_OPT_STRING, .field = CLI_FIELD(animate_args, script),
+     .required = "--lights SCRIPT"},
+    {.name = "output", .letter = 'o', .kind = CLI_OPT_STRING,
+     .field = CLI_FIELD(animate_args, output), .required = "-o DIR"},
+    {.name = "format", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(animate_args, exr),
+     .choices = formats},
+    {.name = NULL}};
 
 /* CLI_RUN with *a filled in, or the exit status. */
 static int parse_animate(animate_args *a, int argc, char *argv[])
 {
-    static const struct option longopts[] = {
-        {"output", required_argument, NULL, 'o'},
-        {"lights", required_argument, NULL, OPT_LIGHTS_SCRIPT},
-        {"format", required_argument, NULL, OPT_FORMAT},
-        VIEW_LONGOPTS,
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0}};
     memset(a, 0, sizeof *a);
     view_args_init(&a->view);
-    start_getopt();
-    int c;
-    while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
-        if (c == 'h') {
-            fputs(animate_help, stdout);
-            return CLI_EXIT_OK;
-        }
-        int r = animate_option(a, c, optarg);
-        if (r < 0)
-            return CLI_EXIT_USAGE;
-        if (r == 0)
-            return bad_option(prog, c, argv);
-    }
-    a->file = one_positional(prog, "FILE.lrr", argc, argv);
-    if (!a->file)
-        return CLI_EXIT_USAGE;
-    if (!a->output || !a->output[0] || !a->script) {
-        cli_usage_error(prog, "%s is required", a->script ? "-o DIR" : "--lights SCRIPT");
-        return CLI_EXIT_USAGE;
-    }
+    const cli_opt_group groups[] = {{animate_opts, a}, {view_opts, &a->view}, {NULL, NULL}};
+    const cli_command cmd = {prog, animate_help, "FILE.lrr", groups};
+    int rc = cli_parse_command(&cmd, argc, argv, &a->file);
+    if (rc != CLI_RUN)
+        return rc;
     if (view_finish(&a->view, prog) != 0)
         return CLI_EXIT_USAGE;
     const cli_script_caps caps = {0};
-    int rc = cli_script_load(prog, a->script, &caps, &a->s);
+    rc = cli_script_load(prog, a->script, &caps, &a->s);
     if (rc == CLI_EXIT_OK && a->s.frames == 0) {
         cli_usage_error(prog, "'%s': draws no frame (add frames N)", a->script);
         cli_script_free(&a->s);

@@ -1,6 +1,5 @@
 /* lrr export: solve a saved operator for its stored emission and write the lit mesh as
  * binary glTF 2.0 (.glb) or PLY with vertex colours, for other programs to show. */
-#include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -56,40 +55,32 @@ typedef struct export_args {
     int format;
 } export_args;
 
-/* The options of export: 1 handled, 0 not one of them, -1 usage error (reported). */
-static int export_option(export_args *a, int c, const char *arg)
+/* --exposure X (> 0) or auto (0: the library picks it). */
+static int exposure_option(void *target, const char *caller, const char *arg)
 {
-    switch (c) {
-    case 'o':
-        a->output = arg;
-        return 1;
-    case OPT_SUBPATCHES:
-        a->eo.subpatches = 1;
-        return 1;
-    case OPT_EXPOSURE:
-        if (strcmp(arg, "auto") == 0) {
-            a->eo.exposure = 0;
-            return 1;
-        }
-        return cli_parse_double(prog, "--exposure", arg, 0.0, 1, 1e300, &a->eo.exposure) != 0
-                   ? -1 : 1;
-    case OPT_EMISSION_SCALE:
-        return cli_parse_double(prog, "--emission-scale", arg, 0.0, 0, 1e300, &a->scale) != 0
-                   ? -1 : 1;
-    case OPT_FORMAT:
-        if (strcmp(arg, "gltf") == 0 || strcmp(arg, "glb") == 0)
-            a->format = FORMAT_GLTF;
-        else if (strcmp(arg, "ply") == 0)
-            a->format = FORMAT_PLY;
-        else {
-            cli_usage_error(prog, "--format: '%s' is not one of gltf, ply", arg);
-            return -1;
-        }
-        return 1;
-    default:
-        return probe_option(&a->pa, prog, c, arg);
+    export_args *a = target;
+    if (strcmp(arg, "auto") == 0) {
+        a->eo.exposure = 0;
+        return 0;
     }
+    return cli_parse_double(caller, "--exposure", arg, 0.0, 1, 1e300, &a->eo.exposure);
 }
+
+/* glb: the extension, accepted as the format's name too. */
+static const cli_choice formats[] = {
+    {"gltf", FORMAT_GLTF}, {"ply", FORMAT_PLY}, {"glb", FORMAT_GLTF}, {NULL, 0}};
+
+/* The options of export alone; the lights' are probe_opts. */
+static const cli_opt export_opts[] = {
+    {.name = "output", .letter = 'o', .kind = CLI_OPT_STRING,
+     .field = CLI_FIELD(export_args, output), .required = "-o OUT.glb (or OUT.ply)"},
+    {.name = "format", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(export_args, format),
+     .choices = formats},
+    {.name = "subpatches", .kind = CLI_OPT_FLAG, .field = CLI_FIELD(export_args, eo.subpatches)},
+    {.name = "exposure", .kind = CLI_OPT_CUSTOM, .handle = exposure_option},
+    {.name = "emission-scale", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(export_args, scale),
+     .min = 0, .max = 1e300},
+    {.name = NULL}};
 
 /* The output format: --format, else the extension (.glb, .ply, any case). */
 static int format_finish(export_args *a)
@@ -115,39 +106,14 @@ static int format_finish(export_args *a)
 /* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
 static int parse_export(export_args *a, int argc, char *argv[])
 {
-    static const struct option longopts[] = {
-        {"output", required_argument, NULL, 'o'},
-        {"format", required_argument, NULL, OPT_FORMAT},
-        {"subpatches", no_argument, NULL, OPT_SUBPATCHES},
-        {"exposure", required_argument, NULL, OPT_EXPOSURE},
-        {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
-        PROBE_LONGOPTS,
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0}};
     *a = (export_args){.eo = lrr_export_options_defaults(), .scale = 1.0};
     probe_args_init(&a->pa);
-    start_getopt();
-    int c;
-    while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
-        if (c == 'h') {
-            fputs(export_help, stdout);
-            return CLI_EXIT_OK;
-        }
-        int r = export_option(a, c, optarg);
-        if (r < 0)
-            return CLI_EXIT_USAGE;
-        if (r == 0)
-            return bad_option(prog, c, argv);
-    }
-    a->file = one_positional(prog, "FILE.lrr", argc, argv);
-    if (!a->file)
+    const cli_opt_group groups[] = {{export_opts, a}, {probe_opts, &a->pa}, {NULL, NULL}};
+    const cli_command cmd = {prog, export_help, "FILE.lrr", groups};
+    int rc = cli_parse_command(&cmd, argc, argv, &a->file);
+    if (rc == CLI_RUN && (format_finish(a) != 0 || probe_finish(&a->pa, prog) != 0))
         return CLI_EXIT_USAGE;
-    if (!a->output || !a->output[0]) {
-        cli_usage_error(prog, "-o OUT.glb (or OUT.ply) is required");
-        fprintf(stderr, "Try '%s --help'.\n", prog);
-        return CLI_EXIT_USAGE;
-    }
-    return format_finish(a) != 0 || probe_finish(&a->pa, prog) != 0 ? CLI_EXIT_USAGE : CLI_RUN;
+    return rc;
 }
 
 /* The mesh's sizes, then the file. */

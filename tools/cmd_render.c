@@ -1,7 +1,6 @@
 /* lrr render: solve a saved operator for its stored emission (optionally lit by a probe) and
  * draw the scene with its radiosity to a PNG (tone mapped) or an OpenEXR file (linear). */
 #include <errno.h>
-#include <getopt.h>
 #include <math.h>
 #include <strings.h>
 #include <stdio.h>
@@ -48,29 +47,17 @@ typedef struct render_args {
 } render_args;
 
 /* ------------------------------------------------------------------ parsing */
-/* The options of render alone: 1 handled, 0 not one of them, -1 usage error (reported). */
-static int render_option(render_args *a, int c, const char *arg)
-{
-    switch (c) {
-    case 'o':
-        a->output = arg;
-        return 1;
-    case OPT_FORMAT:
-        if (strcmp(arg, "png") == 0)
-            a->format = FORMAT_PNG;
-        else if (strcmp(arg, "exr") == 0)
-            a->format = FORMAT_EXR;
-        else {
-            cli_usage_error(prog, "--format: '%s' is not one of png, exr", arg);
-            return -1;
-        }
-        return 1;
-    default: {
-        int r = view_option(&a->view, prog, c, arg);
-        return r ? r : probe_option(&a->pa, prog, c, arg);
-    }
-    }
-}
+static const cli_choice formats[] = {{"png", FORMAT_PNG}, {"exr", FORMAT_EXR}, {NULL, 0}};
+
+/* The options of render alone; the picture's and the lights' are view_opts and probe_opts. */
+static const cli_opt render_opts[] = {
+    {.name = "output", .letter = 'o', .kind = CLI_OPT_STRING,
+     .field = CLI_FIELD(render_args, output), .required = "-o OUT.png (or OUT.exr)"},
+    {.name = "emission-scale", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(render_args, scale),
+     .min = 0, .max = 1e300},
+    {.name = "format", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(render_args, format),
+     .choices = formats},
+    {.name = NULL}};
 
 /* The output format: --format, else the extension (.png, .exr, any case). */
 static int format_finish(render_args *a)
@@ -96,41 +83,17 @@ static int format_finish(render_args *a)
 /* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
 static int parse_render(render_args *a, int argc, char *argv[])
 {
-    static const struct option longopts[] = {
-        {"output", required_argument, NULL, 'o'},
-        VIEW_LONGOPTS,
-        {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
-        {"format", required_argument, NULL, OPT_FORMAT},
-        PROBE_LONGOPTS,
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0}};
     *a = (render_args){.scale = 1.0};
     view_args_init(&a->view);
     probe_args_init(&a->pa);
-    start_getopt();
-    int c;
-    while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
-        if (c == 'h') {
-            fputs(render_help, stdout);
-            return CLI_EXIT_OK;
-        }
-        int r = render_option(a, c, optarg);
-        if (r < 0)
-            return CLI_EXIT_USAGE;
-        if (r == 0)
-            return bad_option(prog, c, argv);
-    }
-    a->file = one_positional(prog, "FILE.lrr", argc, argv);
-    if (!a->file)
+    const cli_opt_group groups[] = {
+        {render_opts, a}, {view_opts, &a->view}, {probe_opts, &a->pa}, {NULL, NULL}};
+    const cli_command cmd = {prog, render_help, "FILE.lrr", groups};
+    int rc = cli_parse_command(&cmd, argc, argv, &a->file);
+    if (rc == CLI_RUN && (probe_finish(&a->pa, prog) != 0 || view_finish(&a->view, prog) != 0 ||
+                          format_finish(a) != 0))
         return CLI_EXIT_USAGE;
-    if (!a->output || !a->output[0]) {
-        cli_usage_error(prog, "-o OUT.png (or OUT.exr) is required");
-        fprintf(stderr, "Try '%s --help'.\n", prog);
-        return CLI_EXIT_USAGE;
-    }
-    if (probe_finish(&a->pa, prog) != 0 || view_finish(&a->view, prog) != 0 || format_finish(a) != 0)
-        return CLI_EXIT_USAGE;
-    return CLI_RUN;
+    return rc;
 }
 
 /* ------------------------------------------------------------------ running */

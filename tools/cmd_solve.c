@@ -1,6 +1,5 @@
 /* lrr solve: solve a saved operator for its stored emission (optionally lit by a probe),
  * time it and write the radiosity CSV. */
-#include <getopt.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,24 +37,13 @@ static const char solve_help[] =
 
 static const char *const path_names[] = {"auto", "full", "sparse", "incremental"};
 
-static int parse_path(const char *arg, lrr_path *out)
-{
-    for (int i = 0; i < 4; i++)
-        if (strcmp(arg, path_names[i]) == 0) {
-            *out = (lrr_path)i;
-            return 0;
-        }
-    cli_usage_error(prog, "--path: '%s' is not one of auto, full, sparse, incremental", arg);
-    return -1;
-}
-
 typedef struct solve_args {
     const char *file, *csv;
     probe_args pa;
     double scale;
     unsigned repeat;
-    lrr_path path;
-    lrr_backend backend;
+    int path;     /* lrr_path */
+    int backend;  /* lrr_backend */
 } solve_args;
 
 /* What the run measured, for the printout. */
@@ -66,67 +54,41 @@ typedef struct solve_result {
 } solve_result;
 
 /* ------------------------------------------------------------------ parsing */
-/* The options of solve: 1 handled, 0 not one of them, -1 usage error (reported). */
-static int solve_option(solve_args *a, int c, const char *arg)
-{
-    switch (c) {
-    case OPT_CSV:
-        a->csv = arg;
-        return 1;
-    case OPT_EMISSION_SCALE:
-        return cli_parse_double(prog, "--emission-scale", arg, 0.0, 0, 1e300, &a->scale) != 0
-                   ? -1 : 1;
-    case OPT_REPEAT:
-        return cli_parse_unsigned(prog, "--repeat", arg, 1, 1000000, &a->repeat) != 0 ? -1 : 1;
-    case OPT_PATH:
-        return parse_path(arg, &a->path) != 0 ? -1 : 1;
-    case OPT_BACKEND:
-        return cli_parse_backend(prog, arg, &a->backend) != 0 ? -1 : 1;
-    default:
-        return probe_option(&a->pa, prog, c, arg);
-    }
-}
+static const cli_choice paths[] = {{"auto", LRR_PATH_AUTO},
+                                   {"full", LRR_PATH_FULL},
+                                   {"sparse", LRR_PATH_SPARSE},
+                                   {"incremental", LRR_PATH_INCREMENTAL},
+                                   {NULL, 0}};
+static const cli_choice backends[] = {{"cpu", LRR_BACKEND_CPU},
+                                      {"opencl", LRR_BACKEND_OPENCL},
+                                      {NULL, 0}};
+
+static const cli_opt solve_opts[] = {
+    {.name = "csv", .kind = CLI_OPT_FILE, .field = CLI_FIELD(solve_args, csv)},
+    {.name = "emission-scale", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(solve_args, scale),
+     .min = 0, .max = 1e300},
+    {.name = "repeat", .kind = CLI_OPT_UNSIGNED, .field = CLI_FIELD(solve_args, repeat),
+     .min = 1, .max = 1000000},
+    {.name = "path", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(solve_args, path),
+     .choices = paths},
+    {.name = "backend", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(solve_args, backend),
+     .choices = backends},
+    {.name = NULL}};
 
 /* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
 static int parse_solve(solve_args *a, int argc, char *argv[])
 {
-    static const struct option longopts[] = {
-        {"csv", required_argument, NULL, OPT_CSV},
-        {"emission-scale", required_argument, NULL, OPT_EMISSION_SCALE},
-        {"repeat", required_argument, NULL, OPT_REPEAT},
-        {"path", required_argument, NULL, OPT_PATH},
-        {"backend", required_argument, NULL, OPT_BACKEND},
-        PROBE_LONGOPTS,
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0}};
     *a = (solve_args){.scale = 1.0,
                       .repeat = DEFAULT_REPEAT,
                       .path = LRR_PATH_FULL,
                       .backend = LRR_BACKEND_CPU};
     probe_args_init(&a->pa);
-    start_getopt();
-    int c;
-    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
-        if (c == 'h') {
-            fputs(solve_help, stdout);
-            return CLI_EXIT_OK;
-        }
-        int r = solve_option(a, c, optarg);
-        if (r < 0)
-            return CLI_EXIT_USAGE;
-        if (r == 0)
-            return bad_option(prog, c, argv);
-    }
-    a->file = one_positional(prog, "FILE.lrr", argc, argv);
-    if (!a->file)
+    const cli_opt_group groups[] = {{solve_opts, a}, {probe_opts, &a->pa}, {NULL, NULL}};
+    const cli_command cmd = {prog, solve_help, "FILE.lrr", groups};
+    int rc = cli_parse_command(&cmd, argc, argv, &a->file);
+    if (rc == CLI_RUN && probe_finish(&a->pa, prog) != 0)
         return CLI_EXIT_USAGE;
-    if (a->csv && !a->csv[0]) {
-        cli_usage_error(prog, "--csv: the file name is empty");
-        return CLI_EXIT_USAGE;
-    }
-    if (probe_finish(&a->pa, prog) != 0)
-        return CLI_EXIT_USAGE;
-    return CLI_RUN;
+    return rc;
 }
 
 /* ------------------------------------------------------------------ printing */
@@ -176,8 +138,8 @@ static int run_solve(const solve_args *a)
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi, sizeof oi);
         b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, a->backend, e, b, a->repeat, a->path, &r.ms, &r.used,
-                             r.kernel)
+        rc = b ? timed_solve(ctx, op, (lrr_backend)a->backend, e, b, a->repeat, (lrr_path)a->path,
+                             &r.ms, &r.used, r.kernel)
                : CLI_EXIT_FAIL;
     }
     if (rc == CLI_EXIT_OK && a->csv)

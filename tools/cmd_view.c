@@ -1,12 +1,7 @@
 /* lrr view: the interactive viewer (tools/view.h). This file parses the command line and
  * the script and is always compiled; the viewer itself (view_run) only with LRR_VIEWER,
  * i.e. when configure found GLFW 3 and libepoxy. */
-#include <errno.h>
-#include <getopt.h>
-#include <math.h>
 #include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 
 #include "view.h"
 
@@ -71,117 +66,61 @@ static const char view_help[] =
     "The line at the top: frames per second and the split in ms (direct light, solve,\n"
     "upload, draw).\n";
 
-static int parse_vec3(const char *opt, const char *arg, double v[3])
+/* --light SPEC, repeatable up to VIEW_MAX_LIGHTS. */
+static int light_option(void *target, const char *caller, const char *arg)
 {
-    const char *p = arg;
-    for (int j = 0; j < 3; j++) {
-        char *end = NULL;
-        errno = 0;
-        v[j] = strtod(p, &end);
-        if (end == p || errno == ERANGE || !isfinite(v[j]) || *end != (j < 2 ? ',' : '\0')) {
-            cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
-            return -1;
-        }
-        p = end + 1;
+    viewer_args *a = target;
+    if (a->lights >= VIEW_MAX_LIGHTS) {
+        cli_usage_error(caller, "--light: at most %d lights", VIEW_MAX_LIGHTS);
+        return -1;
     }
+    return cli_parse_light(caller, arg, &a->light[a->lights++]);
+}
+
+static int no_emission_option(void *target, const char *caller, const char *arg)
+{
+    (void)caller, (void)arg;
+    ((viewer_args *)target)->emitters = 0;
     return 0;
 }
 
-enum { OPT_SCRIPT = 1000, OPT_SCREENSHOT, OPT_FRAMES, OPT_SYNC, OPT_OVERLAY, OPT_FLAT };
-
-/* 1 handled, -1 usage error (reported), 0 unknown. */
-static int viewer_option(viewer_args *a, int c, const char *arg, int *have_target)
-{
-    unsigned u;
-    switch (c) {
-    case OPT_LIGHT:
-        if (a->lights >= VIEW_MAX_LIGHTS) {
-            cli_usage_error(prog, "--light: at most %d lights", VIEW_MAX_LIGHTS);
-            return -1;
-        }
-        return cli_parse_light(prog, arg, &a->light[a->lights++]) != 0 ? -1 : 1;
-    case OPT_NO_SCENE_EMISSION:
-        a->emitters = 0;
-        return 1;
-    case OPT_EXPOSURE:
-        return cli_parse_double(prog, "--exposure", arg, 0.0, 1, 1e30, &a->exposure) ? -1 : 1;
-    case OPT_EYE:
-        a->have_eye = 1;
-        return parse_vec3("--eye", arg, a->eye) ? -1 : 1;
-    case OPT_TARGET:
-        *have_target = 1;
-        return parse_vec3("--target", arg, a->target) ? -1 : 1;
-    case OPT_FOV:
-        return cli_parse_double(prog, "--fov", arg, 1.0, 0, 170.0, &a->fov) ? -1 : 1;
-    case OPT_WIDTH:
-    case OPT_HEIGHT:
-        if (cli_parse_unsigned(prog, c == OPT_WIDTH ? "--width" : "--height", arg, 64, 8192, &u))
-            return -1;
-        *(c == OPT_WIDTH ? &a->width : &a->height) = (int)u;
-        return 1;
-    case OPT_SCRIPT:
-        a->script = arg;
-        return 1;
-    case OPT_SCREENSHOT:
-        a->screenshot = arg;
-        return 1;
-    case OPT_FRAMES:
-        a->have_frames = 1;
-        return cli_parse_unsigned(prog, "--frames", arg, 0, 10000000, &a->frames) ? -1 : 1;
-    case OPT_SYNC:
-        a->sync = 1;
-        return 1;
-    case OPT_OVERLAY:
-        a->overlay = 1;
-        return 1;
-    case OPT_FLAT:
-        a->flat = 1;
-        return 1;
-    }
-    return 0;
-}
+static const cli_opt viewer_opts[] = {
+    {.name = "light", .kind = CLI_OPT_CUSTOM, .handle = light_option},
+    {.name = "no-scene-emission", .kind = CLI_OPT_FLAG, .handle = no_emission_option},
+    {.name = "exposure", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(viewer_args, exposure),
+     .min = 0, .min_open = 1, .max = 1e30},
+    {.name = "eye", .kind = CLI_OPT_VEC3, .field = CLI_FIELD(viewer_args, eye),
+     .seen = CLI_FIELD(viewer_args, have_eye)},
+    {.name = "target", .kind = CLI_OPT_VEC3, .field = CLI_FIELD(viewer_args, target),
+     .seen = CLI_FIELD(viewer_args, have_target)},
+    {.name = "fov", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(viewer_args, fov), .min = 1,
+     .max = 170},
+    {.name = "width", .kind = CLI_OPT_UNSIGNED, .field = CLI_FIELD(viewer_args, width),
+     .min = 64, .max = 8192},
+    {.name = "height", .kind = CLI_OPT_UNSIGNED, .field = CLI_FIELD(viewer_args, height),
+     .min = 64, .max = 8192},
+    {.name = "script", .kind = CLI_OPT_STRING, .field = CLI_FIELD(viewer_args, script)},
+    {.name = "screenshot", .kind = CLI_OPT_STRING, .field = CLI_FIELD(viewer_args, screenshot)},
+    {.name = "frames", .kind = CLI_OPT_UNSIGNED, .field = CLI_FIELD(viewer_args, frames),
+     .seen = CLI_FIELD(viewer_args, have_frames), .min = 0, .max = 10000000},
+    {.name = "sync", .kind = CLI_OPT_FLAG, .field = CLI_FIELD(viewer_args, sync)},
+    {.name = "overlay", .kind = CLI_OPT_FLAG, .field = CLI_FIELD(viewer_args, overlay)},
+    {.name = "flat", .kind = CLI_OPT_FLAG, .field = CLI_FIELD(viewer_args, flat)},
+    {.name = NULL}};
 
 /* CLI_RUN with *a filled in, or the exit status. */
 static int parse_view(viewer_args *a, int argc, char *argv[])
 {
-    static const struct option longopts[] = {
-        {"light", required_argument, NULL, OPT_LIGHT},
-        {"no-scene-emission", no_argument, NULL, OPT_NO_SCENE_EMISSION},
-        {"exposure", required_argument, NULL, OPT_EXPOSURE},
-        {"eye", required_argument, NULL, OPT_EYE},
-        {"target", required_argument, NULL, OPT_TARGET},
-        {"fov", required_argument, NULL, OPT_FOV},
-        {"width", required_argument, NULL, OPT_WIDTH},
-        {"height", required_argument, NULL, OPT_HEIGHT},
-        {"script", required_argument, NULL, OPT_SCRIPT},
-        {"screenshot", required_argument, NULL, OPT_SCREENSHOT},
-        {"frames", required_argument, NULL, OPT_FRAMES},
-        {"sync", no_argument, NULL, OPT_SYNC},
-        {"overlay", no_argument, NULL, OPT_OVERLAY},
-        {"flat", no_argument, NULL, OPT_FLAT},
-        {"help", no_argument, NULL, 'h'},
-        {NULL, 0, NULL, 0}};
     *a = (viewer_args){.width = 800, .height = 600, .emitters = 1};
-    int have_target = 0, c;
-    start_getopt();
-    while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
-        if (c == 'h') {
-            fputs(view_help, stdout);
-            return CLI_EXIT_OK;
-        }
-        int r = viewer_option(a, c, optarg, &have_target);
-        if (r < 0)
-            return CLI_EXIT_USAGE;
-        if (r == 0)
-            return bad_option(prog, c, argv);
-    }
-    if (a->have_eye != have_target) {
+    const cli_opt_group groups[] = {{viewer_opts, a}, {NULL, NULL}};
+    const cli_command cmd = {prog, view_help, "FILE.lrr", groups};
+    int rc = cli_parse_command(&cmd, argc, argv, &a->file);
+    if (rc == CLI_RUN && a->have_eye != a->have_target) {
         cli_usage_error(prog, "%s needs %s", a->have_eye ? "--eye" : "--target",
                         a->have_eye ? "--target" : "--eye");
         return CLI_EXIT_USAGE;
     }
-    a->file = one_positional(prog, "FILE.lrr", argc, argv);
-    return a->file ? CLI_RUN : CLI_EXIT_USAGE;
+    return rc;
 }
 
 int cmd_view(int argc, char *argv[])

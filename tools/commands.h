@@ -63,20 +63,14 @@ enum {
     OPT_PROGRESS,
     OPT_NO_ROTATION,
     OPT_CSV,
-    OPT_EMISSION_SCALE,
-    OPT_REPEAT,
-    OPT_PATH,
     OPT_BACKEND,
     OPT_STORAGE,
     OPT_WIDTH,
     OPT_HEIGHT,
     OPT_EXPOSURE,
-    OPT_CAMERA,
     OPT_EYE,
     OPT_TARGET,
-    OPT_UP,
     OPT_FOV,
-    OPT_FORMAT,
     OPT_OUT,
     OPT_METHOD,
     OPT_TOL,
@@ -86,19 +80,14 @@ enum {
     OPT_NORMALS,
     OPT_JSON,
     OPT_LIGHTS,
-    OPT_PROBE,
-    OPT_PROBE_METHOD,
-    OPT_PROBE_SCALE,
     OPT_NO_SCENE_EMISSION,
     OPT_LIGHT,
-    OPT_LIGHTS_SCRIPT,
     OPT_ADAPTIVE,
     OPT_CLUSTERS,
     OPT_ADAPTIVE_SAMPLES,
     OPT_ADAPTIVE_SPLIT,
     OPT_SAMPLES,
-    OPT_FORMFACTOR,
-    OPT_SUBPATCHES
+    OPT_FORMFACTOR
 };
 
 /* ------------------------------------------------------------------ help fragments */
@@ -131,7 +120,66 @@ enum {
     "                       (default: the machine's physical memory; 0 = no limit). A larger\n" \
     "                       build is refused before it starts, naming the MiB it needs\n"
 
-/* ------------------------------------------------------------------ option parsing (cli_options.c) */
+/* ------------------------------------------------------------------ option tables (cli_options.c) */
+/* solve, render, export and animate describe their options as tables: one parser
+ * (cli_parse_command) reads the command line against them with getopt_long, so every option
+ * is parsed, range-checked and reported with the same messages ("PROG: --NAME: ..."). */
+typedef enum cli_opt_kind {
+    CLI_OPT_FLAG,     /* no value: the int at field = 1, or handle(target, prog, NULL) */
+    CLI_OPT_STRING,   /* the const char * at field */
+    CLI_OPT_FILE,     /* the same, refused when empty ("--NAME: the file name is empty") */
+    CLI_OPT_DOUBLE,   /* the double at field: finite, in [min, max] (open ends: *_open) */
+    CLI_OPT_UNSIGNED, /* the unsigned at field, in [min, max] */
+    CLI_OPT_SIZE,     /* the size_t at field, in [min, max] */
+    CLI_OPT_VEC3,     /* the double[3] at field: "X,Y,Z", three finite numbers */
+    CLI_OPT_CHOICE,   /* the int at field = the value of the word in choices */
+    CLI_OPT_CUSTOM    /* handle(target, prog, arg): 0, or -1 after a usage message */
+} cli_opt_kind;
+
+/* A word of a CLI_OPT_CHOICE and its value. A later word with an earlier word's value is an
+ * alias: accepted, not listed in the message. */
+typedef struct cli_choice {
+    const char *word;
+    int value;
+} cli_choice;
+
+/* Where a field is in the group's struct, 0 meaning none (so that a table entry may leave
+ * it out). */
+#define CLI_FIELD(type, member) (offsetof(type, member) + 1)
+
+typedef struct cli_opt {
+    const char *name;           /* the long name without "--"; NULL ends a table */
+    char letter;                /* a short form (-o), or 0 */
+    cli_opt_kind kind;
+    size_t field;               /* CLI_FIELD of the value */
+    size_t seen;                /* CLI_FIELD of an int set to 1 when the option is given */
+    double min, max;            /* DOUBLE, UNSIGNED, SIZE */
+    int min_open, max_open;     /* DOUBLE: min (max) itself is refused */
+    const cli_choice *choices;  /* CHOICE: ends with a NULL word */
+    int (*handle)(void *target, const char *prog, const char *arg); /* CUSTOM, FLAG */
+    const char *required;       /* "-o DIR": the option must be given, and not empty */
+} cli_opt;
+
+/* A table and the struct its fields are in. */
+typedef struct cli_opt_group {
+    const cli_opt *opts;
+    void *target;
+} cli_opt_group;
+
+typedef struct cli_command {
+    const char *prog;             /* "lrr solve" */
+    const char *help;             /* printed on stdout by -h, --help */
+    const char *positional;       /* what the one positional argument is ("FILE.lrr") */
+    const cli_opt_group *groups;  /* ends with a NULL table */
+} cli_command;
+
+/* Parses argv (from the command's name on) against the groups' tables: CLI_RUN with
+ * *positional set, CLI_EXIT_OK after --help, or CLI_EXIT_USAGE after a message (an unknown
+ * option, a missing or bad value, a required option left out, not one positional). The
+ * targets keep what their init put there for the options not given. */
+int cli_parse_command(const cli_command *cmd, int argc, char *argv[], const char **positional);
+
+/* ------------------------------------------------------------------ getopt (cli_options.c) */
 /* Reports the option getopt_long rejected (it is told to stay quiet: the optstring starts
  * with ':' and opterr = 0) and returns the usage exit status. */
 int bad_option(const char *prog, int c, char *const argv[]);
@@ -148,14 +196,6 @@ int bad_option(const char *prog, int c, char *const argv[]);
     {"progress", no_argument, NULL, OPT_PROGRESS},                                            \
     {"no-rotation", no_argument, NULL, OPT_NO_ROTATION},                                      \
     {"formfactor", required_argument, NULL, OPT_FORMFACTOR}
-#define PROBE_LONGOPTS                                                                         \
-    {"probe", required_argument, NULL, OPT_PROBE},                                            \
-    {"sources", required_argument, NULL, OPT_SOURCES},                                        \
-    {"probe-method", required_argument, NULL, OPT_PROBE_METHOD},                              \
-    {"probe-scale", required_argument, NULL, OPT_PROBE_SCALE},                                \
-    {"no-scene-emission", no_argument, NULL, OPT_NO_SCENE_EMISSION},                         \
-    {"light", required_argument, NULL, OPT_LIGHT}
-
 void start_getopt(void);
 
 /* Takes exactly one positional argument; returns it or NULL after a usage message. */
@@ -212,18 +252,9 @@ typedef struct view_args {
     lrr_render_options ro;
     int have_eye, have_target, have_up, have_camera;
 } view_args;
-#define VIEW_LONGOPTS                                                                         \
-    {"width", required_argument, NULL, OPT_WIDTH},                                            \
-    {"height", required_argument, NULL, OPT_HEIGHT},                                          \
-    {"exposure", required_argument, NULL, OPT_EXPOSURE},                                      \
-    {"camera", required_argument, NULL, OPT_CAMERA},                                          \
-    {"eye", required_argument, NULL, OPT_EYE},                                                \
-    {"target", required_argument, NULL, OPT_TARGET},                                          \
-    {"up", required_argument, NULL, OPT_UP},                                                  \
-    {"fov", required_argument, NULL, OPT_FOV}
 void view_args_init(view_args *v);
-/* 1: handled, 0: not a picture option, -1: usage error (reported). */
-int view_option(view_args *v, const char *prog, int c, const char *arg);
+/* --width, --height, --exposure, --camera, --eye, --target, --up, --fov into a view_args. */
+extern const cli_opt view_opts[];
 /* --eye needs --target and excludes --camera, --up only with --eye; sets ro.use_eye. 0 or
  * -1 after a usage message. */
 int view_finish(view_args *v, const char *prog);
@@ -254,8 +285,9 @@ int view_finish(view_args *v, const char *prog);
 int cli_parse_light(const char *prog, const char *spec, lrr_light_source *l);
 
 void probe_args_init(probe_args *p);
-/* 1: handled, 0: not a probe option, -1: usage error (reported). */
-int probe_option(probe_args *p, const char *prog, int c, const char *arg);
+/* --probe, --sources, --probe-method, --probe-scale, --no-scene-emission, --light into a
+ * probe_args. */
+extern const cli_opt probe_opts[];
 /* 0, or -1 after a usage message. */
 int probe_finish(const probe_args *p, const char *prog);
 

@@ -38,13 +38,13 @@ typedef struct viewer_args {
     const char *screenshot;  /* --screenshot, or NULL */
     unsigned frames;         /* --frames: frames after the script */
     int have_frames;
-    int width, height;
+    unsigned width, height;
     double exposure;         /* 0 = automatic */
     int emitters;            /* the scene's own emitters on at the start */
     int sync;                /* --sync: every frame waits for its own relight */
     int overlay;             /* --overlay: the split line in headless pictures too */
     int flat;                /* --flat: one colour per subpatch, no smooth shading */
-    int have_eye;
+    int have_eye, have_target;
     double eye[3], target[3], fov;
     lrr_light_source light[VIEW_MAX_LIGHTS];
     size_t lights;

@@ -343,6 +343,7 @@ static int apply(view_app *app, const cli_script_cmd *c)
         break;
     case CS_SCROLL: view_input_scroll(app, c->value); break;
     case CS_KEY: view_input_key(app, c->key); break;
+    case CS_FLY: view_input_fly_keys(app, (unsigned)c->key, c->on, c->value); break;
     }
     return CLI_EXIT_OK;
 }

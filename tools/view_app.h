@@ -54,7 +54,9 @@ void view_input_button(view_app *app, int left, int press);
 void view_input_scroll(view_app *app, double notches);
 void view_input_key(view_app *app, int key); /* enum view_key */
 void view_input_install(view_app *app);
-/* WASDQE flying, dt seconds since the last frame. */
+/* WASDQE flying, dt seconds since the last frame: the keys held now (GLFW). */
 void view_input_fly(view_app *app, double dt);
+/* The same for the held keys given, bit k for CLI_SCRIPT_FLY_KEYS[k] (a script's fly). */
+void view_input_fly_keys(view_app *app, unsigned held, int shift, double dt);
 
 #endif /* LRR_VIEW_APP_H */

@@ -272,16 +272,25 @@ static void on_key(GLFWwindow *win, int key, int scancode, int action, int mods)
         view_input_key(app_of(win), vk);
 }
 
+/* The scene's size per second (×4 with shift): W moves the eye and target forward. */
+void view_input_fly_keys(view_app *app, unsigned held, int shift, double dt)
+{
+    int down[6];
+    for (int k = 0; k < 6; k++)
+        down[k] = held >> k & 1;
+    double v = 0.4 * app->diag * dt * (shift ? 4 : 1);
+    view_camera_move(&app->cam, v * (down[3] - down[2]), v * (down[5] - down[4]),
+                     v * (down[0] - down[1]));
+}
+
 void view_input_fly(view_app *app, double dt)
 {
     static const int keys[6] = {GLFW_KEY_W, GLFW_KEY_S, GLFW_KEY_A, GLFW_KEY_D, GLFW_KEY_Q,
-                                GLFW_KEY_E};
-    int down[6];
+                                GLFW_KEY_E}; /* CLI_SCRIPT_FLY_KEYS */
+    unsigned held = 0;
     for (int k = 0; k < 6; k++)
-        down[k] = glfwGetKey(app->win, keys[k]) == GLFW_PRESS;
-    double v = 0.4 * app->diag * dt * (glfwGetKey(app->win, GLFW_KEY_LEFT_SHIFT) ? 4 : 1);
-    view_camera_move(&app->cam, v * (down[3] - down[2]), v * (down[5] - down[4]),
-                     v * (down[0] - down[1]));
+        held |= (unsigned)(glfwGetKey(app->win, keys[k]) == GLFW_PRESS) << k;
+    view_input_fly_keys(app, held, glfwGetKey(app->win, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS, dt);
 }
 
 void view_input_install(view_app *app)
