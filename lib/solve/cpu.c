@@ -34,9 +34,6 @@
  * 16: 8.0 vs 3.3; 64: 7.6 vs 1.6. n = 3456, k = 216 (3 MB, cache-resident): 16: 0.10 vs
  * 0.88 — there the matrix is already in cache and the loop wins. */
 #define BATCH_CHUNK 64
-/* F̄ held in panels reaches sgemm as rows, this many at a time (a whole number of panels;
- * 1024 rows of k = 864 floats are 3.5 MB) */
-#define BATCH_ROWS 1024
 #define BATCH_GEMM_MIN_COUNT 8
 #define BATCH_GEMM_MIN_BYTES ((size_t)32 << 20)
 #define NO_SLOT SIZE_MAX
@@ -64,8 +61,7 @@ struct lrr_solver {
     int have_prev;
     unsigned since_full;
     /* batch workspace, grown on demand, and when sgemm takes over */
-    float *bw, *bz, *bt;
-    float *brows; /* BATCH_ROWS rows of F̄ copied out of panels for sgemm */
+    float *bw, *bz;
     size_t batch_cap;
     size_t gemm_min_count, gemm_min_bytes;
 };
@@ -88,8 +84,6 @@ void lrr_solver_destroy(lrr_solver *s)
     lrr_aligned_free(s->dw);
     lrr_aligned_free(s->bw);
     lrr_aligned_free(s->bz);
-    lrr_aligned_free(s->bt);
-    lrr_aligned_free(s->brows);
     free(s);
 }
 
@@ -441,9 +435,11 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
 /* ------------------------------------------------------------------ batches */
 
 
-/* count ≤ BATCH_CHUNK frames of already validated emission by three small sgemm and one
- * n×k × k×3·count sgemm. */
-static lrr_status batch_gemm(lrr_solver *s, size_t count, const float *E, float *B)
+/* count ≤ BATCH_CHUNK frames of already validated emission: W by segmented sums, Z_c =
+ * M_c W_c by sgemm (k×k × k×count: M is read once, not once a frame), then one pass over F̄
+ * in blocks of rows, each block applied to every frame while it is in cache
+ * (lrr__fbar_apply_frames), so F̄ comes from memory once per batch. */
+static lrr_status batch_frames(lrr_solver *s, size_t count, const float *E, float *B)
 {
     const lrr_operator *op = s->op;
     lrr_context *ctx = op->ctx;
@@ -451,13 +447,11 @@ static lrr_status batch_gemm(lrr_solver *s, size_t count, const float *E, float 
     if (count > s->batch_cap) {
         lrr_aligned_free(s->bw);
         lrr_aligned_free(s->bz);
-        lrr_aligned_free(s->bt);
-        s->bw = s->bz = s->bt = NULL;
+        s->bw = s->bz = NULL;
         s->batch_cap = 0;
         lrr_status st;
         if ((st = lrr__calloc(ctx, &s->bw, k, 3 * count * sizeof(float), "batch W")) ||
-            (st = lrr__calloc(ctx, &s->bz, k, 3 * count * sizeof(float), "batch Z")) ||
-            (st = lrr__calloc(ctx, &s->bt, n, 3 * count * sizeof(float), "batch T")))
+            (st = lrr__calloc(ctx, &s->bz, k, 3 * count * sizeof(float), "batch Z")))
             return st;
         s->batch_cap = count;
     }
@@ -473,36 +467,14 @@ static lrr_status batch_gemm(lrr_solver *s, size_t count, const float *E, float 
             for (int c = 0; c < 3; c++)
                 s->bw[((size_t)c * k + p) * count + f] = (float)acc[c];
         }
-    /* Z (k × 3·count, row p = [r of every frame, g of every frame, b of every frame])
-     * = M_c W_c: one sgemm per channel writing its third of each row (ldc = 3·count) */
-    const int ki = (int)k, ni = (int)n, cnt = (int)count;
+    /* z of frame f (3×k, channel-major, as one frame's z) at bz + 3k·f: Z_cᵀ = W_cᵀ M_cᵀ,
+     * count×k with leading dimension 3k */
+    const int ki = (int)k, cnt = (int)count;
     for (int c = 0; c < 3; c++)
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, ki, cnt, ki, 1.0f,
-                    op->m + (size_t)c * k * k, ki, s->bw + (size_t)c * k * count, cnt, 0.0f,
-                    s->bz + (size_t)c * count, 3 * cnt);
-    /* T = F̄ Z (n × 3·count): compute-bound once count is large */
-    if (!op->panels)
-        cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, ni, 3 * cnt, ki, 1.0f, op->fbar,
-                    ki, s->bz, 3 * cnt, 0.0f, s->bt, 3 * cnt);
-    else {
-        lrr_status st;
-        if (!s->brows &&
-            (st = lrr__calloc(ctx, &s->brows, BATCH_ROWS, k * sizeof(float), "batch F̄ rows")))
-            return st;
-        for (size_t i = 0; i < n; i += BATCH_ROWS) {
-            size_t m = n - i < BATCH_ROWS ? n - i : BATCH_ROWS;
-            lrr__fbar_copy_rows(op, i, i + m, s->brows);
-            cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, (int)m, 3 * cnt, ki, 1.0f,
-                        s->brows, ki, s->bz, 3 * cnt, 0.0f, s->bt + i * 3 * count, 3 * cnt);
-        }
-    }
-    #pragma omp parallel for schedule(static) if (3 * n * count >= LRR__PARALLEL_MIN)
-    for (size_t i = 0; i < n; i++)
-        for (size_t f = 0; f < count; f++)
-            for (int c = 0; c < 3; c++) {
-                size_t j = f * frame + 3 * i + c;
-                B[j] = E[j] + op->rho[3 * i + c] * s->bt[(i * 3 + c) * count + f];
-            }
+        cblas_sgemm(CblasRowMajor, CblasTrans, CblasTrans, cnt, ki, ki, 1.0f,
+                    s->bw + (size_t)c * k * count, cnt, op->m + (size_t)c * k * k, ki, 0.0f,
+                    s->bz + (size_t)c * k, 3 * ki);
+    lrr__fbar_apply_frames(s->kernel, op, count, s->bz, E, op->rho, B);
     return LRR_OK;
 }
 
@@ -538,9 +510,8 @@ lrr_status lrr_solve_batch(lrr_solver *s, size_t count, const float *E, float *B
                           "frame %zu: emission of subpatch %zu, channel %zu = %g (must be "
                           "finite and >= 0)",
                           bad / frame, bad % frame / 3, bad % 3, (double)E[bad]);
-    if (s->cl || op->storage != LRR_STORAGE_F32 || count < s->gemm_min_count ||
-        fbar_bytes(op) < s->gemm_min_bytes) {
-        /* one fused pass per frame (16-bit F̄ cannot go to sgemm; OpenCL frames loop) */
+    if (s->cl || count < s->gemm_min_count || fbar_bytes(op) < s->gemm_min_bytes) {
+        /* one fused pass per frame (OpenCL frames loop) */
         for (size_t f = 0; f < count; f++) {
             lrr_status st = lrr_solve(s, E + f * frame, B + f * frame);
             if (st)
@@ -550,7 +521,7 @@ lrr_status lrr_solve_batch(lrr_solver *s, size_t count, const float *E, float *B
     }
     for (size_t f0 = 0; f0 < count; f0 += BATCH_CHUNK) {
         size_t c = count - f0 < BATCH_CHUNK ? count - f0 : BATCH_CHUNK;
-        lrr_status st = batch_gemm(s, c, E + f0 * frame, B + f0 * frame);
+        lrr_status st = batch_frames(s, c, E + f0 * frame, B + f0 * frame);
         if (st)
             return st;
     }

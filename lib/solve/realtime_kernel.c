@@ -546,35 +546,49 @@ void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float
     }
 }
 
+/* rows [i0, i1) of one frame, panels where F̄ has them and rows after */
+static void apply_block(const lrr__kernel *kn, const lrr_operator *op, size_t i0, size_t i1,
+                        size_t np, const float *z, const float *E, const float *rho, float *B)
+{
+    const size_t k = op->k;
+    /* black subpatches reflect nothing: a block of them needs no pass over its rows */
+    int black = 1;
+    for (size_t j = 3 * i0; j < 3 * i1 && black; j++)
+        black = rho[j] == 0.0f;
+    if (black) {
+        memcpy(B + 3 * i0, E + 3 * i0, 3 * (i1 - i0) * sizeof(float));
+        return;
+    }
+    size_t im = i1 < np ? i1 : i0 > np ? i0 : np; /* [i0, im) panels, [im, i1) rows */
+    if (op->storage == LRR_STORAGE_F16) {
+        kn->f16_panels(op->fbar16, op->row_scale, i0, im, k, z, E, rho, B);
+        kn->f16_rows(op->fbar16, op->row_scale, im, i1, k, z, E, rho, B);
+    } else if (op->storage == LRR_STORAGE_BF16) {
+        kn->bf16_panels(op->fbar16, op->row_scale, i0, im, k, z, E, rho, B);
+        kn->bf16_rows(op->fbar16, op->row_scale, im, i1, k, z, E, rho, B);
+    } else {
+        kn->fbar_panels(op->fbar, i0, im, k, z, E, rho, B);
+        kn->fbar_rows(op->fbar, im, i1, k, z, E, rho, B);
+    }
+}
+
+_Static_assert(ROW_BLOCK % LRR__PANEL == 0, "blocks of whole panels");
+
+void lrr__fbar_apply_frames(const lrr__kernel *kn, const lrr_operator *op, size_t count,
+                            const float *z, const float *E, const float *rho, float *B)
+{
+    const size_t n = op->n, k = op->k, np = lrr__fbar_panel_rows(op);
+    const size_t blocks = (n + ROW_BLOCK - 1) / ROW_BLOCK;
+    #pragma omp parallel for schedule(static) if (n * k * count >= LRR__PARALLEL_MIN)
+    for (size_t b = 0; b < blocks; b++) {
+        size_t i0 = b * ROW_BLOCK, i1 = i0 + ROW_BLOCK < n ? i0 + ROW_BLOCK : n;
+        for (size_t f = 0; f < count; f++)
+            apply_block(kn, op, i0, i1, np, z + 3 * k * f, E + 3 * n * f, rho, B + 3 * n * f);
+    }
+}
+
 void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
                      const float *E, const float *rho, float *B)
 {
-    const size_t n = op->n, k = op->k;
-    const size_t blocks = (n + ROW_BLOCK - 1) / ROW_BLOCK;
-    const lrr_storage storage = op->storage;
-    const size_t np = lrr__fbar_panel_rows(op); /* rows [0, np) in panels, the rest rows */
-    _Static_assert(ROW_BLOCK % LRR__PANEL == 0, "blocks of whole panels");
-    #pragma omp parallel for schedule(static) if (n * k >= LRR__PARALLEL_MIN)
-    for (size_t b = 0; b < blocks; b++) {
-        size_t i0 = b * ROW_BLOCK, i1 = i0 + ROW_BLOCK < n ? i0 + ROW_BLOCK : n;
-        /* black subpatches reflect nothing: a block of them needs no pass over its rows */
-        int black = 1;
-        for (size_t j = 3 * i0; j < 3 * i1 && black; j++)
-            black = rho[j] == 0.0f;
-        if (black) {
-            memcpy(B + 3 * i0, E + 3 * i0, 3 * (i1 - i0) * sizeof(float));
-            continue;
-        }
-        size_t im = i1 < np ? i1 : i0 > np ? i0 : np; /* [i0, im) panels, [im, i1) rows */
-        if (storage == LRR_STORAGE_F16) {
-            kn->f16_panels(op->fbar16, op->row_scale, i0, im, k, z, E, rho, B);
-            kn->f16_rows(op->fbar16, op->row_scale, im, i1, k, z, E, rho, B);
-        } else if (storage == LRR_STORAGE_BF16) {
-            kn->bf16_panels(op->fbar16, op->row_scale, i0, im, k, z, E, rho, B);
-            kn->bf16_rows(op->fbar16, op->row_scale, im, i1, k, z, E, rho, B);
-        } else {
-            kn->fbar_panels(op->fbar, i0, im, k, z, E, rho, B);
-            kn->fbar_rows(op->fbar, im, i1, k, z, E, rho, B);
-        }
-    }
+    lrr__fbar_apply_frames(kn, op, 1, z, E, rho, B);
 }

@@ -47,12 +47,16 @@ lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, size_t k,
                               const lrr__kernel **out);
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
 void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z);
-/* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ n×k row-major read once, in the operator's storage;
+/* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ read once, in the operator's storage and layout;
  * E, rho, B n×3 (rho is usually op->rho). */
 void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
                      const float *E, const float *rho, float *B);
+/* The same for count frames (z: 3k per frame, E and B: 3n per frame, rho shared): each
+ * block of rows serves every frame while it is in cache, so F̄ is read once. */
+void lrr__fbar_apply_frames(const lrr__kernel *kn, const lrr_operator *op, size_t count,
+                            const float *z, const float *E, const float *rho, float *B);
 
-/* Tests only: when lrr_solve_batch hands a batch to sgemm (at least min_count frames and
+/* Tests only: when lrr_solve_batch takes the batched pass (at least min_count frames and
  * F̄ of at least min_bytes), so small test operators can exercise both ways. */
 void lrr__solver_batch_thresholds(lrr_solver *s, size_t min_count, size_t min_bytes);
 

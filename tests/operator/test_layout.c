@@ -213,7 +213,7 @@ static void test_file_rows(void **state)
 }
 
 /* A batch large enough for sgemm reaches it through rows copied out of the panels, in
- * several chunks (n > 1024), and gives the per-frame answers. */
+ * several chunks, and gives the per-frame answers. */
 static void test_batch_panels(void **state)
 {
     (void)state;
