@@ -190,6 +190,21 @@ static int edge_span(const edge_fn *e, double py, int *L, int *R)
      * (a third of this function's tests on the Cornell box: rows the edge does not bound) */
     if (e->A > 0 ? *L > xc + e->tol : *R < xc - e->tol)
         return 1;
+    /* no pixel index within the tolerance of the estimate: the pixels up to n = floor(xc +
+     * tol) < xc − tol are strictly on one side, those from n + 1 > xc + tol strictly on the
+     * other, without a test (all but a few rows of a Cornell profile) */
+    const double lo = xc - e->tol, hi = xc + e->tol;
+    if (lo > -0x1p30 && hi < 0x1p30) {
+        double n = (double)(int64_t)hi; /* trunc, then floor: */
+        n -= n > hi;
+        if (n < lo) {
+            if (e->A > 0)
+                *L = n + 1 > *L ? (int)n + 1 : *L;
+            else
+                *R = n < *R ? (int)n : *R;
+            return *L <= *R;
+        }
+    }
     if (e->A > 0) { /* inside from some x on */
         int x = !(xc > *L) ? *L : xc >= *R + 1 ? *R + 1 : (int)ceil(xc);
         while (x > *L && inside(e, edge_at(e, (x - 1) + 0.5, py)))
