@@ -104,14 +104,19 @@ typedef struct {
 /* Clips polygon p (n vertices) against a·x + b·y + c·z >= 0. Intersections are computed from
  * the lexicographically smaller endpoint so the two triangles sharing an edge get bit-identical
  * new vertices. */
+/* Which side of plane (a, b, c, off) p is on: >= 0 kept (clip_plane's one expression). */
+static inline double plane_d(const cvert *p, double a, double b, double c, double off)
+{
+    return a * p->x + b * p->y + c * p->z - off;
+}
+
 static int clip_plane(const cvert *in, int n, cvert *out, double a, double b, double c,
                       double off)
 {
     int m = 0;
     for (int i = 0; i < n; i++) {
         const cvert *p = &in[i], *q = &in[(i + 1) % n];
-        double dp = a * p->x + b * p->y + c * p->z - off;
-        double dq = a * q->x + b * q->y + c * q->z - off;
+        double dp = plane_d(p, a, b, c, off), dq = plane_d(q, a, b, c, off);
         if (dp >= 0)
             out[m++] = *p;
         if ((dp >= 0) != (dq >= 0)) {
@@ -298,13 +303,25 @@ static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t,
     }
     if (all_behind || out_l || out_r || out_b || out_t)
         return;
-    n = clip_plane(poly, n, tmp, 0, 0, 1, h->near);
-    n = clip_plane(tmp, n, poly, 1, 0, GUARD, 0);   /* x >= -G z */
-    n = clip_plane(poly, n, tmp, -1, 0, GUARD, 0);  /* x <=  G z */
-    n = clip_plane(tmp, n, poly, 0, 1, GUARD, 0);   /* y >= -G z */
-    n = clip_plane(poly, n, tmp, 0, -1, GUARD, 0);  /* y <=  G z */
-    if (n < 3)
-        return;
+    /* a triangle inside every plane is what the clips would copy (most of them) */
+    int inside_all = 1;
+    for (int i = 0; i < 3; i++)
+        inside_all &= plane_d(&poly[i], 0, 0, 1, h->near) >= 0 &&
+                      plane_d(&poly[i], 1, 0, GUARD, 0) >= 0 &&
+                      plane_d(&poly[i], -1, 0, GUARD, 0) >= 0 &&
+                      plane_d(&poly[i], 0, 1, GUARD, 0) >= 0 &&
+                      plane_d(&poly[i], 0, -1, GUARD, 0) >= 0;
+    if (inside_all) {
+        memcpy(tmp, poly, 3 * sizeof *poly);
+    } else {
+        n = clip_plane(poly, n, tmp, 0, 0, 1, h->near);
+        n = clip_plane(tmp, n, poly, 1, 0, GUARD, 0);   /* x >= -G z */
+        n = clip_plane(poly, n, tmp, -1, 0, GUARD, 0);  /* x <=  G z */
+        n = clip_plane(tmp, n, poly, 0, 1, GUARD, 0);   /* y >= -G z */
+        n = clip_plane(poly, n, tmp, 0, -1, GUARD, 0);  /* y <=  G z */
+        if (n < 3)
+            return;
+    }
     svert s[MAX_POLY];
     double half = 0.5 * f->W;
     for (int i = 0; i < n; i++) {
