@@ -163,8 +163,9 @@ __attribute__((target("avx2"))) void lrr__hemi_depth_span(const double abc[9],
     const __m256d ia = _mm256_set1_pd(inv_area), step = _mm256_set1_pd(4.0);
     const __m128i idv = _mm_set1_epi32(id);
     __m256d px = _mm256_add_pd(_mm256_set1_pd((double)L), _mm256_setr_pd(0.5, 1.5, 2.5, 3.5));
-    int x = L;
-    for (; x + 3 <= R; x += 4, px = _mm256_add_pd(px, step)) {
+    for (int x = L; x <= R; x += 4, px = _mm256_add_pd(px, step)) {
+        /* the lanes up to R: a row's last pixels load and store no further (masked) */
+        const __m128i lane = _mm_cmplt_epi32(_mm_setr_epi32(0, 1, 2, 3), _mm_set1_epi32(R - x + 1));
         __m256d w[3];
         for (int k = 0; k < 3; k++)
             w[k] = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(A[k], px), BC[k]), C[k]);
@@ -172,25 +173,14 @@ __attribute__((target("avx2"))) void lrr__hemi_depth_span(const double abc[9],
                                                 _mm256_mul_pd(w[1], Z[1])),
                                   _mm256_mul_pd(w[2], Z[2]));
         __m128 zf = _mm256_cvtpd_ps(_mm256_mul_pd(z, ia));
-        __m128 old = _mm_loadu_ps(depth + x);
-        __m128 gt = _mm_cmpgt_ps(zf, old); /* ordered: NaN never wins, as in C */
+        __m128 old = _mm_maskload_ps(depth + x, lane);
+        /* ordered: NaN never wins, as in C */
+        __m128 gt = _mm_and_ps(_mm_cmpgt_ps(zf, old), _mm_castsi128_ps(lane));
         if (_mm_movemask_ps(gt) == 0)
             continue;
-        _mm_storeu_ps(depth + x, _mm_blendv_ps(old, zf, gt));
-        __m128i it = _mm_loadu_si128((const __m128i *)(item + x));
-        _mm_storeu_si128((__m128i *)(item + x),
-                         _mm_castps_si128(_mm_blendv_ps(_mm_castsi128_ps(it),
-                                                        _mm_castsi128_ps(idv), gt)));
-    }
-    for (; x <= R; x++) { /* the scalar loop itself */
-        double p = x + 0.5;
-        double w0 = abc[0] * p + abc[1] * py + abc[2], w1 = abc[3] * p + abc[4] * py + abc[5],
-               w2 = abc[6] * p + abc[7] * py + abc[8];
-        float z = (float)((w0 * iz[0] + w1 * iz[1] + w2 * iz[2]) * inv_area);
-        if (z > depth[x]) {
-            depth[x] = z;
-            item[x] = id;
-        }
+        const __m128i gti = _mm_castps_si128(gt);
+        _mm_maskstore_ps(depth + x, gti, zf);
+        _mm_maskstore_ps((float *)(item + x), gti, _mm_castsi128_ps(idv));
     }
 }
 #else
