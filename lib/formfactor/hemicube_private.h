@@ -47,12 +47,12 @@ typedef struct lrr__hemi_ctx {
     const double *sx;      /* per pixel column x: (x + 0.5)/(R/2) − 1, as the faces have it */
 } lrr__hemi_ctx;
 
-/* 1 when lrr__hemi_leaves4 may run here (AVX2, unless the environment's LRR_SIMD=c). */
+/* 1 when lrr__hemi_leaves_run and lrr__hemi_depth_span may run here (AVX2, unless the environment's LRR_SIMD=c). */
 int lrr__hemi_simd(void);
 /* The leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of pixels a..b of a
  * row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
  * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]; bit-identical to the
- * scalar path (hemicube.c's probe_at). cells: hemicube.c's leaf table of this depth, or NULL
+ * scalar path (hemicube.c's leaf_at). cells: hemicube.c's leaf table of this depth, or NULL
  * to descend. */
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,

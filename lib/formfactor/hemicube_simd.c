@@ -1,10 +1,13 @@
-/* The hemicube's pixel → leaf step for four pixels at once (AVX2, chosen at run time by
- * lrr__hemi_simd). Four consecutive pixels of a row that show the same triangle go through
- * the scalar path's exact sequence of IEEE operations (no FMA contraction: separate multiply
- * and add intrinsics), lane by lane, so the leaves, and F̄, are bit-identical to it:
- *   sx = (x + 0.5) / half − 1;  r = 1 / (den·(sx, sy, 1));  b_j = (num_j·(sx, sy, 1)) · r;
- *   clamp (lrr__clamp_bary), then `depth` levels of lrr__child_at as selects.
- * Measured on the Cornell box (R 64, one thread): see hemicube.c's integrate_face. */
+/* The hemicube's per-pixel steps four pixels at once (AVX2, chosen at run time by
+ * lrr__hemi_simd), each the scalar path's exact sequence of IEEE operations (no FMA
+ * contraction: separate multiply and add intrinsics) lane by lane, so the leaves, the depth
+ * ties, and F̄ are bit-identical to it:
+ *   - a run's leaves: sx = (x + 0.5) / half − 1 (hemi_ctx.sx); r = 1 / (den·(sx, sy, 1));
+ *     b_j = (num_j·(sx, sy, 1)) · r; clamp (lrr__clamp_bary); then the cell table where its
+ *     margin allows (hemicube.c, "leaves of a row"), else `depth` levels of lrr__child_at
+ *     as selects;
+ *   - a span's depth test: three edge functions, 1/z, the float compare (raster_tri).
+ * Measured in docs/METHOD.md "Form factors" and the commits that brought each step. */
 #include "config.h"
 #include "formfactor/hemicube_private.h"
 
@@ -105,7 +108,7 @@ __attribute__((target("avx2"))) void lrr__hemi_leaves_run(const double b1k[3],
         }
         uint32_t out[4];
         int done = 0;
-        if (cells) { /* the cell's leaf from the table, where hemicube.c's probe_at allows */
+        if (cells) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
             __m256d t0 = _mm256_mul_pd(b0, sv), t1 = _mm256_mul_pd(b1, sv),
                     t2 = _mm256_mul_pd(b2, sv);
             __m256d i0 = _mm256_round_pd(t0, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
