@@ -104,14 +104,19 @@ typedef struct {
 /* Clips polygon p (n vertices) against a·x + b·y + c·z >= 0. Intersections are computed from
  * the lexicographically smaller endpoint so the two triangles sharing an edge get bit-identical
  * new vertices. */
+/* Which side of plane (a, b, c, off) p is on: >= 0 kept (clip_plane's one expression). */
+static inline double plane_d(const cvert *p, double a, double b, double c, double off)
+{
+    return a * p->x + b * p->y + c * p->z - off;
+}
+
 static int clip_plane(const cvert *in, int n, cvert *out, double a, double b, double c,
                       double off)
 {
     int m = 0;
     for (int i = 0; i < n; i++) {
         const cvert *p = &in[i], *q = &in[(i + 1) % n];
-        double dp = a * p->x + b * p->y + c * p->z - off;
-        double dq = a * q->x + b * q->y + c * q->z - off;
+        double dp = plane_d(p, a, b, c, off), dq = plane_d(q, a, b, c, off);
         if (dp >= 0)
             out[m++] = *p;
         if ((dp >= 0) != (dq >= 0)) {
@@ -136,9 +141,11 @@ typedef struct {
     double A, B, C;
     int owns_ties;   /* top-left rule: this triangle owns pixel centres exactly on the edge */
     double k0, k1;   /* A ≠ 0: the crossing pixel index k0 + k1·py, an estimate (edge_span) */
+    double tol;      /* how far (pixels) that estimate may be from where the computed edge
+                        function changes sign (edge_span); +inf for A = 0 */
 } edge_fn;
 
-static void edge_setup(const svert *a, const svert *b, edge_fn *e)
+static void edge_setup(const svert *a, const svert *b, int W, int H, edge_fn *e)
 {
     int swap = (b->x < a->x) || (b->x == a->x && b->y < a->y);
     const svert *p = swap ? b : a, *q = swap ? a : b;
@@ -154,6 +161,12 @@ static void edge_setup(const svert *a, const svert *b, edge_fn *e)
     e->owns_ties = dy > 0 || (dy == 0 && dx < 0);
     e->k0 = A != 0 ? -C / A - 0.5 : 0;
     e->k1 = A != 0 ? -B / A : 0;
+    /* With px <= W, py <= H: the computed A·px + B·py + C is within 3.1u·S of the exact
+     * value, S = |A|·W + |B|·H + |C| (u = 2^-53), so it keeps the exact sign beyond
+     * 3.1u·S/|A| pixels of the exact crossing; the estimate's three roundings and two
+     * divisions stay within 6u·S/|A| + u of it. 16u·S/|A| covers both. */
+    const double S = fabs(A) * W + fabs(B) * H + fabs(C);
+    e->tol = A != 0 ? 16 * 0x1p-53 * S / fabs(A) + 0x1p-30 : INFINITY;
 }
 
 static inline int inside(const edge_fn *e, double v)
@@ -173,11 +186,30 @@ static inline double edge_at(const edge_fn *e, double px, double py)
  * exact per-pixel test, so the covered pixels are exactly those of a test at every pixel
  * (measured: that test was 44% of a Cornell R 64 profile, most of it on the bounding box's
  * empty half). */
-static int edge_span(const edge_fn *e, double py, int *L, int *R)
+static inline int edge_span(const edge_fn *e, double py, int *L, int *R)
 {
     if (e->A == 0) /* constant along the row */
         return inside(e, edge_at(e, *L + 0.5, py));
     double xc = e->k0 + e->k1 * py; /* the crossing, in pixel indices */
+    /* every pixel of [L, R] strictly inside beyond the estimate's tolerance: nothing to test
+     * (a third of this function's tests on the Cornell box: rows the edge does not bound) */
+    if (e->A > 0 ? *L > xc + e->tol : *R < xc - e->tol)
+        return 1;
+    /* no pixel index within the tolerance of the estimate: the pixels up to n = floor(xc +
+     * tol) < xc − tol are strictly on one side, those from n + 1 > xc + tol strictly on the
+     * other, without a test (all but a few rows of a Cornell profile) */
+    const double lo = xc - e->tol, hi = xc + e->tol;
+    if (lo > -0x1p30 && hi < 0x1p30) {
+        double n = (double)(int64_t)hi; /* trunc, then floor: */
+        n -= n > hi;
+        if (n < lo) {
+            if (e->A > 0)
+                *L = n + 1 > *L ? (int)n + 1 : *L;
+            else
+                *R = n < *R ? (int)n : *R;
+            return *L <= *R;
+        }
+    }
     if (e->A > 0) { /* inside from some x on */
         int x = !(xc > *L) ? *L : xc >= *R + 1 ? *R + 1 : (int)ceil(xc);
         while (x > *L && inside(e, edge_at(e, (x - 1) + 0.5, py)))
@@ -197,7 +229,7 @@ static int edge_span(const edge_fn *e, double py, int *L, int *R)
 }
 
 static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, float *depth,
-                       int32_t *item)
+                       int32_t *item, int simd)
 {
     double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
     if (area == 0 || !isfinite(area))
@@ -213,16 +245,23 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
     if (x0 > x1 || y0 > y1)
         return;
     edge_fn e0, e1, e2;
-    edge_setup(&b, &c, &e0); /* weight of a */
-    edge_setup(&c, &a, &e1); /* weight of b */
-    edge_setup(&a, &b, &e2); /* weight of c */
+    edge_setup(&b, &c, W, H, &e0); /* weight of a */
+    edge_setup(&c, &a, W, H, &e1); /* weight of b */
+    edge_setup(&a, &b, W, H, &e2); /* weight of c */
     double inv_area = 1.0 / area;
+    const double abc[9] = {e0.A, e0.B, e0.C, e1.A, e1.B, e1.C, e2.A, e2.B, e2.C},
+                 vz[3] = {a.iz, b.iz, c.iz};
     for (int y = y0; y <= y1; y++) {
         double py = y + 0.5;
         int L = x0, R = x1;
         if (!edge_span(&e0, py, &L, &R) || !edge_span(&e1, py, &L, &R) ||
             !edge_span(&e2, py, &L, &R))
             continue;
+        if (simd) {
+            lrr__hemi_depth_span(abc, vz, inv_area, py, L, R, depth + (size_t)y * W,
+                                 item + (size_t)y * W, id);
+            continue;
+        }
         for (int x = L; x <= R; x++) {
             double px = x + 0.5;
             double w0 = edge_at(&e0, px, py), w1 = edge_at(&e1, px, py),
@@ -264,13 +303,25 @@ static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t,
     }
     if (all_behind || out_l || out_r || out_b || out_t)
         return;
-    n = clip_plane(poly, n, tmp, 0, 0, 1, h->near);
-    n = clip_plane(tmp, n, poly, 1, 0, GUARD, 0);   /* x >= -G z */
-    n = clip_plane(poly, n, tmp, -1, 0, GUARD, 0);  /* x <=  G z */
-    n = clip_plane(tmp, n, poly, 0, 1, GUARD, 0);   /* y >= -G z */
-    n = clip_plane(poly, n, tmp, 0, -1, GUARD, 0);  /* y <=  G z */
-    if (n < 3)
-        return;
+    /* a triangle inside every plane is what the clips would copy (most of them) */
+    int inside_all = 1;
+    for (int i = 0; i < 3; i++)
+        inside_all &= plane_d(&poly[i], 0, 0, 1, h->near) >= 0 &&
+                      plane_d(&poly[i], 1, 0, GUARD, 0) >= 0 &&
+                      plane_d(&poly[i], -1, 0, GUARD, 0) >= 0 &&
+                      plane_d(&poly[i], 0, 1, GUARD, 0) >= 0 &&
+                      plane_d(&poly[i], 0, -1, GUARD, 0) >= 0;
+    if (inside_all) {
+        memcpy(tmp, poly, 3 * sizeof *poly);
+    } else {
+        n = clip_plane(poly, n, tmp, 0, 0, 1, h->near);
+        n = clip_plane(tmp, n, poly, 1, 0, GUARD, 0);   /* x >= -G z */
+        n = clip_plane(poly, n, tmp, -1, 0, GUARD, 0);  /* x <=  G z */
+        n = clip_plane(tmp, n, poly, 0, 1, GUARD, 0);   /* y >= -G z */
+        n = clip_plane(poly, n, tmp, 0, -1, GUARD, 0);  /* y <=  G z */
+        if (n < 3)
+            return;
+    }
     svert s[MAX_POLY];
     double half = 0.5 * f->W;
     for (int i = 0; i < n; i++) {
@@ -280,7 +331,7 @@ static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t,
         s[i].iz = iz;
     }
     for (int i = 1; i + 1 < n; i++)
-        raster_tri(s[0], s[i], s[i + 1], id, f->W, f->H, f->depth, f->item);
+        raster_tri(s[0], s[i], s[i + 1], id, f->W, f->H, f->depth, f->item, h->simd);
 }
 
 /* The barycentric coordinates of the point that pixel (sx, sy) of a face shows on a
@@ -327,15 +378,6 @@ static inline size_t leaf_target(const hemi_ctx *h, size_t t, size_t leaf)
     return lrr__patch_of_leaf(g, t, leaf);
 }
 
-/* The patch (or subpatch) at barycentric (b1, b2) of triangle t (lrr__patch_at,
- * lrr__subpatch_at). */
-static inline size_t target_at(const hemi_ctx *h, size_t t, double b1, double b2)
-{
-    double b0;
-    lrr__clamp_bary(&b1, &b2, &b0);
-    return leaf_target(h, t, lrr__descend(&b0, &b1, &b2, leaf_depth(h, t)));
-}
-
 /* row[p] += w for a run of pixels, held in a register while consecutive pixels show the same
  * p: the same additions in the same order, without a store-to-load dependency per pixel
  * (that chain was 45% of integrate_face once the leaves came four at a time). */
@@ -363,10 +405,126 @@ static inline void streak_end(streak *s)
     s->cur = SIZE_MAX;
 }
 
+/* ------------------------------------------------------------------ leaves of a row
+ * Leaf depths (a triangle's patch or subpatch levels) up to LEAF_TABLE_DEPTH take the SIMD
+ * path's leaf from a table of the regular grid's cells (2·4^depth entries; deeper ones
+ * descend): the leaves of a uniform quadtree of depth d are the cells of the grid of lines
+ * b_j = m/2^d, so with t_j = b_j·2^d and i_j = floor(t_j) the leaf is that of cell
+ * (i1, i2, down = (i0 + i1 + i2 == 2^d − 2)). lrr__descend on the same b finds the same one
+ * whenever every t_j is at least 2^-40·2^d from an integer and i0 + i1 + i2 is 2^d − 1 or
+ * 2^d − 2: its first test (b_j >= 0.5) is the top bit of i_j, a corner child (2t − 1, 2t,
+ * exact) drops that bit, and the middle child's 1 − 2t moves a value by at most 2^-54 per
+ * level, which that margin (doubled per level like the values) cannot cross; the sum rules
+ * out rounded values on no cell (two coordinates >= 0.5). Other pixels descend. */
+#define LEAF_TABLE_DEPTH 6
+
+/* Where depth's table starts in hemi_ctx.cells: depths 0..depth−1 hold 2·4^d entries each. */
+static size_t cell_offset(unsigned depth) { return 2 * (((size_t)1 << (2 * depth)) - 1) / 3; }
+
+/* The leaves of the grids of depth 0..LEAF_TABLE_DEPTH: lrr__descend at each cell's centroid
+ * (a third of a cell from its lines, far beyond rounding). Slots of no cell stay 0. */
+static lrr_status cell_table(lrr_context *ctx, uint16_t **out)
+{
+    uint16_t *c;
+    lrr_status st = lrr__calloc(ctx, &c, cell_offset(LEAF_TABLE_DEPTH + 1), sizeof *c,
+                                "hemicube leaf table");
+    if (st)
+        return st;
+    for (unsigned d = 0; d <= LEAF_TABLE_DEPTH; d++) {
+        const size_t s = (size_t)1 << d;
+        uint16_t *t = c + cell_offset(d);
+        for (size_t i1 = 0; i1 < s; i1++)
+            for (size_t i2 = 0; i1 + i2 < s; i2++)
+                for (int down = 0; down < 2 && i1 + i2 + down < s; down++) {
+                    double o = down ? 2.0 / 3 : 1.0 / 3;
+                    double b1 = (i1 + o) / s, b2 = (i2 + o) / s, b0 = 1 - b1 - b2;
+                    t[(i1 * s + i2) * 2 + down] = (uint16_t)lrr__descend(&b0, &b1, &b2, d);
+                }
+    }
+    *out = c;
+    return LRR_OK;
+}
+
+/* The leaf that pixel column sx of a row at height sy shows on the triangle of bp: the
+ * scalar path, and the reference of lrr__hemi_leaves_run. */
+static inline size_t leaf_at(const bary_plane *bp, double sx, double sy, unsigned depth)
+{
+    /* one division: two were a quarter of the per-pixel loop's time */
+    const double r = 1.0 / (bp->den[0] * sx + bp->den[1] * sy + bp->den[2]);
+    double b0, b1 = (bp->b1[0] * sx + bp->b1[1] * sy + bp->b1[2]) * r,
+               b2 = (bp->b2[0] * sx + bp->b2[1] * sy + bp->b2[2]) * r;
+    lrr__clamp_bary(&b1, &b2, &b0);
+    return lrr__descend(&b0, &b1, &b2, depth);
+}
+
+/* The row's accumulation: streak, and leaf_target's last answer (adaptive trees search). */
+typedef struct {
+    const hemi_ctx *h;
+    const face *f;
+    streak acc;
+    size_t last_leaf, last_p, last_t;
+} integ;
+
+/* Pixels pix0..pix1 show leaf `leaf` of triangle t: row[p] += their multipliers in pixel
+ * order (or the item buffer gets p). */
+static inline void put(integ *in, size_t t, size_t leaf, size_t pix0, size_t pix1)
+{
+    if (leaf != in->last_leaf || t != in->last_t) {
+        in->last_p = leaf_target(in->h, t, leaf);
+        in->last_leaf = leaf;
+        in->last_t = t;
+    }
+    const size_t p = in->last_p;
+    if (!in->acc.row) {
+        for (size_t pix = pix0; pix <= pix1; pix++)
+            in->f->item[pix] = (int32_t)p;
+        return;
+    }
+    streak_add(&in->acc, p, in->f->weight[pix0]);
+    double acc = in->acc.acc; /* the same additions in the same order */
+    for (size_t pix = pix0 + 1; pix <= pix1; pix++)
+        acc += in->f->weight[pix];
+    in->acc.acc = acc;
+}
+
+#define CHUNK 256 /* pixels per lrr__hemi_leaves_run */
+
+/* Pixels a..b of row y (height sy) all show triangle t. */
+static void integrate_run(integ *in, const bary_plane *bp, size_t t, double sy, int y, int a,
+                          int b)
+{
+    const unsigned depth = leaf_depth(in->h, t);
+    const size_t row0 = (size_t)y * in->f->W;
+    if (depth == 0) { /* one leaf: lrr__descend returns 0 whatever the barycentrics */
+        put(in, t, 0, row0 + a, row0 + b);
+        return;
+    }
+    if (!in->h->simd || depth > 16) {
+        for (int x = a; x <= b; x++)
+            put(in, t, leaf_at(bp, in->h->sx[x], sy, depth), row0 + x, row0 + x);
+        return;
+    }
+    const uint16_t *cells = depth <= LEAF_TABLE_DEPTH ? in->h->cells + cell_offset(depth) : NULL;
+    uint32_t leaf[CHUNK];
+    for (int c = a; c <= b; c += CHUNK) {
+        const int ce = b - c < CHUNK ? b : c + CHUNK - 1;
+        lrr__hemi_leaves_run(bp->b1, bp->b2, bp->den, in->h->sx, sy, c, ce, depth, cells, leaf);
+        for (int x = c; x <= ce;) { /* runs of one leaf */
+            int e = x;
+            while (e < ce && leaf[e + 1 - c] == leaf[x - c])
+                e++;
+            put(in, t, leaf[x - c], row0 + x, row0 + e);
+            x = e + 1;
+        }
+    }
+}
+
 /* Accumulates the visible patches (or subpatches) of face f into row (k or n doubles), or
  * only resolves the item buffer to patch ids when row is NULL (the device integration then
  * sums the multiplier map per patch in this same order; markers stay). Returns the delta form
  * factors of the pixels showing back faces. */
+#define BARY_CACHE 16
+
 static double integrate_face(const hemi_ctx *h, const double x[3], const face *f, double *row)
 {
     const size_t pixels = (size_t)f->W * f->H;
@@ -382,51 +540,37 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
         return back;
     }
     const double half = 0.5 * f->W;
-    streak acc = {row, SIZE_MAX, 0};
+    integ in = {h, f, {row, SIZE_MAX, 0}, SIZE_MAX, 0, SIZE_MAX};
+    /* the face's bary_planes by triangle id mod BARY_CACHE: a row's runs alternate between a
+     * few triangles (one set-up per run was 5% of a Cornell R 32 profile) */
+    bary_plane bpc[BARY_CACHE];
+    int32_t set_for[BARY_CACHE]; /* the triangle each is set up for */
+    for (int c = 0; c < BARY_CACHE; c++)
+        set_for[c] = -1;
     for (int y = 0; y < f->H; y++) {
         const double sy = f->side ? (y + 0.5) / half : (y + 0.5) / half - 1;
-        int32_t set_for = -1; /* the triangle bp is set up for */
-        bary_plane bp;
-        for (int xx = 0; xx < f->W; xx++) {
-            size_t pix = (size_t)y * f->W + xx;
-            int32_t id = f->item[pix];
-            if (id >= 0) {
-                if (id != set_for) {
-                    bary_setup(&h->tri[id], x, f, &bp);
-                    set_for = id;
-                }
-                if (h->simd && xx + 3 < f->W && f->item[pix + 1] == id &&
-                    f->item[pix + 2] == id && f->item[pix + 3] == id &&
-                    leaf_depth(h, (size_t)id) <= 26 /* leaf index exact in a double */) {
-                    size_t leaf[4];
-                    lrr__hemi_leaves4(bp.b1, bp.b2, bp.den, half, sy, xx,
-                                      leaf_depth(h, (size_t)id), leaf);
-                    for (int j = 0; j < 4; j++) {
-                        size_t p = leaf_target(h, (size_t)id, leaf[j]);
-                        if (row)
-                            streak_add(&acc, p, f->weight[pix + j]);
-                        else
-                            f->item[pix + j] = (int32_t)p;
-                    }
-                    xx += 3;
-                    continue;
-                }
-                const double sx = (xx + 0.5) / half - 1;
-                /* one division: two were a quarter of this loop's time */
-                const double r = 1.0 / (bp.den[0] * sx + bp.den[1] * sy + bp.den[2]);
-                size_t p = target_at(h, (size_t)id,
-                                     (bp.b1[0] * sx + bp.b1[1] * sy + bp.b1[2]) * r,
-                                     (bp.b2[0] * sx + bp.b2[1] * sy + bp.b2[2]) * r);
-                if (row)
-                    streak_add(&acc, p, f->weight[pix]);
-                else
-                    f->item[pix] = (int32_t)p;
-            } else if (id == LRR__ITEM_BACK) {
-                back += f->weight[pix];
+        const int32_t *item = f->item + (size_t)y * f->W;
+        for (int xx = 0; xx < f->W;) {
+            int32_t id = item[xx];
+            if (id < 0) {
+                if (id == LRR__ITEM_BACK)
+                    back += f->weight[(size_t)y * f->W + xx];
+                xx++;
+                continue;
             }
+            int end = xx + 1;
+            while (end < f->W && item[end] == id)
+                end++;
+            const int c = id % BARY_CACHE;
+            if (id != set_for[c]) {
+                bary_setup(&h->tri[id], x, f, &bpc[c]);
+                set_for[c] = id;
+            }
+            integrate_run(&in, &bpc[c], (size_t)id, sy, y, xx, end - 1);
+            xx = end;
         }
     }
-    streak_end(&acc);
+    streak_end(&in.acc);
     return back;
 }
 
@@ -814,7 +958,20 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
     /* Distances below ~1e-7 of the scene size are float rounding of the input coordinates:
      * treat such points as lying in the plane (edge-on / tangent), and put the near plane
      * there too so touching geometry (a block on the floor) is still seen up close. */
-    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc, lrr__hemi_simd()};
+    uint16_t *cells = NULL;
+    double *sx = NULL;
+    if (!rc && ((st = cell_table(ctx, &cells)) ||
+                (st = lrr__calloc(ctx, &sx, R, sizeof *sx, "hemicube pixel columns")))) {
+        lrr_aligned_free(cells);
+        lrr_aligned_free(tri);
+        lrr__multiplier_map_free(&mm);
+        return st;
+    }
+    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc, lrr__hemi_simd(),
+                  cells, sx};
+    /* pixel column x looks along sx = (x + 0.5)/(R/2) − 1 (every face is R wide) */
+    for (unsigned c = 0; sx && c < R; c++)
+        sx[c] = (c + 0.5) / (0.5 * R) - 1;
     /* the device integration takes the same item buffers, rasterised or ray cast */
     st = on_device ? device_rows(ctx, &h, opts, out, back)
                    : cpu_rows(ctx, &h, opts, rows, count, out, back);
@@ -824,6 +981,8 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
             st = rst;
         lrr__raycaster_destroy(rc);
     }
+    lrr_aligned_free(sx);
+    lrr_aligned_free(cells);
     lrr_aligned_free(tri);
     lrr__multiplier_map_free(&mm);
     return st;

@@ -2,6 +2,7 @@
  * Incropera, Table 13.2; docs/METHOD.md "Form factors"). */
 #include "testutil.h"
 #include "formfactor/formfactor.h"
+#include "formfactor/hemicube_private.h"
 #include "operator/operator.h"
 #include "closed_forms.h"
 
@@ -277,6 +278,82 @@ static void test_back_face_share(void **state)
     lrr_context_destroy(ctx);
 }
 
+
+/* lrr__hemi_leaves_run (four lanes, the cell table where its margin allows) gives every
+ * pixel the leaf of the scalar path (clamp, then lrr__descend), also for barycentrics on the
+ * grid's lines (dyadic coefficients with den = 1 put whole rows on them), outside the
+ * triangle (clamped) and with den crossing 0. The table is built here independently, from
+ * the cells' corners' midpoints rather than their centroids. */
+static void test_leaves_run_exact(void **state)
+{
+    (void)state;
+    if (!lrr__hemi_simd())
+        skip();
+    enum { W = 64, D = 6 };
+    double sxt[W];
+    for (int x = 0; x < W; x++)
+        sxt[x] = (x + 0.5) / (0.5 * W) - 1;
+    uint64_t rng = 12345;
+    size_t checked = 0, on_lines = 0;
+    for (unsigned d = 0; d <= D; d++) {
+        const size_t s = (size_t)1 << d;
+        uint16_t *cells = calloc(2 * s * s, sizeof *cells);
+        assert_non_null(cells);
+        for (size_t i1 = 0; i1 < s; i1++)
+            for (size_t i2 = 0; i1 + i2 < s; i2++)
+                for (int down = 0; down < 2 && i1 + i2 + down < s; down++) {
+                    /* a point well inside: up cells near their corner (i1, i2), down cells
+                     * near their corner (i1 + 1, i2 + 1) */
+                    double b1 = (i1 + (down ? 0.8 : 0.2)) / s, b2 = (i2 + (down ? 0.8 : 0.2)) / s;
+                    double b0 = 1 - b1 - b2;
+                    cells[(i1 * s + i2) * 2 + down] = (uint16_t)lrr__descend(&b0, &b1, &b2, d);
+                }
+        for (int trial = 0; trial < 400; trial++) {
+            double b1k[3], b2k[3], den[3] = {0, 0, 1};
+            for (int j = 0; j < 3; j++) {
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                double u1 = (double)(rng >> 11) * 0x1p-53;
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                double u2 = (double)(rng >> 11) * 0x1p-53;
+                if (trial % 2) { /* dyadic: many pixels exactly on lines */
+                    b1k[j] = floor(u1 * 4 * s) / (4.0 * s) - (j == 2 ? 0 : 0.25);
+                    b2k[j] = floor(u2 * 4 * s) / (4.0 * s) - (j == 2 ? 0 : 0.25);
+                } else {
+                    b1k[j] = u1 - (j == 2 ? 0 : 0.5);
+                    b2k[j] = u2 - (j == 2 ? 0 : 0.5);
+                }
+            }
+            if (trial % 4 == 2) { /* perspective: den varies, through 0 for some */
+                den[0] = 0.7 * b1k[0];
+                den[1] = -0.3;
+                den[2] = 1 + 0.2 * b2k[1];
+            }
+            const double sy = (trial % 7) / 3.5 - 1 + 0.5 / W;
+            uint32_t leaf[W];
+            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, 0, W - 1, d, cells, leaf);
+            uint32_t leaf_nt[W];
+            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, 0, W - 1, d, NULL, leaf_nt);
+            for (int x = 0; x < W; x++) {
+                const double sx = sxt[x];
+                const double r = 1.0 / (den[0] * sx + den[1] * sy + den[2]);
+                double b0, b1 = (b1k[0] * sx + b1k[1] * sy + b1k[2]) * r,
+                           b2 = (b2k[0] * sx + b2k[1] * sy + b2k[2]) * r;
+                lrr__clamp_bary(&b1, &b2, &b0);
+                double t1 = b1 * s, t2 = b2 * s;
+                on_lines += t1 == floor(t1) || t2 == floor(t2);
+                size_t want = lrr__descend(&b0, &b1, &b2, d);
+                assert_int_equal(leaf[x], want);
+                assert_int_equal(leaf_nt[x], want);
+                checked++;
+            }
+        }
+        free(cells);
+    }
+    print_message("leaves_run: %zu pixels as the scalar path, %zu on a grid line\n", checked,
+                  on_lines);
+    assert_true(on_lines > checked / 20); /* the lines were exercised */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -285,6 +362,7 @@ int main(void)
         cmocka_unit_test(test_closed_forms),
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_back_face_share),
+        cmocka_unit_test(test_leaves_run_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
