@@ -110,8 +110,8 @@ void timing_from_samples(double *v, size_t runs, timing *t);
 size_t llc_bytes(void);
 /* Bytes of the bandwidth buffer: 4 × the last-level cache, at least 512 MiB, at most 4 GiB. */
 size_t bandwidth_buffer_bytes(void);
-/* Read bandwidth in bytes per second (0 on failure): an OpenMP sum, best of
- * BANDWIDTH_PASSES passes. */
+/* Read bandwidth in bytes per second (0 on failure): an OpenMP sum, the best of
+ * BANDWIDTH_PASSES passes of each read loop the CPU runs (portable, AVX2, AVX-512). */
 double measure_bandwidth(size_t bytes);
 
 /* ------------------------------------------------------------------ real-time steps */

@@ -53,9 +53,9 @@ static const char realtime_help[] =
     "thread pools never compete), then the timed runs: median, min and max, ms per frame.\n"
     "Our kernels use OpenMP (OMP_NUM_THREADS), the baselines OpenBLAS\n"
     "(OPENBLAS_NUM_THREADS); the configuration is printed.\n"
-    "Floor: bandwidth = the larger of the tuned read kernel (an OpenMP sum with eight\n"
-    "accumulators of the widest vectors the CPU has, over max(512 MiB, 4 × the last-level\n"
-    "cache), best of 5) and the effective bandwidth of sgemv3 on the same matrix\n"
+    "Floor: bandwidth = the larger of the tuned read kernels (OpenMP sums with eight\n"
+    "accumulators of each vector width the CPU has, over max(512 MiB, 4 × the last-level\n"
+    "cache), the best pass of 5 each) and the effective bandwidth of sgemv3 on the same matrix\n"
     "(3·n·k·4 bytes / its median), so no baseline runs below its own floor.\n"
     "floor_ms = F̄'s bytes in the row's storage (n·k·4 or n·k·2) / bandwidth; sgemv3,\n"
     "sgemm3, paper, sparse and incremental get the f32 floor; floor_ms_full (CSV) adds M\n"
@@ -411,8 +411,8 @@ static void rt_print_setup(rt_args *a)
          bw_bytes >> 20);
     a->bandwidth = measure_bandwidth(bw_bytes);
     if (a->bandwidth > 0)
-        printf("read_bandwidth_gbs: %.2f (tuned read kernel: widest-vector OpenMP sum over %zu "
-               "MiB, best of %d, %d threads)\n",
+        printf("read_bandwidth_gbs: %.2f (tuned read kernels: OpenMP sums, 128-bit, AVX2 and "
+               "AVX-512 where present, over %zu MiB, best of %d passes each, %d threads)\n",
                a->bandwidth / 1e9, bw_bytes >> 20, BANDWIDTH_PASSES, omp_get_max_threads());
     else
         printf("read_bandwidth_gbs: nan (cannot allocate %zu MiB)\n", bw_bytes >> 20);

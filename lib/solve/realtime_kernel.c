@@ -274,6 +274,12 @@ __attribute__((target("avx2,fma,f16c"))) static inline __m256 load8_bf16(const u
 DEFINE_HALF_ROWS_AVX2(f16_rows_avx2, load8_f16, 0)
 DEFINE_HALF_ROWS_AVX2(bf16_rows_avx2, load8_bf16, 1)
 
+/* Eight rows share each load of x. Measured (z = M w for k = 3456, 3 × 48 MB, 2 threads,
+ * AVX-512, medians of 21, one process): 4 rows 3.68 ms, 8 rows 2.63 ms, a read loop over M
+ * 2.87 ms; software prefetch made 8 rows slower (3.28 ms). */
+#define GEMV_ROWS 8
+#define UNROLL8 _Pragma("GCC unroll 8")
+
 __attribute__((target("avx2,fma"))) static void gemv_rows_avx2(const float *a, size_t i0,
                                                                size_t i1, size_t k,
                                                                const float *x, float *y)
@@ -281,27 +287,23 @@ __attribute__((target("avx2,fma"))) static void gemv_rows_avx2(const float *a, s
     const size_t kv = k & ~(size_t)7;
     const __m256i tm = tail_mask256(k - kv);
     size_t i = i0;
-    for (; i + 4 <= i1; i += 4) {
+    for (; i + GEMV_ROWS <= i1; i += GEMV_ROWS) {
         const float *r0 = a + i * k;
-        __m256 s0 = _mm256_setzero_ps(), s1 = s0, s2 = s0, s3 = s0;
+        __m256 s[GEMV_ROWS];
+        UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+            s[q] = _mm256_setzero_ps();
         for (size_t p = 0; p < kv; p += 8) {
             __m256 v = _mm256_loadu_ps(x + p);
-            s0 = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + p), v, s0);
-            s1 = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + k + p), v, s1);
-            s2 = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + 2 * k + p), v, s2);
-            s3 = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + 3 * k + p), v, s3);
+            UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+                s[q] = _mm256_fmadd_ps(_mm256_loadu_ps(r0 + q * k + p), v, s[q]);
         }
         if (kv < k) {
             __m256 v = _mm256_maskload_ps(x + kv, tm);
-            s0 = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + kv, tm), v, s0);
-            s1 = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + k + kv, tm), v, s1);
-            s2 = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + 2 * k + kv, tm), v, s2);
-            s3 = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + 3 * k + kv, tm), v, s3);
+            UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+                s[q] = _mm256_fmadd_ps(_mm256_maskload_ps(r0 + q * k + kv, tm), v, s[q]);
         }
-        y[i] = hsum256(s0);
-        y[i + 1] = hsum256(s1);
-        y[i + 2] = hsum256(s2);
-        y[i + 3] = hsum256(s3);
+        UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+            y[i + q] = hsum256(s[q]);
     }
     if (i < i1)
         gemv_rows_c(a, i, i1, k, x, y);
@@ -445,21 +447,22 @@ __attribute__((target("avx512f"))) static void gemv_rows_avx512(const float *a, 
     const size_t kv = k & ~(size_t)15;
     const __mmask16 tm = (__mmask16)((1u << (k - kv)) - 1);
     size_t i = i0;
-    for (; i + 4 <= i1; i += 4) {
+    for (; i + GEMV_ROWS <= i1; i += GEMV_ROWS) {
         const float *r0 = a + i * k;
-        __m512 s[4] = {_mm512_setzero_ps(), _mm512_setzero_ps(), _mm512_setzero_ps(),
-                       _mm512_setzero_ps()};
+        __m512 s[GEMV_ROWS];
+        UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+            s[q] = _mm512_setzero_ps();
         for (size_t p = 0; p < kv; p += 16) {
             __m512 v = _mm512_loadu_ps(x + p);
-            for (int q = 0; q < 4; q++)
+            UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
                 s[q] = _mm512_fmadd_ps(_mm512_loadu_ps(r0 + q * k + p), v, s[q]);
         }
         if (kv < k) {
             __m512 v = _mm512_maskz_loadu_ps(tm, x + kv);
-            for (int q = 0; q < 4; q++)
+            UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
                 s[q] = _mm512_fmadd_ps(_mm512_maskz_loadu_ps(tm, r0 + q * k + kv), v, s[q]);
         }
-        for (int q = 0; q < 4; q++)
+        UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
             y[i + q] = _mm512_reduce_add_ps(s[q]);
     }
     if (i < i1)
