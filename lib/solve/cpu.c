@@ -13,8 +13,9 @@
  * The incremental path re-anchors with a full frame every INCREMENTAL_LIMIT frames so that
  * rounding cannot accumulate.
  *
- * Large batches of frames (lrr_solve_batch) over a large F̄ are compute-bound and go to
- * OpenBLAS sgemm; small ones are a loop of single frames (thresholds measured below).
+ * Batches of frames (lrr_solve_batch) over a large F̄ read it once: each block of rows
+ * serves every frame while it is in cache; small ones are a loop of single frames
+ * (thresholds measured below).
  */
 #include "config.h"
 #include "solve/solve.h"
@@ -27,12 +28,13 @@
 
 #define INCREMENTAL_LIMIT 64
 
-/* Frames per sgemm call (bounds the n × 3·count workspace) and the smallest batch, and F̄
- * (at least this, and a quarter of the last-level cache), for which sgemm beats one fused
- * pass per frame. Measured on 2 cores, ms per frame, fused
- * loop vs sgemm: n = 55296, k = 864 (191 MB): count 4: 8.8 vs 9.9; 8: 8.1 vs 5.5;
- * 16: 8.0 vs 3.3; 64: 7.6 vs 1.6. n = 3456, k = 216 (3 MB, cache-resident): 16: 0.10 vs
- * 0.88 — there the matrix is already in cache and the loop wins. */
+/* Frames per batched pass (bounds the 3k·count workspaces) and the smallest batch, and F̄
+ * (at least this, and a quarter of the last-level cache), for which it beats one fused pass
+ * per frame: once F̄ is in cache the loop of frames reads it from there anyway. Measured on
+ * 2 cores (AMD EPYC, 32 MiB L3), 16 frames, ms per frame, batched vs single frames:
+ * 55296 × 864 (191 MB) 1.80 vs 4.93; 13824 × 864 (48 MB) 0.84 vs 0.89; 3456 × 216 (3 MB)
+ * 0.035 vs 0.033. The count threshold dates from the sgemm pass this one replaced (8
+ * frames: 5.5 against 8.1 ms); below 16 frames the batched pass is not re-measured. */
 #define BATCH_CHUNK 64
 #define BATCH_GEMM_MIN_COUNT 8
 #define BATCH_GEMM_MIN_BYTES ((size_t)32 << 20)
