@@ -82,6 +82,22 @@ static inline lrr_scene *tu_furnace(lrr_context *ctx, double sx, double sy, doub
     return s;
 }
 
+/* The open Cornell box subdivided into about K patches of 4^levels subpatches and built with
+ * hemicube resolution R and rotation seed `seed`. */
+static inline lrr_operator *tu_cornell_op(lrr_context *ctx, size_t K, unsigned levels,
+                                          unsigned R, uint64_t seed)
+{
+    lrr_scene *s;
+    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_subdivision sd = {.target_patches = K, .levels = levels};
+    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
+    lrr_build_options o = {.hemicube_resolution = R, .seed = seed};
+    lrr_operator *op;
+    LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    lrr_scene_destroy(s);
+    return op;
+}
+
 /* Temporary file path under $LRR_TEST_TMP (or /tmp), unique per process. */
 static inline void tu_tmp_path(char *buf, size_t len, const char *name)
 {

@@ -7,15 +7,7 @@
 /* Cornell box with about K patches of 4^levels subpatches: n = 32m + r for most K */
 static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 {
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {.target_patches = K, .levels = levels};
-    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {.hemicube_resolution = 16, .seed = 3};
-    lrr_operator *op;
-    LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
-    lrr_scene_destroy(s);
-    return op;
+    return tu_cornell_op(ctx, K, levels, 16, 3);
 }
 
 static float *all_rows(const lrr_operator *op)

@@ -75,17 +75,11 @@ static void test_rounding(void **state)
         print_message("F16C not available: binary16 checked exhaustively only\n");
 }
 
+/* F̄ as rows: the tests below read its memory directly */
 static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 {
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {.target_patches = K, .levels = levels};
-    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {.hemicube_resolution = 32, .seed = 4};
-    lrr_operator *op;
-    LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
-    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS)); /* read as rows below */
-    lrr_scene_destroy(s);
+    lrr_operator *op = tu_cornell_op(ctx, K, levels, 32, 4);
+    LRR_CHECK(ctx, lrr_operator_set_layout(op, LRR_LAYOUT_ROWS));
     return op;
 }
 

@@ -5,15 +5,7 @@
 
 static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 {
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {.target_patches = K, .levels = levels};
-    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {.hemicube_resolution = 32, .seed = 2};
-    lrr_operator *op;
-    LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
-    lrr_scene_destroy(s);
-    return op;
+    return tu_cornell_op(ctx, K, levels, 32, 2);
 }
 
 /* One emitting triangle facing nothing: F̄ = 0, B = E (k = 1, n = d). */
