@@ -259,7 +259,7 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
             continue;
         if (simd) {
             lrr__hemi_depth_span(abc, vz, inv_area, py, L, R, depth + (size_t)y * W,
-                                 item + (size_t)y * W, id);
+                                 item + (size_t)y * W, id, simd);
             continue;
         }
         for (int x = L; x <= R; x++) {
@@ -508,7 +508,8 @@ static void integrate_run(integ *in, const bary_plane *bp, size_t t, double sy, 
     uint32_t leaf[CHUNK];
     for (int c = a; c <= b; c += CHUNK) {
         const int ce = b - c < CHUNK ? b : c + CHUNK - 1;
-        lrr__hemi_leaves_run(bp->b1, bp->b2, bp->den, in->h->sx, sy, c, ce, depth, cells, leaf);
+        lrr__hemi_leaves_run(bp->b1, bp->b2, bp->den, in->h->sx, sy, c, ce, depth, cells, leaf,
+                             in->h->simd);
         for (int x = c; x <= ce;) { /* runs of one leaf */
             int e = x;
             while (e < ce && leaf[e + 1 - c] == leaf[x - c])

@@ -41,13 +41,16 @@ typedef struct lrr__hemi_ctx {
     double near, eps;      /* near plane and "on the plane" distance, scene units */
     int by_subpatch;       /* 1: columns are subpatches (full F, n wide); 0: patches (F̄) */
     const lrr__raycaster *rc; /* non-NULL: pixels by ray casting (raycast.c), else raster */
-    int simd;              /* lrr__hemi_simd(): four pixels at a time (hemicube_simd.c) */
+    int simd;              /* lrr__hemi_simd(): 0, or four (1) or eight (2) pixels at a time
+                              (hemicube_simd.c) */
     const uint16_t *cells; /* the rasteriser's leaves of the regular grids (hemicube.c's
                               cell_table) */
     const double *sx;      /* per pixel column x: (x + 0.5)/(R/2) − 1, as the faces have it */
 } lrr__hemi_ctx;
 
-/* 1 when lrr__hemi_leaves_run and lrr__hemi_depth_span may run here (AVX2, unless the environment's LRR_SIMD=c). */
+/* What lrr__hemi_leaves_run and lrr__hemi_depth_span may use here: 0 none (or the
+ * environment's LRR_SIMD=c), 1 AVX2 (or LRR_SIMD=avx2), 2 AVX-512 (F and VL). Their `simd`
+ * argument is this level, at least 1. */
 int lrr__hemi_simd(void);
 /* The leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of pixels a..b of a
  * row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
@@ -56,12 +59,12 @@ int lrr__hemi_simd(void);
  * to descend. */
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf);
+                          const uint16_t *cells, uint32_t *leaf, int simd);
 /* The rasteriser's depth test for pixels L..R of the row at py of one triangle (raster_tri):
  * abc holds the edge functions A, B, C of the weights of the three vertices, iz their 1/depth;
  * depth and item point at the row. Bit-identical to the scalar loop. */
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
-                          int L, int R, float *depth, int32_t *item, int32_t id);
+                          int L, int R, float *depth, int32_t *item, int32_t id, int simd);
 
 /* An Embree scene (robust, watertight) of g's triangles, built once per form-factor build;
  * diag is the scene's bounding-box diagonal (for the ray origins' offset). */

@@ -1,5 +1,5 @@
-/* The hemicube's per-pixel steps four pixels at once (AVX2, chosen at run time by
- * lrr__hemi_simd), each the scalar path's exact sequence of IEEE operations (no FMA
+/* The hemicube's per-pixel steps four (AVX2) or eight (AVX-512) pixels at once, chosen at
+ * run time by lrr__hemi_simd, each the scalar path's exact sequence of IEEE operations (no FMA
  * contraction: separate multiply and add intrinsics) lane by lane, so the leaves, the depth
  * ties, and F̄ are bit-identical to it:
  *   - a run's leaves: sx = (x + 0.5) / half − 1 (hemi_ctx.sx); r = 1 / (den·(sx, sy, 1));
@@ -19,11 +19,16 @@
 
 int lrr__hemi_simd(void)
 {
-    const char *force = getenv("LRR_SIMD"); /* "c": the scalar path, as for the solver */
+    /* as for the solver: "c" the scalar path, "avx2" four lanes at most */
+    const char *force = getenv("LRR_SIMD");
     if (force && strcmp(force, "c") == 0)
         return 0;
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2");
+    if (!__builtin_cpu_supports("avx2"))
+        return 0;
+    if (force && strcmp(force, "avx2") == 0)
+        return 1;
+    return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") ? 2 : 1;
 }
 
 /* a·sx + b·sy + c, multiplied and added in the scalar path's order */
@@ -66,12 +71,10 @@ __attribute__((target("avx2"))) static inline __m256d descend4(__m256d b0, __m25
     return idx;
 }
 
-__attribute__((target("avx2"))) void lrr__hemi_leaves_run(const double b1k[3],
-                                                         const double b2k[3],
-                                                         const double denk[3],
-                                                         const double *sxt, double sy, int a,
-                                                         int b, unsigned depth,
-                                                         const uint16_t *cells, uint32_t *leaf)
+__attribute__((target("avx2"))) static void leaves_run4(const double b1k[3], const double b2k[3],
+                                                       const double denk[3], const double *sxt,
+                                                       double sy, int a, int b, unsigned depth,
+                                                       const uint16_t *cells, uint32_t *leaf)
 {
     const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
     /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy is the same product at every pixel */
@@ -151,10 +154,9 @@ __attribute__((target("avx2"))) void lrr__hemi_leaves_run(const double b1k[3],
 
 /* The rasteriser's depth test over pixels L..R of row py, four at a time: the scalar loop's
  * operations lane by lane (hemicube.c's raster_tri), so ties resolve the same. */
-__attribute__((target("avx2"))) void lrr__hemi_depth_span(const double abc[9],
-                                                         const double iz[3], double inv_area,
-                                                         double py, int L, int R, float *depth,
-                                                         int32_t *item, int32_t id)
+__attribute__((target("avx2"))) static void depth_span4(const double abc[9], const double iz[3],
+                                                       double inv_area, double py, int L, int R,
+                                                       float *depth, int32_t *item, int32_t id)
 {
     __m256d A[3], BC[3], C[3], Z[3];
     for (int k = 0; k < 3; k++) {
@@ -186,19 +188,180 @@ __attribute__((target("avx2"))) void lrr__hemi_depth_span(const double abc[9],
         _mm_maskstore_ps((float *)(item + x), gti, _mm_castsi128_ps(idv));
     }
 }
+/* ------------------------------------------------------------------ eight lanes (AVX-512)
+ * The same steps as leaves_run4 and depth_span4, lane by lane, with masks for the selects and
+ * a run's or span's last lanes. A lane the cell table's margin rejects descends alone (four
+ * lanes went all or none). AVX-512 brings FMA, which gcc contracts a multiply and an add
+ * into (GNU C's -ffp-contract=fast, also for intrinsics): fp-contract=off keeps the scalar
+ * path's two roundings. */
+#define T512 __attribute__((target("avx512f,avx512vl"), optimize("fp-contract=off")))
+
+T512 static inline __m512d lin8(__m512d k0, __m512d k1sy, __m512d k2, __m512d sx)
+{
+    return _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(k0, sx), k1sy), k2);
+}
+
+T512 static inline __m512d descend8(__m512d b0, __m512d b1, __m512d b2, unsigned depth)
+{
+    const __m512d one = _mm512_set1_pd(1.0), halfv = _mm512_set1_pd(0.5),
+                  two = _mm512_set1_pd(2.0), four = _mm512_set1_pd(4.0),
+                  c2 = _mm512_set1_pd(2.0), c3 = _mm512_set1_pd(3.0);
+    __m512d idx = _mm512_setzero_pd();
+    for (unsigned l = 0; l < depth; l++) {
+        const __mmask8 m0 = _mm512_cmp_pd_mask(b0, halfv, _CMP_GE_OQ);
+        const __mmask8 m1 = (__mmask8)(~m0 & _mm512_cmp_pd_mask(b1, halfv, _CMP_GE_OQ));
+        const __mmask8 m2 = (__mmask8)(~(m0 | m1) & _mm512_cmp_pd_mask(b2, halfv, _CMP_GE_OQ));
+        const __mmask8 m3 = (__mmask8)~(m0 | m1 | m2);
+        const __m512d u2 = _mm512_mul_pd(two, b0), v2 = _mm512_mul_pd(two, b1),
+                      w2 = _mm512_mul_pd(two, b2);
+        b0 = _mm512_mask_mov_pd(_mm512_mask_mov_pd(u2, m0, _mm512_sub_pd(u2, one)), m3,
+                                _mm512_sub_pd(one, u2));
+        b1 = _mm512_mask_mov_pd(_mm512_mask_mov_pd(v2, m1, _mm512_sub_pd(v2, one)), m3,
+                                _mm512_sub_pd(one, v2));
+        b2 = _mm512_mask_mov_pd(_mm512_mask_mov_pd(w2, m2, _mm512_sub_pd(w2, one)), m3,
+                                _mm512_sub_pd(one, w2));
+        __m512d c = _mm512_mask_mov_pd(_mm512_maskz_mov_pd(m1, one), m2, c2);
+        c = _mm512_mask_mov_pd(c, m3, c3);
+        idx = _mm512_add_pd(_mm512_mul_pd(idx, four), c); /* exact: < 2^53 */
+    }
+    return idx;
+}
+
+T512 static void leaves_run8(const double b1k[3], const double b2k[3], const double denk[3],
+                             const double *sxt, double sy, int a, int b, unsigned depth,
+                             const uint16_t *cells, uint32_t *leaf)
+{
+    const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
+    const __m512d d0 = _mm512_set1_pd(denk[0]), d1 = _mm512_set1_pd(denk[1] * sy),
+                  d2 = _mm512_set1_pd(denk[2]), p0 = _mm512_set1_pd(b1k[0]),
+                  p1 = _mm512_set1_pd(b1k[1] * sy), p2 = _mm512_set1_pd(b1k[2]),
+                  q0 = _mm512_set1_pd(b2k[0]), q1 = _mm512_set1_pd(b2k[1] * sy),
+                  q2 = _mm512_set1_pd(b2k[2]);
+    const double s = (double)((uint64_t)1 << depth);
+    const __m512d sv = _mm512_set1_pd(s), need = _mm512_set1_pd(0x1p-40 * s),
+                  up = _mm512_set1_pd(s - 1), down = _mm512_set1_pd(s - 2);
+    const __m512d last = _mm512_set1_pd(sxt[b]);
+    for (int x = a; x <= b; x += 8) {
+        const int n = b - x + 1 < 8 ? b - x + 1 : 8;
+        /* past the run: its last pixel, whose leaf is dropped */
+        const __m512d sx = _mm512_mask_loadu_pd(last, (__mmask8)((1u << n) - 1), sxt + x);
+        const __m512d r = _mm512_div_pd(one, lin8(d0, d1, d2, sx));
+        __m512d b1 = _mm512_mul_pd(lin8(p0, p1, p2, sx), r);
+        __m512d b2 = _mm512_mul_pd(lin8(q0, q1, q2, sx), r);
+        /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
+        b1 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ), b1);
+        b2 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ), b2);
+        b1 = _mm512_mask_mov_pd(b1, _mm512_cmp_pd_mask(b1, one, _CMP_GT_OQ), one);
+        b2 = _mm512_mask_mov_pd(b2, _mm512_cmp_pd_mask(b2, one, _CMP_GT_OQ), one);
+        __m512d b0 = _mm512_sub_pd(_mm512_sub_pd(one, b1), b2);
+        const __mmask8 neg = _mm512_cmp_pd_mask(b0, zero, _CMP_LT_OQ);
+        if (neg) {
+            const __m512d sum = _mm512_add_pd(b1, b2);
+            b1 = _mm512_mask_div_pd(b1, neg, b1, sum);
+            b2 = _mm512_mask_div_pd(b2, neg, b2, sum);
+            b0 = _mm512_mask_mov_pd(b0, neg, zero);
+        }
+        uint32_t out[8];
+        __mmask8 ok = 0;
+        if (cells) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
+            const int rnd = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
+            const __m512d t0 = _mm512_mul_pd(b0, sv), t1 = _mm512_mul_pd(b1, sv),
+                          t2 = _mm512_mul_pd(b2, sv);
+            const __m512d i0 = _mm512_roundscale_pd(t0, rnd), i1 = _mm512_roundscale_pd(t1, rnd),
+                          i2 = _mm512_roundscale_pd(t2, rnd);
+            const __m512d f0 = _mm512_sub_pd(t0, i0), f1 = _mm512_sub_pd(t1, i1),
+                          f2 = _mm512_sub_pd(t2, i2);
+            const __m512d m = _mm512_min_pd(
+                _mm512_min_pd(_mm512_min_pd(f0, _mm512_sub_pd(one, f0)),
+                              _mm512_min_pd(f1, _mm512_sub_pd(one, f1))),
+                _mm512_min_pd(f2, _mm512_sub_pd(one, f2)));
+            const __m512d sum = _mm512_add_pd(_mm512_add_pd(i0, i1), i2);
+            const __mmask8 isdown = _mm512_cmp_pd_mask(sum, down, _CMP_EQ_OQ);
+            ok = _mm512_cmp_pd_mask(m, need, _CMP_GE_OQ) &
+                 (_mm512_cmp_pd_mask(sum, up, _CMP_EQ_OQ) | isdown) &
+                 _mm512_cmp_pd_mask(b0, zero, _CMP_GT_OQ) &
+                 _mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ) &
+                 _mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ);
+            /* rejected lanes read slot 0 (their leaf comes from descend8) */
+            const __m512d cell = _mm512_maskz_mov_pd(
+                ok, _mm512_add_pd(
+                        _mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2), _mm512_set1_pd(2.0)),
+                        _mm512_maskz_mov_pd(isdown, one)));
+            int ci[8];
+            _mm256_storeu_si256((__m256i *)ci, _mm512_cvttpd_epi32(cell));
+            for (int j = 0; j < 8; j++)
+                out[j] = cells[ci[j]];
+        }
+        if (ok != 0xFF) {
+            double idx[8];
+            _mm512_storeu_pd(idx, descend8(b0, b1, b2, depth));
+            for (int j = 0; j < 8; j++)
+                if (!(ok >> j & 1))
+                    out[j] = (uint32_t)idx[j];
+        }
+        for (int j = 0; j < n; j++)
+            leaf[x - a + j] = out[j];
+    }
+}
+
+T512 static void depth_span8(const double abc[9], const double iz[3], double inv_area, double py,
+                             int L, int R, float *depth, int32_t *item, int32_t id)
+{
+    __m512d A[3], BC[3], C[3], Z[3];
+    for (int k = 0; k < 3; k++) {
+        A[k] = _mm512_set1_pd(abc[3 * k]);
+        BC[k] = _mm512_set1_pd(abc[3 * k + 1] * py);
+        C[k] = _mm512_set1_pd(abc[3 * k + 2]);
+        Z[k] = _mm512_set1_pd(iz[k]);
+    }
+    const __m512d ia = _mm512_set1_pd(inv_area), step = _mm512_set1_pd(8.0);
+    const __m256i idv = _mm256_set1_epi32(id);
+    __m512d px = _mm512_add_pd(_mm512_set1_pd((double)L),
+                               _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5));
+    for (int x = L; x <= R; x += 8, px = _mm512_add_pd(px, step)) {
+        const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
+        __m512d w[3];
+        for (int k = 0; k < 3; k++)
+            w[k] = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(A[k], px), BC[k]), C[k]);
+        const __m512d z = _mm512_add_pd(
+            _mm512_add_pd(_mm512_mul_pd(w[0], Z[0]), _mm512_mul_pd(w[1], Z[1])),
+            _mm512_mul_pd(w[2], Z[2]));
+        const __m256 zf = _mm512_cvtpd_ps(_mm512_mul_pd(z, ia));
+        const __m256 old = _mm256_maskz_loadu_ps(lane, depth + x);
+        /* ordered: NaN never wins, as in C */
+        const __mmask8 gt = _mm256_mask_cmp_ps_mask(lane, zf, old, _CMP_GT_OQ);
+        if (!gt)
+            continue;
+        _mm256_mask_storeu_ps(depth + x, gt, zf);
+        _mm256_mask_storeu_epi32(item + x, gt, idv);
+    }
+}
+
+void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
+                          const double *sxt, double sy, int a, int b, unsigned depth,
+                          const uint16_t *cells, uint32_t *leaf, int simd)
+{
+    (simd >= 2 ? leaves_run8 : leaves_run4)(b1k, b2k, denk, sxt, sy, a, b, depth, cells, leaf);
+}
+
+void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
+                          int L, int R, float *depth, int32_t *item, int32_t id, int simd)
+{
+    (simd >= 2 ? depth_span8 : depth_span4)(abc, iz, inv_area, py, L, R, depth, item, id);
+}
 #else
 int lrr__hemi_simd(void) { return 0; }
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
-                          int L, int R, float *depth, int32_t *item, int32_t id)
+                          int L, int R, float *depth, int32_t *item, int32_t id, int simd)
 {
-    (void)abc, (void)iz, (void)inv_area, (void)py, (void)L, (void)R, (void)depth, (void)item,
+    (void)simd, (void)abc, (void)iz, (void)inv_area, (void)py, (void)L, (void)R, (void)depth, (void)item,
         (void)id;
 }
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf)
+                          const uint16_t *cells, uint32_t *leaf, int simd)
 {
-    (void)b1k, (void)b2k, (void)denk, (void)sxt, (void)sy, (void)a, (void)b, (void)depth,
+    (void)simd, (void)b1k, (void)b2k, (void)denk, (void)sxt, (void)sy, (void)a, (void)b, (void)depth,
         (void)cells, (void)leaf;
 }
 #endif

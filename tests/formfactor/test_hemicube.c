@@ -279,11 +279,12 @@ static void test_back_face_share(void **state)
 }
 
 
-/* lrr__hemi_leaves_run (four lanes, the cell table where its margin allows) gives every
- * pixel the leaf of the scalar path (clamp, then lrr__descend), also for barycentrics on the
- * grid's lines (dyadic coefficients with den = 1 put whole rows on them), outside the
- * triangle (clamped) and with den crossing 0. The table is built here independently, from
- * the cells' corners' midpoints rather than their centroids. */
+/* lrr__hemi_leaves_run (four or eight lanes, the cell table where its margin allows) gives
+ * every pixel the leaf of the scalar path (clamp, then lrr__descend), also for barycentrics
+ * on the grid's lines (dyadic coefficients with den = 1 put whole rows on them), outside the
+ * triangle (clamped), with den crossing 0 and over runs whose ends leave lanes unused. The
+ * table is built here independently, from the cells' corners' midpoints rather than their
+ * centroids. */
 static void test_leaves_run_exact(void **state)
 {
     (void)state;
@@ -329,11 +330,13 @@ static void test_leaves_run_exact(void **state)
                 den[2] = 1 + 0.2 * b2k[1];
             }
             const double sy = (trial % 7) / 3.5 - 1 + 0.5 / W;
+            const int level = 1 + (trial / 4) % lrr__hemi_simd(), a = trial % 5,
+                      b = W - 1 - trial % 7;
             uint32_t leaf[W];
-            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, 0, W - 1, d, cells, leaf);
+            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, cells, leaf, level);
             uint32_t leaf_nt[W];
-            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, 0, W - 1, d, NULL, leaf_nt);
-            for (int x = 0; x < W; x++) {
+            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, NULL, leaf_nt, level);
+            for (int x = a; x <= b; x++) {
                 const double sx = sxt[x];
                 const double r = 1.0 / (den[0] * sx + den[1] * sy + den[2]);
                 double b0, b1 = (b1k[0] * sx + b1k[1] * sy + b1k[2]) * r,
@@ -342,8 +345,8 @@ static void test_leaves_run_exact(void **state)
                 double t1 = b1 * s, t2 = b2 * s;
                 on_lines += t1 == floor(t1) || t2 == floor(t2);
                 size_t want = lrr__descend(&b0, &b1, &b2, d);
-                assert_int_equal(leaf[x], want);
-                assert_int_equal(leaf_nt[x], want);
+                assert_int_equal(leaf[x - a], want);
+                assert_int_equal(leaf_nt[x - a], want);
                 checked++;
             }
         }
@@ -352,6 +355,62 @@ static void test_leaves_run_exact(void **state)
     print_message("leaves_run: %zu pixels as the scalar path, %zu on a grid line\n", checked,
                   on_lines);
     assert_true(on_lines > checked / 20); /* the lines were exercised */
+}
+
+/* lrr__hemi_depth_span (four or eight lanes) writes exactly the scalar loop's depths and
+ * ids (raster_tri): spans with unused lanes at their ends, pixels outside left alone, and
+ * stored depths equal to the span's (a tie keeps the old) or one float below (it wins). One
+ * edge function cancels to ~1e-9 of its terms, so a multiply and add fused into one rounding
+ * (what gcc does to intrinsics when FMA is on) changes the float depth. */
+static void test_depth_span_exact(void **state)
+{
+    (void)state;
+    if (!lrr__hemi_simd())
+        skip();
+    enum { W = 40 };
+    uint64_t rng = 777;
+    size_t writes = 0, ties = 0;
+    for (int trial = 0; trial < 4000; trial++) {
+        double u[12];
+        for (int j = 0; j < 12; j++) {
+            rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+            u[j] = (double)(rng >> 11) * 0x1p-53;
+        }
+        const double py = trial % 16 + 0.5, px0 = (trial % W) + 0.5;
+        double abc[9], iz[3] = {0.5 + u[9], 0, 0};
+        for (int j = 0; j < 9; j++)
+            abc[j] = (u[j] - 0.5) * 1000;
+        abc[2] = -(abc[0] * px0 + abc[1] * py) * (1 + 1e-9 * (u[10] - 0.5));
+        if (trial % 2) { /* all three edges */
+            iz[1] = 0.3 + u[10];
+            iz[2] = 0.2 + u[11];
+        }
+        const double inv_area = 1 / (0.5 + u[11]);
+        const int level = 1 + (trial / 2) % lrr__hemi_simd(), L = trial % 9, R = W - 1 - trial % 11;
+        float depth[W], want_d[W];
+        int32_t item[W], want_i[W];
+        for (int x = 0; x < W; x++) {
+            const double px = x + 0.5;
+            double w[3];
+            for (int k = 0; k < 3; k++)
+                w[k] = abc[3 * k] * px + abc[3 * k + 1] * py + abc[3 * k + 2];
+            const float z = (float)((w[0] * iz[0] + w[1] * iz[1] + w[2] * iz[2]) * inv_area);
+            depth[x] = x % 3 == 0 ? z : x % 3 == 1 ? nextafterf(z, -INFINITY) : -z;
+            item[x] = -1;
+            want_d[x] = depth[x];
+            want_i[x] = -1;
+            if (x >= L && x <= R && z > depth[x]) {
+                want_d[x] = z;
+                want_i[x] = 7;
+                writes++;
+            }
+            ties += x >= L && x <= R && x % 3 == 0;
+        }
+        lrr__hemi_depth_span(abc, iz, inv_area, py, L, R, depth, item, 7, level);
+        assert_memory_equal(depth, want_d, sizeof depth);
+        assert_memory_equal(item, want_i, sizeof item);
+    }
+    assert_true(writes > 1000 && ties > 1000);
 }
 
 int main(void)
@@ -363,6 +422,7 @@ int main(void)
         cmocka_unit_test(test_reproducible),
         cmocka_unit_test(test_back_face_share),
         cmocka_unit_test(test_leaves_run_exact),
+        cmocka_unit_test(test_depth_span_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
