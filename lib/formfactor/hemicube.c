@@ -587,10 +587,11 @@ static void raster_faces(const hemi_ctx *h, const double x[3], const double N[3]
 {
     const lrr__geometry *g = h->g;
     size_t total = (size_t)h->mm->res * h->mm->res * 3;
-    for (size_t p = 0; p < total; p++) {
-        sc->depth[p] = 0.0f;
-        sc->item[p] = LRR__ITEM_NONE;
-    }
+    /* 0.0f is all zero bytes and LRR__ITEM_NONE (−1) all 0xff: memset's wide stores instead of
+     * the scalar loop gcc -O2 left (Cornell R 64 one thread 0.371 → 0.359 s user) */
+    _Static_assert(LRR__ITEM_NONE == -1, "memset fills the item buffer with 0xff bytes");
+    memset(sc->depth, 0, total * sizeof *sc->depth);
+    memset(sc->item, 0xff, total * sizeof *sc->item);
     for (size_t t = 0; t < g->n_tri; t++) {
         const tri_info *ti = &h->tri[t];
         const float *tv = g->vert + 9 * t;
