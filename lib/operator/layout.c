@@ -1,7 +1,7 @@
 /* F̄'s layout in memory: rows, or panels of LRR__PANEL rows stored column-major (operator.h).
  * The real-time kernel reads panels: each column of a panel is one or two vector registers,
  * multiplied by the broadcast z_r, z_g, z_b with no horizontal sums and no tail per row.
- * Measured on this machine's AMD EPYC (Zen 4, 2 threads, n = 221184, k = 216, 191 MB,
+ * Measured on this project's AMD EPYC VM (AVX-512, 2 threads, n = 221184, k = 216, 191 MB,
  * medians of 40 in one process): the 8-row AVX-512 row kernel 9.3 ms, panels of 32 rows
  * 3.98 ms, a read loop over the same bytes 4.75 ms; f16 6.4 ms against 2.2 ms.
  * The .lrr file keeps rows (lrr_file.c converts while writing, load.c after reading). */

@@ -4,7 +4,7 @@
  * A panel's column q is LRR__PANEL consecutive entries: one or two vector loads, multiplied
  * by the broadcast z_r[q], z_g[q], z_b[q] into per-row accumulators. No horizontal sums, no
  * tail per row, one sequential stream per thread, and the accumulators of 32 rows × 3
- * channels are the dot products themselves. Why it replaced rows (AMD EPYC Zen 4, 2
+ * channels are the dot products themselves. Why it replaced rows (AMD EPYC, AVX-512, 2
  * threads, medians of 40, interleaved with a read loop over the same 191 MB): n = 221184,
  * k = 216: rows 9.3 ms (1.96× the read loop), panels 3.98 ms (0.84×); f16 6.4 → 2.2 ms.
  * The row kernels in realtime_kernel.c still serve the last n % 32 rows and F̄ held as rows.
