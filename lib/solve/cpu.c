@@ -237,6 +237,11 @@ void lrr__solver_opencl_groups(lrr_solver *s, int groups)
         lrr__cl_use_groups(s->cl, groups);
 }
 
+lrr_status lrr__solver_opencl_panels(lrr_solver *s, int panels)
+{
+    return s->cl ? lrr__cl_fbar_panels(s->cl, panels) : LRR_ERR_INVALID_ARG;
+}
+
 /* w = Vᵀ E (3×k), validating E; nz[p] = 1 where w_p ≠ 0 (m_emit of them). With prev, also
  * ch[p] = 1 where the patch's emission changed (m_changed) and dw = Vᵀ(E − prev). */
 static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,

@@ -52,6 +52,11 @@ void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 {
     (void)cl, (void)groups;
 }
+lrr_status lrr__cl_fbar_panels(lrr__cl_solver *cl, int panels)
+{
+    (void)cl, (void)panels;
+    return LRR_ERR_UNSUPPORTED;
+}
 
 #else
 
@@ -74,6 +79,7 @@ struct lrr__cl_solver {
     cl_mem fbar, scale, m, rho, e, w, z, b, first, vw; /* vw: Vᵀ's weights (n) */
     size_t group_size;
     int use_groups;      /* fbar_groups (GPUs) rather than fbar_rows (CPU devices) */
+    cl_uint np;          /* rows of the device's F̄ in panels (0: all rows, see upload_fbar) */
     char name[160];      /* "opencl:<device name>" */
     double kernel_ms, transfer_ms; /* the last frame's, from profiling events (0 before one) */
 };
@@ -108,6 +114,52 @@ const char *lrr__cl_name(const lrr__cl_solver *cl)
 void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 {
     cl->use_groups = groups != 0;
+}
+
+/* Rows of F̄ per write when a panel layout goes up as rows (whole panels) */
+#define UPLOAD_ROWS 1024
+
+/* F̄ to the device in panels as the operator holds them, or as rows (panels = 0). CPU
+ * devices get rows: PoCL vectorises fbar_rows across work-items better over rows (Cornell
+ * n = 13824, k = 864, f32, 2 cores: rows 7.75 ms a frame, panels 8.68 ms); a GPU gets
+ * panels, where neighbouring items read neighbouring addresses (unmeasured: no GPU yet). */
+static lrr_status upload_fbar(lrr__cl_solver *cl, int panels)
+{
+    const lrr_operator *op = cl->op;
+    const size_t n = op->n, k = op->k, es = op->storage == LRR_STORAGE_F32 ? 4 : 2;
+    const void *data = op->storage == LRR_STORAGE_F32 ? (const void *)op->fbar
+                                                      : (const void *)op->fbar16;
+    cl_int err = CL_SUCCESS;
+    cl_uint np = (cl_uint)lrr__fbar_panel_rows(op);
+    if (panels || np == 0) {
+        err = clEnqueueWriteBuffer(cl->queue, cl->fbar, CL_TRUE, 0, n * k * es, data, 0, NULL,
+                                   NULL);
+    } else {
+        /* UPLOAD_ROWS·k·es bytes: less than F̄'s n·k·es whenever n > UPLOAD_ROWS */
+        const size_t rows = n < UPLOAD_ROWS ? n : UPLOAD_ROWS;
+        void *buf = lrr__alloc(op->ctx, rows * k * es);
+        if (!buf)
+            return lrr__error(op->ctx, LRR_ERR_NOMEM, "cannot allocate %zu rows of F̄", rows);
+        for (size_t i = 0; i < n && err == CL_SUCCESS; i += rows) {
+            size_t m = n - i < rows ? n - i : rows;
+            lrr__fbar_copy_rows(op, i, i + m, buf);
+            err = clEnqueueWriteBuffer(cl->queue, cl->fbar, CL_TRUE, i * k * es, m * k * es,
+                                       buf, 0, NULL, NULL);
+        }
+        free(buf);
+        np = 0;
+    }
+    if (err != CL_SUCCESS)
+        return lrr__cl_fail(op->ctx, err, "clEnqueueWriteBuffer", "F̄");
+    cl->np = np;
+    for (int i = 0; i < 2 && err == CL_SUCCESS; i++)
+        err = clSetKernelArg(i ? cl->groups : cl->rows, 8, sizeof np, &np);
+    return err == CL_SUCCESS ? LRR_OK : lrr__cl_fail(op->ctx, err, "clSetKernelArg", "np");
+}
+
+lrr_status lrr__cl_fbar_panels(lrr__cl_solver *cl, int panels)
+{
+    return upload_fbar(cl, panels);
 }
 
 static lrr_status new_buffer(lrr__cl_solver *cl, cl_mem_flags flags, size_t bytes,
@@ -171,8 +223,7 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
 static lrr_status set_args(lrr__cl_solver *cl)
 {
     const lrr_operator *op = cl->op;
-    const cl_uint un = (cl_uint)op->n, uk = (cl_uint)op->k,
-                  unp = (cl_uint)lrr__fbar_panel_rows(op);
+    const cl_uint un = (cl_uint)op->n, uk = (cl_uint)op->k;
     struct {
         cl_kernel kn;
         cl_uint index;
@@ -208,8 +259,6 @@ static lrr_status set_args(lrr__cl_solver *cl)
             err = clSetKernelArg(prod[i], 6, sizeof uk, &uk);
         if (err == CL_SUCCESS)
             err = clSetKernelArg(prod[i], 7, sizeof(cl_mem), bufs[5]);
-        if (err == CL_SUCCESS)
-            err = clSetKernelArg(prod[i], 8, sizeof unp, &unp);
         if (err != CL_SUCCESS)
             return lrr__cl_fail(op->ctx, err, "clSetKernelArg", what);
     }
@@ -263,7 +312,8 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
     /* A group per row coalesces the loads of a row-major F̄ on a GPU; in panels, the items
      * of fbar_rows (one per row) already read adjacent addresses at every step, as a GPU
      * wants, without the reduction. Neither measured on a GPU yet (none was lent). */
-    cl->use_groups = !(type & CL_DEVICE_TYPE_CPU) && lrr__fbar_panel_rows(op) == 0;
+    const int cpu_device = (type & CL_DEVICE_TYPE_CPU) != 0;
+    cl->use_groups = !cpu_device && lrr__fbar_panel_rows(op) == 0;
     cl->group_size = 1;
     while (cl->group_size * 2 <= GROUP_SIZE && cl->group_size * 2 <= max_wg)
         cl->group_size *= 2;
@@ -287,8 +337,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
             st = lrr__cl_fail(ctx, err, "clCreateCommandQueue", dn);
     }
     if (st || (st = build_program(cl, dev)) ||
-        (st = new_buffer(cl, ro, fbar_bytes, half ? (const void *)op->fbar16 : op->fbar, "F̄",
-                         &cl->fbar)) ||
+        (st = new_buffer(cl, ro, fbar_bytes, NULL, "F̄", &cl->fbar)) ||
         (st = new_buffer(cl, ro, half ? n * 4 : 4, half ? op->row_scale : &one, "row scales",
                          &cl->scale)) ||
         (st = new_buffer(cl, ro, 3 * k * k * 4, op->m, "M (3×k×k)", &cl->m)) ||
@@ -300,7 +349,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
         (st = new_buffer(cl, ro, (k + 1) * sizeof(cl_uint), first, "patch offsets (k+1)",
                          &cl->first)) ||
         (st = new_buffer(cl, ro, n * 4, op->weight, "Vᵀ weights (n)", &cl->vw)) ||
-        (st = set_args(cl))) {
+        (st = set_args(cl)) || (st = upload_fbar(cl, !cpu_device))) {
         free(first);
         lrr__cl_destroy(cl);
         return st;

@@ -80,6 +80,10 @@ void lrr__cl_timings(const lrr__cl_solver *cl, double *kernel_ms, double *transf
 /* Tests only: the work-group-per-row kernel (GPUs) instead of item-per-row (CPU devices). */
 void lrr__cl_use_groups(lrr__cl_solver *cl, int groups);
 void lrr__solver_opencl_groups(lrr_solver *s, int groups);
+/* Tests only: F̄ uploaded again in the operator's panels (1, what GPUs get) or as rows (0,
+ * what CPU devices get). */
+lrr_status lrr__cl_fbar_panels(lrr__cl_solver *cl, int panels);
+lrr_status lrr__solver_opencl_panels(lrr_solver *s, int panels);
 /* lib/solve/realtime.cl as a string (generated at build time). */
 extern const char lrr__kernel_realtime_cl[];
 #endif

@@ -64,15 +64,20 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
         LRR_CHECK(ctx, lrr_solve(cpu, e, ref));
         LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl));
         assert_int_equal(strncmp(lrr_solver_kernel(cl), "opencl:", 7), 0);
-        for (int groups = 0; groups < 2; groups++) {
+        /* F̄ on the device as the operator's panels (what GPUs get) and as rows (CPU
+         * devices), each through both product kernels */
+        for (int up = 0; up < 4; up++) {
+            const int panels = up >> 1, groups = up & 1;
+            if ((up & 1) == 0)
+                LRR_CHECK(ctx, lrr__solver_opencl_panels(cl, panels));
             lrr__solver_opencl_groups(cl, groups);
             memset(b, 0xff, 3 * n * sizeof *b);
             LRR_CHECK(ctx, lrr_solve(cl, e, b));
             assert_int_equal(lrr_solver_last_path(cl), LRR_PATH_FULL);
             double r = max_rel(3 * n, b, ref);
-            print_message("%s, %s %s, %s kernel (%s): max |dB| / max |B| = %.2e\n", what,
-                          lrr_storage_name(storages[si]), sl < 3 ? "panels" : "rows",
-                          groups ? "group" : "row",
+            print_message("%s, %s %s (device: %s), %s kernel (%s): max |dB| / max |B| = %.2e\n",
+                          what, lrr_storage_name(storages[si]), sl < 3 ? "panels" : "rows",
+                          panels && sl < 3 ? "panels" : "rows", groups ? "group" : "row",
                           lrr_solver_kernel(cl), r);
             assert_true(r <= 1e-5);
         }
