@@ -194,7 +194,15 @@ __attribute__((target("avx2"))) static void depth_span4(const double abc[9], con
  * lanes went all or none). AVX-512 brings FMA, which gcc contracts a multiply and an add
  * into (GNU C's -ffp-contract=fast, also for intrinsics): fp-contract=off keeps the scalar
  * path's two roundings. */
+#if defined(__clang__)
+/* clang has no optimize attribute (the --enable-fuzzing build): contraction off from here */
+#pragma clang fp contract(off)
+#define T512 __attribute__((target("avx512f,avx512vl")))
+#else
 #define T512 __attribute__((target("avx512f,avx512vl"), optimize("fp-contract=off")))
+#endif
+/* round down, no exception: an integer constant expression, as the intrinsic needs */
+#define FLOOR_NO_EXC (_MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC)
 
 T512 static inline __m512d lin8(__m512d k0, __m512d k1sy, __m512d k2, __m512d sx)
 {
@@ -264,11 +272,10 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
         uint32_t out[8];
         __mmask8 ok = 0;
         if (cells) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
-            const int rnd = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
             const __m512d t0 = _mm512_mul_pd(b0, sv), t1 = _mm512_mul_pd(b1, sv),
                           t2 = _mm512_mul_pd(b2, sv);
-            const __m512d i0 = _mm512_roundscale_pd(t0, rnd), i1 = _mm512_roundscale_pd(t1, rnd),
-                          i2 = _mm512_roundscale_pd(t2, rnd);
+            const __m512d i0 = _mm512_roundscale_pd(t0, FLOOR_NO_EXC), i1 = _mm512_roundscale_pd(t1, FLOOR_NO_EXC),
+                          i2 = _mm512_roundscale_pd(t2, FLOOR_NO_EXC);
             const __m512d f0 = _mm512_sub_pd(t0, i0), f1 = _mm512_sub_pd(t1, i1),
                           f2 = _mm512_sub_pd(t2, i2);
             const __m512d m = _mm512_min_pd(
