@@ -62,7 +62,7 @@ struct lrr_solver {
     float *e_prev, *b_prev, *dw; /* n×3, n×3, 3×k */
     int have_prev;
     unsigned since_full;
-    /* batch workspace, grown on demand, and when sgemm takes over */
+    /* batch workspace, grown on demand, and when the batched pass takes over */
     float *bw, *bz;
     size_t batch_cap;
     size_t gemm_min_count, gemm_min_bytes;
