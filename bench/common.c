@@ -569,8 +569,6 @@ int paper_setup(const lrr_operator *op, const float *e, paper_frame *f)
     for (int c = 0; c < 3; c++) {
         cblas_sgemm(CblasRowMajor, CblasNoTrans, CblasNoTrans, f->n, f->k, f->k, 1.0f, fbar,
                     f->k, m + (size_t)c * k * k, f->k, 0.0f, f->y[c], f->k);
-        if (c == 2)
-            lrr_aligned_free(fbar);
         float *y = f->y[c];
         #pragma omp parallel for schedule(static)
         for (size_t i = 0; i < n; i++) {
@@ -579,6 +577,7 @@ int paper_setup(const lrr_operator *op, const float *e, paper_frame *f)
                 y[i * k + p] *= r;
         }
     }
+    lrr_aligned_free(fbar);
     return 0;
 }
 

@@ -132,14 +132,19 @@ struct rows_out {
     size_t row_bytes;
 };
 
+/* The rows of the block from row i into ro->blk; their bytes. */
+static size_t rows_block(struct rows_out *ro, size_t i)
+{
+    size_t i1 = i + LRR__PANEL < ro->op->n ? i + LRR__PANEL : ro->op->n;
+    lrr__fbar_copy_rows(ro->op, i, i1, ro->blk);
+    return (i1 - i) * ro->row_bytes;
+}
+
 static uint64_t rows_checksum(struct rows_out *ro, uint64_t len)
 {
     uint64_t h = checksum_begin(len);
-    for (size_t i = 0; i < ro->op->n; i += LRR__PANEL) {
-        size_t i1 = i + LRR__PANEL < ro->op->n ? i + LRR__PANEL : ro->op->n;
-        lrr__fbar_copy_rows(ro->op, i, i1, ro->blk);
-        h = checksum_run(h, ro->blk, (i1 - i) * ro->row_bytes);
-    }
+    for (size_t i = 0; i < ro->op->n; i += LRR__PANEL)
+        h = checksum_run(h, ro->blk, rows_block(ro, i));
     return checksum_end(h, len);
 }
 
@@ -268,11 +273,8 @@ static lrr_status write_file(lrr_context *ctx, const char *path, const unsigned 
         for (int s = 0; s < count; s++) {
             w_pad_to(&w, sec[s].offset);
             struct rows_out *ro = sec[s].rows;
-            for (size_t i = 0; ro && i < ro->op->n && !w.file.err; i += LRR__PANEL) {
-                size_t i1 = i + LRR__PANEL < ro->op->n ? i + LRR__PANEL : ro->op->n;
-                lrr__fbar_copy_rows(ro->op, i, i1, ro->blk);
-                w_bytes(&w, ro->blk, (i1 - i) * ro->row_bytes);
-            }
+            for (size_t i = 0; ro && i < ro->op->n && !w.file.err; i += LRR__PANEL)
+                w_bytes(&w, ro->blk, rows_block(ro, i));
             if (!ro)
                 w_bytes(&w, sec[s].data, (size_t)sec[s].size);
         }
@@ -302,7 +304,7 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
                                                                      &geom_size) ||
         !bytes_of(op->n, 3 * sizeof(float), &rho_size) ||
         !bytes_of(op->n, op->k, &fbar_elems) ||
-        !bytes_of(fbar_elems, half ? sizeof(uint16_t) : sizeof(float), &fbar_size) ||
+        !bytes_of(fbar_elems, lrr__fbar_elem_bytes(op), &fbar_size) ||
         !bytes_of(op->k, op->k, &m_elems) || !bytes_of(m_elems, 3 * sizeof(float), &m_size))
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "file %s: section sizes overflow 64 bits",
                           path);
@@ -319,8 +321,8 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     if (st)
         return st;
 
-    const void *fbar_data = half ? (const void *)op->fbar16 : (const void *)op->fbar;
-    struct rows_out ro = {op, NULL, op->k * (half ? sizeof(uint16_t) : sizeof(float))};
+    const void *fbar_data = lrr__fbar_data(op);
+    struct rows_out ro = {op, NULL, op->k * lrr__fbar_elem_bytes(op)};
     if (op->panels && (st = lrr__calloc(ctx, &ro.blk, LRR__PANEL, ro.row_bytes,
                                         "a block of F̄ rows"))) {
         lrr_aligned_free(geom);

@@ -11,16 +11,6 @@
 #include <omp.h>
 #include <string.h>
 
-static size_t elem_size(const lrr_operator *op)
-{
-    return op->storage == LRR_STORAGE_F32 ? sizeof(float) : sizeof(uint16_t);
-}
-
-static void *fbar_data(const lrr_operator *op)
-{
-    return op->storage == LRR_STORAGE_F32 ? (void *)op->fbar : (void *)op->fbar16;
-}
-
 /* one block of LRR__PANEL rows (k columns, elements of type T) from rows to columns or back */
 #define DEFINE_TRANSPOSE(NAME, T)                                                           \
     static void NAME(T *blk, T *tmp, size_t k, int to_panels)                              \
@@ -42,7 +32,7 @@ lrr_status lrr__fbar_set_panels(lrr_operator *op, int panels)
     panels = panels != 0;
     if (op->panels == panels)
         return LRR_OK;
-    const size_t k = op->k, es = elem_size(op), blocks = op->n / LRR__PANEL;
+    const size_t k = op->k, es = lrr__fbar_elem_bytes(op), blocks = op->n / LRR__PANEL;
     const int threads = omp_get_max_threads();
     unsigned char *tmp;
     /* n×k elements are held already, so one block's LRR__PANEL·k·es bytes cannot overflow */
@@ -66,8 +56,8 @@ lrr_status lrr__fbar_set_panels(lrr_operator *op, int panels)
 
 void lrr__fbar_copy_rows(const lrr_operator *op, size_t i0, size_t i1, void *out)
 {
-    const size_t k = op->k, es = elem_size(op);
-    const unsigned char *f = fbar_data(op);
+    const size_t k = op->k, es = lrr__fbar_elem_bytes(op);
+    const unsigned char *f = lrr__fbar_data(op);
     unsigned char *o = out;
     const size_t p = lrr__fbar_panel_rows(op);
     for (size_t i = i0; i < i1; i++) {

@@ -57,6 +57,15 @@ lrr_status lrr__fbar_convert(lrr_operator *op, lrr_storage storage);
  * row-major behind them. Each block occupies the bytes its rows occupy row-major, so the
  * two layouts convert in place, block by block. */
 #define LRR__PANEL 32
+/* bytes of one stored entry of F̄, and where the entries are */
+static inline size_t lrr__fbar_elem_bytes(const lrr_operator *op)
+{
+    return op->storage == LRR_STORAGE_F32 ? sizeof(float) : sizeof(uint16_t);
+}
+static inline const void *lrr__fbar_data(const lrr_operator *op)
+{
+    return op->storage == LRR_STORAGE_F32 ? (const void *)op->fbar : (const void *)op->fbar16;
+}
 static inline size_t lrr__fbar_panel_rows(const lrr_operator *op)
 {
     return op->panels ? op->n - op->n % LRR__PANEL : 0;

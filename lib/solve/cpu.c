@@ -91,7 +91,7 @@ void lrr_solver_destroy(lrr_solver *s)
 
 static size_t fbar_bytes(const lrr_operator *op)
 {
-    return op->n * op->k * (op->storage == LRR_STORAGE_F32 ? 4 : 2);
+    return op->n * op->k * lrr__fbar_elem_bytes(op);
 }
 
 lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_solver **out)

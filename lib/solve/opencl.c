@@ -79,7 +79,6 @@ struct lrr__cl_solver {
     cl_mem fbar, scale, m, rho, e, w, z, b, first, vw; /* vw: Vᵀ's weights (n) */
     size_t group_size;
     int use_groups;      /* fbar_groups (GPUs) rather than fbar_rows (CPU devices) */
-    cl_uint np;          /* rows of the device's F̄ in panels (0: all rows, see upload_fbar) */
     char name[160];      /* "opencl:<device name>" */
     double kernel_ms, transfer_ms; /* the last frame's, from profiling events (0 before one) */
 };
@@ -126,14 +125,12 @@ void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 static lrr_status upload_fbar(lrr__cl_solver *cl, int panels)
 {
     const lrr_operator *op = cl->op;
-    const size_t n = op->n, k = op->k, es = op->storage == LRR_STORAGE_F32 ? 4 : 2;
-    const void *data = op->storage == LRR_STORAGE_F32 ? (const void *)op->fbar
-                                                      : (const void *)op->fbar16;
+    const size_t n = op->n, k = op->k, es = lrr__fbar_elem_bytes(op);
     cl_int err = CL_SUCCESS;
     cl_uint np = (cl_uint)lrr__fbar_panel_rows(op);
     if (panels || np == 0) {
-        err = clEnqueueWriteBuffer(cl->queue, cl->fbar, CL_TRUE, 0, n * k * es, data, 0, NULL,
-                                   NULL);
+        err = clEnqueueWriteBuffer(cl->queue, cl->fbar, CL_TRUE, 0, n * k * es,
+                                   lrr__fbar_data(op), 0, NULL, NULL);
     } else {
         /* UPLOAD_ROWS·k·es bytes: less than F̄'s n·k·es whenever n > UPLOAD_ROWS */
         const size_t rows = n < UPLOAD_ROWS ? n : UPLOAD_ROWS;
@@ -151,7 +148,6 @@ static lrr_status upload_fbar(lrr__cl_solver *cl, int panels)
     }
     if (err != CL_SUCCESS)
         return lrr__cl_fail(op->ctx, err, "clEnqueueWriteBuffer", "F̄");
-    cl->np = np;
     for (int i = 0; i < 2 && err == CL_SUCCESS; i++)
         err = clSetKernelArg(i ? cl->groups : cl->rows, 8, sizeof np, &np);
     return err == CL_SUCCESS ? LRR_OK : lrr__cl_fail(op->ctx, err, "clSetKernelArg", "np");

@@ -13,11 +13,11 @@
  * AVX2 and AVX-512 variants below, chosen at run time (lrr__kernel_select): at n = 55296,
  * k = 864 they run 10.0 (AVX2) and 8.2 ms (AVX-512) against 20.1 ms for the portable loop.
  *
- * Layout: F̄ stays row-major (n×k). A row is a contiguous stream, so each thread reads its
- * own block of rows once, and its dot products with z_r, z_g, z_b reuse the three short
- * vectors from L1. Several rows are processed together so that each z load feeds several
- * FMAs (4 rows with AVX-512's 32 registers, 2 with AVX2's 16). Column-major would need
- * n×3 partial sums written back per column instead.
+ * Layout: the row kernels here read F̄ row-major: an operator's last n % 32 rows, and all
+ * of F̄ after lrr_operator_set_layout(op, LRR_LAYOUT_ROWS). A row is a contiguous stream,
+ * and its dot products with z_r, z_g, z_b reuse the three short vectors from L1; several
+ * rows share each z load (ROWS_AVX2, ROWS_AVX512). The rest of F̄ is held in panels and
+ * read by panel_kernel.c, which needs no horizontal sums (why: see there).
  */
 #include "config.h"
 #include "solve/solve.h"
@@ -554,14 +554,6 @@ static void apply_block(const lrr__kernel *kn, const lrr_operator *op, size_t i0
                         size_t np, const float *z, const float *E, const float *rho, float *B)
 {
     const size_t k = op->k;
-    /* black subpatches reflect nothing: a block of them needs no pass over its rows */
-    int black = 1;
-    for (size_t j = 3 * i0; j < 3 * i1 && black; j++)
-        black = rho[j] == 0.0f;
-    if (black) {
-        memcpy(B + 3 * i0, E + 3 * i0, 3 * (i1 - i0) * sizeof(float));
-        return;
-    }
     size_t im = i1 < np ? i1 : i0 > np ? i0 : np; /* [i0, im) panels, [im, i1) rows */
     if (op->storage == LRR_STORAGE_F16) {
         kn->f16_panels(op->fbar16, op->row_scale, i0, im, k, z, E, rho, B);
@@ -585,8 +577,18 @@ void lrr__fbar_apply_frames(const lrr__kernel *kn, const lrr_operator *op, size_
     #pragma omp parallel for schedule(static) if (n * k * count >= LRR__PARALLEL_MIN)
     for (size_t b = 0; b < blocks; b++) {
         size_t i0 = b * ROW_BLOCK, i1 = i0 + ROW_BLOCK < n ? i0 + ROW_BLOCK : n;
-        for (size_t f = 0; f < count; f++)
-            apply_block(kn, op, i0, i1, np, z + 3 * k * f, E + 3 * n * f, rho, B + 3 * n * f);
+        /* black subpatches reflect nothing: a block of them needs no pass over its rows */
+        int black = 1;
+        for (size_t j = 3 * i0; j < 3 * i1 && black; j++)
+            black = rho[j] == 0.0f;
+        for (size_t f = 0; f < count; f++) {
+            if (black)
+                memcpy(B + 3 * n * f + 3 * i0, E + 3 * n * f + 3 * i0,
+                       3 * (i1 - i0) * sizeof(float));
+            else
+                apply_block(kn, op, i0, i1, np, z + 3 * k * f, E + 3 * n * f, rho,
+                            B + 3 * n * f);
+        }
     }
 }
 
