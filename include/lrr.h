@@ -493,8 +493,9 @@ LRR_API LRR_NODISCARD lrr_status lrr_solver_create(const lrr_operator *op, lrr_b
 LRR_API void lrr_solver_destroy(lrr_solver *solver);
 
 /* What runs the frames: for a CPU solver the instruction-set variant, "c", "avx2" or
- * "avx512" (the widest this CPU supports; the environment variable LRR_SIMD, read by
- * lrr_solver_create, forces one); for an OpenCL solver "opencl:<device name>" (the device
+ * "avx512", the last two with "+prefetch" appended on Intel CPUs (the widest this CPU
+ * supports; the environment variable LRR_SIMD, read by lrr_solver_create, forces one by
+ * its name); for an OpenCL solver "opencl:<device name>" (the device
  * is the first GPU, else the first CPU device; LRR_OPENCL_DEVICE picks another by a
  * substring of "platform / device" or by "P:D"). The string lives as long as the solver. */
 LRR_API const char *lrr_solver_kernel(const lrr_solver *solver) LRR_NONNULL(1);

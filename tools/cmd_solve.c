@@ -31,7 +31,8 @@ static const char solve_help[] =
     PROBE_LIGHT_HELP
     "  -h, --help           show this help\n"
     "Also prints storage (of F̄), backend, path (that the last run took) and kernel (the\n"
-    "SIMD variant, whose choice the environment variable LRR_SIMD=c|avx2|avx512 forces, or\n"
+    "SIMD variant, c, avx2 or avx512, with +prefetch on Intel CPUs; the environment\n"
+    "variable LRR_SIMD forces one by that name, or\n"
     "opencl:<device name>); with --probe also probe, probe_method and sources, with --light\n"
     "lights, and with either direct_light_seconds (the shadow rays).\n";
 

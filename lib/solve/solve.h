@@ -40,6 +40,10 @@ typedef struct lrr__kernel {
 LRR__DECLARE_PANELS(c)
 LRR__DECLARE_PANELS(avx2)
 LRR__DECLARE_PANELS(avx512)
+LRR__DECLARE_PANELS(avx2_pf)
+LRR__DECLARE_PANELS(avx512_pf)
+/* how far ahead the _pf panel variants prefetch, bytes (panel_kernel.c) */
+#define LRR__PREFETCH_AHEAD 4096
 
 /* The fastest variant this CPU runs for rows of k entries, or the one named by force
  * (LRR_SIMD: c, avx2, avx512). */

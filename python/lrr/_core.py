@@ -563,7 +563,7 @@ class Solver:
 
     @property
     def kernel(self):
-        """"c", "avx2", "avx512" or "opencl:<device>" (lrr_solver_kernel)."""
+        """"c", "avx2", "avx512" (+"+prefetch" on Intel) or "opencl:<device>" (lrr_solver_kernel)."""
         return lib.lrr_solver_kernel(self.h).decode()
 
     def solve(self, emission=None, order="operator"):

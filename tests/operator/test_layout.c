@@ -104,7 +104,7 @@ static void test_kernels(void **state)
     lrr_context *ctx;
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     static const struct { size_t K; unsigned levels; } sizes[] = {{4, 1}, {8, 2}, {60, 1}};
-    const char *variants[] = {"c", "avx2", "avx512"};
+    const char *variants[] = {"c", "avx2", "avx2+prefetch", "avx512", "avx512+prefetch"};
     int tested = 0, tail_seen = 0, whole_seen = 0;
     for (size_t sz = 0; sz < sizeof sizes / sizeof sizes[0]; sz++) {
         lrr_operator *op = cornell_op(ctx, sizes[sz].K, sizes[sz].levels);
@@ -120,7 +120,7 @@ static void test_kernels(void **state)
             reference(op, E, ref);
             for (int layout = 0; layout < 2; layout++) {
                 LRR_CHECK(ctx, lrr_operator_set_layout(op, (lrr_layout)layout));
-                for (int v = 0; v < 3; v++) {
+                for (int v = 0; v < 5; v++) {
                     setenv("LRR_SIMD", variants[v], 1);
                     lrr_solver *sv;
                     lrr_status st = lrr_solver_create(op, LRR_BACKEND_CPU, &sv);

@@ -319,11 +319,11 @@ static void test_realtime_kernels(void **state)
     assert_int_equal(lrr_context_create(&ctx), LRR_OK);
     const size_t ks[] = {1, 7, 8, 9, 13, 16, 17, 64, 217};
     const size_t ns[] = {1, 37};
-    const char *variants[] = {"c", "avx2", "avx512"};
+    const char *variants[] = {"c", "avx2", "avx2+prefetch", "avx512", "avx512+prefetch"};
     uint64_t x = 12345;
 #define RND() ((x = x * 6364136223846793005ull + 1442695040888963407ull), (double)(x >> 40) / (1 << 24))
     int ran = 0;
-    for (int v = 0; v < 3; v++) {
+    for (int v = 0; v < 5; v++) {
         const lrr__kernel *kn;
         lrr_status st = lrr__kernel_select(ctx, variants[v], 17, &kn);
         if (st == LRR_ERR_UNSUPPORTED) {
@@ -407,12 +407,17 @@ static void test_realtime_kernels(void **state)
     /* a name that is not a variant is an argument error */
     const lrr__kernel *kn;
     assert_int_equal(lrr__kernel_select(ctx, "sse9", 17, &kn), LRR_ERR_INVALID_ARG);
-    /* unforced: the widest variant the CPU runs */
+    /* unforced: the widest variant the CPU runs, with the panels' prefetch on Intel */
     assert_int_equal(lrr__kernel_select(ctx, NULL, 216, &kn), LRR_OK);
-    if (__builtin_cpu_supports("avx512f"))
-        assert_string_equal(kn->name, "avx512");
-    else if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
-        assert_string_equal(kn->name, "avx2");
+    const char *pf = __builtin_cpu_is("intel") ? "+prefetch" : "";
+    char want[32];
+    if (__builtin_cpu_supports("avx512f")) {
+        snprintf(want, sizeof want, "avx512%s", pf);
+        assert_string_equal(kn->name, want);
+    } else if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+        snprintf(want, sizeof want, "avx2%s", pf);
+        assert_string_equal(kn->name, want);
+    }
     /* LRR_SIMD reaches the solver; every variant gives the same B to float rounding */
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));

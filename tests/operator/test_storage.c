@@ -139,8 +139,8 @@ static void test_solve_16bit(void **state)
             for (size_t i = 0; i < n; i++)
                 ref[3 * i + c] = (float)x[i];
         }
-        const char *variants[] = {"c", "avx2", "avx512"};
-        for (int v = 0; v < 3; v++) {
+        const char *variants[] = {"c", "avx2", "avx2+prefetch", "avx512", "avx512+prefetch"};
+        for (int v = 0; v < 5; v++) {
             setenv("LRR_SIMD", variants[v], 1);
             lrr_status st = lrr_solver_create(op, LRR_BACKEND_CPU, &sv);
             if (st == LRR_ERR_UNSUPPORTED) {
