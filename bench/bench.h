@@ -283,7 +283,10 @@ typedef struct rt_cell {
     size_t n, k, d;
     double preprocess_s;
     double bw_kernel, bw_sgemv3, bw; /* bytes per second; bw_sgemv3 NAN when not used */
-    const char *bw_source;
+    /* the read loops over a buffer of F̄'s own size (f32, 16-bit), when it fits the
+     * last-level cache (NAN otherwise), and the 16-bit rows' floor bandwidth */
+    double bw_resident, bw_resident16, bw16;
+    const char *bw_source, *bw16_source;
     int fits_llc;
     timing batch;
     double batch_ms_per_frame, batch_rel_l2;

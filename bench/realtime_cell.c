@@ -543,13 +543,35 @@ static void rt_floors(const rt_args *a, size_t n, size_t k, rt_cell *r)
             r->bw_source = "sgemv3";
         }
     }
+    /* A matrix the last-level cache holds is read from the cache, warm, frame after frame:
+     * its floor is the read loops over as many bytes, repeated the same way (a 260 MiB L3
+     * holds every cell of the paper's table; the DRAM loop alone would put the floor too
+     * low). */
+    r->bw16 = r->bw;
+    r->bw16_source = r->bw_source;
+    r->bw_resident = r->bw_resident16 = NAN;
+    if (r->fits_llc) {
+        r->bw_resident = measure_bandwidth((size_t)f32_bytes);
+        r->bw_resident16 = measure_bandwidth((size_t)(f32_bytes / 2));
+        if (r->bw_resident > r->bw) {
+            r->bw = r->bw_resident;
+            r->bw_source = "resident-read";
+        }
+        r->bw16 = r->bw;
+        r->bw16_source = r->bw_source;
+        if (r->bw_resident16 > r->bw16) {
+            r->bw16 = r->bw_resident16;
+            r->bw16_source = "resident-read";
+        }
+    }
     const double paper_ms = r->rows[RT_PAPER].t.median;
     for (int i = 0; i < RT_COUNT; i++) {
         rt_row *w = &r->rows[i];
         const lrr_storage st = rt_storage[i];
         const double fb = storage_bytes(n, k, st);
-        w->floor_ms = r->bw > 0 ? 1e3 * fb / r->bw : NAN;
-        w->floor_ms_full = r->bw > 0 ? 1e3 * (fb + m_bytes) / r->bw : NAN;
+        const double bw = st == LRR_STORAGE_F32 ? r->bw : r->bw16;
+        w->floor_ms = bw > 0 ? 1e3 * fb / bw : NAN;
+        w->floor_ms_full = bw > 0 ? 1e3 * (fb + m_bytes) / bw : NAN;
         w->ratio_to_floor = w->t.median / w->floor_ms;
         w->ratio_to_paper = paper_ms / w->t.median;
         w->reads_fbar = i != RT_SPARSE && i != RT_INCREMENTAL;
