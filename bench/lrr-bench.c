@@ -28,9 +28,7 @@
  * malformed command line. Uses only the public API (lrr.h), cblas for the baselines.
  */
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "bench.h"
 
@@ -64,42 +62,15 @@ static const char main_help[] =
     "  -V, --version  print the library version\n"
     "\n"
     "Threads: OMP_NUM_THREADS (lrr) and OPENBLAS_NUM_THREADS (the cblas baselines).\n"
+    "Where OpenBLAS would use its SSE3 'Prescott' kernels on a CPU it does not know,\n"
+    "lrr-bench runs itself again with OPENBLAS_CORETYPE=SkylakeX or Haswell (said on\n"
+    "stderr; openblas_core in the configuration), so no baseline is handicapped.\n"
     "Exit status: 0 success, 1 failure or a failed check, 2 bad command line.\n";
 
 /* ================================================================== main */
-/* OpenBLAS 0.3.21 picks its kernels by CPU model and falls back to SSE3 "Prescott" ones on
- * a model it does not know: on this project's Intel Xeon (Emerald Rapids, model 207) sgemv3
- * ran at 3× the read floor. The baselines would then be unfairly slow, so lrr-bench runs
- * itself again with OPENBLAS_CORETYPE naming the family the CPU's instructions support
- * (read only when the library loads), and prints the core in the configuration. A
- * user's own OPENBLAS_CORETYPE is left alone. */
-static void fair_openblas(char *argv[])
-{
-#if defined(__x86_64__)
-    const char *core = openblas_get_corename();
-    if (getenv("OPENBLAS_CORETYPE") || !core || strcmp(core, "Prescott") != 0)
-        return;
-    const char *want = __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")
-                           ? "SkylakeX"
-                       : __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")
-                           ? "Haswell"
-                           : NULL;
-    if (!want || setenv("OPENBLAS_CORETYPE", want, 1) != 0)
-        return;
-    fprintf(stderr, "lrr-bench: OpenBLAS chose its Prescott (SSE3) kernels on a CPU with %s; "
-                    "running again with OPENBLAS_CORETYPE=%s\n",
-            strcmp(want, "SkylakeX") == 0 ? "AVX-512" : "AVX2", want);
-    fflush(stderr);
-    execv("/proc/self/exe", argv);
-    unsetenv("OPENBLAS_CORETYPE"); /* exec failed: go on with Prescott */
-#else
-    (void)argv;
-#endif
-}
-
 int main(int argc, char *argv[])
 {
-    fair_openblas(argv);
+    cli_fair_openblas(argv, 1);
     static const struct {
         const char *name;
         int (*run)(int, char *[]);

@@ -2,6 +2,7 @@
 #include "cli.h"
 
 #include <ctype.h>
+#include <dlfcn.h>
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -407,3 +408,32 @@ int cli_make_dir(const char *dir)
     return CLI_EXIT_OK;
 }
 
+
+void cli_fair_openblas(char *argv[], int say)
+{
+#if defined(__x86_64__)
+    /* looked up, not linked: lrr reaches OpenBLAS only through liblrr */
+    const char *(*corename)(void) = (const char *(*)(void))dlsym(RTLD_DEFAULT,
+                                                                "openblas_get_corename");
+    const char *core = corename ? corename() : NULL;
+    if (getenv("OPENBLAS_CORETYPE") || !core || strcmp(core, "Prescott") != 0)
+        return;
+    const char *want = __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")
+                           ? "SkylakeX"
+                       : __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")
+                           ? "Haswell"
+                           : NULL;
+    if (!want || setenv("OPENBLAS_CORETYPE", want, 1) != 0)
+        return;
+    if (say) {
+        fprintf(stderr, "%s: OpenBLAS chose its Prescott (SSE3) kernels on a CPU with %s; "
+                        "running again with OPENBLAS_CORETYPE=%s\n",
+                argv[0], strcmp(want, "SkylakeX") == 0 ? "AVX-512" : "AVX2", want);
+        fflush(stderr);
+    }
+    execv("/proc/self/exe", argv);
+    unsetenv("OPENBLAS_CORETYPE"); /* exec failed: go on with Prescott */
+#else
+    (void)argv, (void)say;
+#endif
+}

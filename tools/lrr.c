@@ -52,6 +52,11 @@ static const char main_help[] =
     "  -h, --help           show this help (COMMAND --help: help on a command)\n"
     "  -V, --version        print the library version and the optional features built\n"
     "\n"
+    "Environment: OMP_NUM_THREADS (threads), LRR_SIMD (the real-time kernel), LRR_OPENCL_DEVICE.\n"
+    "Where OpenBLAS would use its SSE3 'Prescott' kernels on a CPU it does not know (a\n"
+    "newer Xeon), lrr runs itself again with OPENBLAS_CORETYPE=SkylakeX or Haswell, as the\n"
+    "CPU supports; a preset OPENBLAS_CORETYPE is kept.\n"
+    "\n"
     "Exit status: 0 success, 1 failure, 2 bad command line, 3 a reference solve that did\n"
     "not converge.\n";
 
@@ -117,6 +122,7 @@ int lrr_cli_main(int argc, char *argv[], int parse_only)
 #ifndef LRR_CLI_NO_MAIN
 int main(int argc, char *argv[])
 {
+    cli_fair_openblas(argv, 0);
     return lrr_cli_main(argc, argv, 0);
 }
 #endif
