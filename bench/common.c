@@ -286,45 +286,18 @@ size_t bandwidth_buffer_bytes(void)
  * 16-wide AVX-512 29-31 GB/s on 2 threads). */
 #if defined(__x86_64__)
 #include <immintrin.h>
-__attribute__((target("avx512f"))) static double sum_avx512(const float *p, size_t count)
-{
-    __m512 a[8];
-    for (int l = 0; l < 8; l++)
-        a[l] = _mm512_setzero_ps();
-    for (size_t i = 0; i < count; i += 128)
-        for (int l = 0; l < 8; l++)
-            a[l] = _mm512_add_ps(a[l], _mm512_load_ps(p + i + 16 * l));
-    for (int l = 1; l < 8; l++)
-        a[0] = _mm512_add_ps(a[0], a[l]);
-    return _mm512_reduce_add_ps(a[0]);
-}
-
-__attribute__((target("avx2"))) static double sum_avx2(const float *p, size_t count)
-{
-    __m256 a[8];
-    for (int l = 0; l < 8; l++)
-        a[l] = _mm256_setzero_ps();
-    for (size_t i = 0; i < count; i += 64)
-        for (int l = 0; l < 8; l++)
-            a[l] = _mm256_add_ps(a[l], _mm256_load_ps(p + i + 8 * l));
-    for (int l = 1; l < 8; l++)
-        a[0] = _mm256_add_ps(a[0], a[l]);
-    float t[8];
-    _mm256_storeu_ps(t, a[0]);
-    return (double)t[0] + t[1] + t[2] + t[3] + t[4] + t[5] + t[6] + t[7];
-}
-
-/* The same two loops with a software prefetch 4 KiB ahead, one per line (as the real-time
- * kernels' "+prefetch" variants): on this project's Intel Xeon (Emerald Rapids, 2 threads)
- * the plain loops kept too few lines in flight and read a 96 MB matrix more slowly than
- * the prefetching kernel computed on it (20.4 GB/s against the kernel's 0.82× that time). */
-__attribute__((target("avx512f"))) static double sum_avx512_pf(const float *p, size_t count)
+/* pf: a software prefetch 4 KiB ahead, one per line (as the real-time kernels' "+prefetch"
+ * variants): on this project's Intel Xeon (Emerald Rapids, 2 threads) the plain loops kept
+ * too few lines in flight and read a 96 MB matrix more slowly than the prefetching kernel
+ * computed on it (20.4 GB/s against the kernel's 0.82× that time). */
+__attribute__((target("avx512f"), always_inline)) static inline double
+sum512(const float *p, size_t count, int pf)
 {
     __m512 a[8];
     for (int l = 0; l < 8; l++)
         a[l] = _mm512_setzero_ps();
     for (size_t i = 0; i < count; i += 128) {
-        for (int l = 0; l < 8; l += 2)
+        for (int l = 0; pf && l < 8; l += 2)
             _mm_prefetch((const char *)(p + i + 16 * l) + 4096, _MM_HINT_T0);
         for (int l = 0; l < 8; l++)
             a[l] = _mm512_add_ps(a[l], _mm512_load_ps(p + i + 16 * l));
@@ -334,13 +307,14 @@ __attribute__((target("avx512f"))) static double sum_avx512_pf(const float *p, s
     return _mm512_reduce_add_ps(a[0]);
 }
 
-__attribute__((target("avx2"))) static double sum_avx2_pf(const float *p, size_t count)
+__attribute__((target("avx2"), always_inline)) static inline double sum256(const float *p,
+                                                                           size_t count, int pf)
 {
     __m256 a[8];
     for (int l = 0; l < 8; l++)
         a[l] = _mm256_setzero_ps();
     for (size_t i = 0; i < count; i += 64) {
-        for (int l = 0; l < 8; l += 2)
+        for (int l = 0; pf && l < 8; l += 2)
             _mm_prefetch((const char *)(p + i + 8 * l) + 4096, _MM_HINT_T0);
         for (int l = 0; l < 8; l++)
             a[l] = _mm256_add_ps(a[l], _mm256_load_ps(p + i + 8 * l));
@@ -350,6 +324,23 @@ __attribute__((target("avx2"))) static double sum_avx2_pf(const float *p, size_t
     float t[8];
     _mm256_storeu_ps(t, a[0]);
     return (double)t[0] + t[1] + t[2] + t[3] + t[4] + t[5] + t[6] + t[7];
+}
+
+__attribute__((target("avx512f"))) static double sum_avx512(const float *p, size_t count)
+{
+    return sum512(p, count, 0);
+}
+__attribute__((target("avx512f"))) static double sum_avx512_pf(const float *p, size_t count)
+{
+    return sum512(p, count, 1);
+}
+__attribute__((target("avx2"))) static double sum_avx2(const float *p, size_t count)
+{
+    return sum256(p, count, 0);
+}
+__attribute__((target("avx2"))) static double sum_avx2_pf(const float *p, size_t count)
+{
+    return sum256(p, count, 1);
 }
 #endif
 

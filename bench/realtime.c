@@ -421,7 +421,8 @@ static void rt_print_setup(rt_args *a)
     a->bandwidth = measure_bandwidth(bw_bytes);
     if (a->bandwidth > 0)
         printf("read_bandwidth_gbs: %.2f (tuned read kernels: OpenMP sums, 128-bit, AVX2 and "
-               "AVX-512 where present, over %zu MiB, best of %d passes each, %d threads)\n",
+               "AVX-512 where present, the last two also with a software prefetch, over %zu "
+               "MiB, best of %d passes each, %d threads)\n",
                a->bandwidth / 1e9, bw_bytes >> 20, BANDWIDTH_PASSES, omp_get_max_threads());
     else
         printf("read_bandwidth_gbs: nan (cannot allocate %zu MiB)\n", bw_bytes >> 20);
