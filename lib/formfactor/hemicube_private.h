@@ -21,6 +21,8 @@ typedef struct lrr__hemi_face {
     int W, H;              /* pixels */
     int side;              /* 0 top: rows span [-1,1]; 1 side: rows span heights [0,1] */
     const double *weight;  /* multiplier map of this face */
+    const double *prefix;  /* per row y, W + 1 running sums of weight from 0 (hemi_ctx's
+                              prefix maps; unused by rays) */
     float *depth;          /* the rasteriser's z-buffer (unused by rays) */
     int32_t *item;         /* per pixel, what is seen from the front: the triangle
                               (rasteriser) or already its patch (ray caster); else
@@ -46,6 +48,8 @@ typedef struct lrr__hemi_ctx {
     const uint16_t *cells; /* the rasteriser's leaves of the regular grids (hemicube.c's
                               cell_table) */
     const double *sx;      /* per pixel column x: (x + 0.5)/(R/2) − 1, as the faces have it */
+    const double *pre_top, *pre_side; /* the multiplier maps' prefix sums per row (R + 1
+                                         per row, from 0): a run's weight in O(1) */
 } lrr__hemi_ctx;
 
 /* What lrr__hemi_leaves_run and lrr__hemi_depth_span may use here: 0 none (or the
@@ -60,6 +64,11 @@ int lrr__hemi_simd(void);
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
                           const uint16_t *cells, uint32_t *leaf, int simd);
+/* Where a row changes: bit x of mask ((n + 63)/64 words, all written) is set when x == 0 or
+ * v[x] != v[x − 1], for x < n; simd as for lrr__hemi_leaves_run, or 0 for the scalar loop.
+ * (Finding runs pixel by pixel was a fifth of a Cornell R 64 profile.) */
+void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd);
+#define LRR__LEAF_TABLE_DEPTH 6 /* hemicube.c's cell table: leaf depths 0..6 */
 /* The rasteriser's depth test for pixels L..R of the row at py of one triangle (raster_tri):
  * abc holds the edge functions A, B, C of the weights of the three vertices, iz their 1/depth;
  * depth and item point at the row. Bit-identical to the scalar loop. */

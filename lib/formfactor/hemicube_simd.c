@@ -188,6 +188,23 @@ __attribute__((target("avx2"))) static void depth_span4(const double abc[9], con
         _mm_maskstore_ps((float *)(item + x), gti, _mm_castsi128_ps(idv));
     }
 }
+/* Bit x of mask: x == 0 or v[x] != v[x − 1] (lrr__hemi_breaks), eight at a time. */
+__attribute__((target("avx2"))) static void breaks8(const int32_t *v, int n, uint64_t *mask)
+{
+    int x = 1;
+    for (; x + 8 <= n; x += 8) {
+        const __m256i a = _mm256_loadu_si256((const __m256i *)(v + x)),
+                      b = _mm256_loadu_si256((const __m256i *)(v + x - 1));
+        const uint64_t ne =
+            (uint64_t)(~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(a, b))) & 0xFF);
+        mask[x >> 6] |= ne << (x & 63);
+        if ((x & 63) > 56)
+            mask[(x >> 6) + 1] |= ne >> (64 - (x & 63));
+    }
+    for (; x < n; x++)
+        mask[x >> 6] |= (uint64_t)(v[x] != v[x - 1]) << (x & 63);
+}
+
 /* ------------------------------------------------------------------ eight lanes (AVX-512)
  * The same steps as leaves_run4 and depth_span4, lane by lane, with masks for the selects and
  * a run's or span's last lanes. A lane the cell table's margin rejects descends alone (four
@@ -344,6 +361,35 @@ T512 static void depth_span8(const double abc[9], const double iz[3], double inv
     }
 }
 
+/* breaks8 sixteen at a time, the last lanes masked */
+T512 static void breaks16(const int32_t *v, int n, uint64_t *mask)
+{
+    for (int x = 1; x < n; x += 16) {
+        const __mmask16 k = (__mmask16)(n - x >= 16 ? 0xFFFF : (1u << (n - x)) - 1);
+        const __m512i a = _mm512_maskz_loadu_epi32(k, v + x),
+                      b = _mm512_maskz_loadu_epi32(k, v + x - 1);
+        const uint64_t ne = _mm512_mask_cmpneq_epi32_mask(k, a, b);
+        mask[x >> 6] |= ne << (x & 63);
+        if ((x & 63) > 48 && ((x >> 6) + 1) * 64 < n) /* lanes in the next word */
+            mask[(x >> 6) + 1] |= ne >> (64 - (x & 63));
+    }
+}
+
+void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
+{
+    memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
+    if (n <= 0)
+        return;
+    mask[0] = 1;
+    if (simd >= 2)
+        breaks16(v, n, mask);
+    else if (simd)
+        breaks8(v, n, mask);
+    else
+        for (int x = 1; x < n; x++)
+            mask[x >> 6] |= (uint64_t)(v[x] != v[x - 1]) << (x & 63);
+}
+
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
                           const uint16_t *cells, uint32_t *leaf, int simd)
@@ -358,6 +404,13 @@ void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_ar
 }
 #else
 int lrr__hemi_simd(void) { return 0; }
+void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
+{
+    (void)simd;
+    memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
+    for (int x = 0; x < n; x++)
+        mask[x >> 6] |= (uint64_t)(x == 0 || v[x] != v[x - 1]) << (x & 63);
+}
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
                           int L, int R, float *depth, int32_t *item, int32_t id, int simd)
 {

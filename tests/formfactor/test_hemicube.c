@@ -362,6 +362,35 @@ static void test_leaves_run_exact(void **state)
  * stored depths equal to the span's (a tie keeps the old) or one float below (it wins). One
  * edge function cancels to ~1e-9 of its terms, so a multiply and add fused into one rounding
  * (what gcc does to intrinsics when FMA is on) changes the float depth. */
+/* lrr__hemi_breaks at every level against the definition: lengths across word boundaries,
+ * changes at every position (random ids from a small set, so runs of all lengths). */
+static void test_breaks_exact(void **state)
+{
+    (void)state;
+    enum { N = 300 };
+    int32_t v[N];
+    uint64_t rng = 99;
+    for (int n = 1; n <= N; n += (n < 140 ? 1 : 37)) {
+        for (int trial = 0; trial < 4; trial++) {
+            for (int x = 0; x < n; x++) {
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                v[x] = (int32_t)(rng >> 61) - 2; /* -2..5: markers too */
+            }
+            for (int level = 0; level <= lrr__hemi_simd(); level++) {
+                uint64_t mask[(N + 63) / 64 + 1];
+                const int words = (n + 63) / 64;
+                mask[words] = 0x5a5a; /* must stay: the function writes (n + 63)/64 words */
+                lrr__hemi_breaks(v, n, mask, level);
+                assert_int_equal(mask[words], 0x5a5a);
+                for (int x = 0; x < words * 64; x++) {
+                    const int want = x < n && (x == 0 || v[x] != v[x - 1]);
+                    assert_int_equal((int)(mask[x >> 6] >> (x & 63) & 1), want);
+                }
+            }
+        }
+    }
+}
+
 static void test_depth_span_exact(void **state)
 {
     (void)state;
@@ -423,6 +452,7 @@ int main(void)
         cmocka_unit_test(test_back_face_share),
         cmocka_unit_test(test_leaves_run_exact),
         cmocka_unit_test(test_depth_span_exact),
+        cmocka_unit_test(test_breaks_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
