@@ -501,7 +501,7 @@ static void integrate_run(integ *in, const bary_plane *bp, size_t t, double sy, 
         lrr__hemi_breaks((const int32_t *)leaf, n, brk, in->h->simd);
         for (int x = 0; x < n;) { /* runs of one leaf */
             const int e = next_break(brk, x + 1, n);
-            put(in, t, leaf[x], c + x, c + e - 1);
+            put(in, t, lrr__hemi_leaf_of(leaf[x], cells), c + x, c + e - 1);
             x = e;
         }
     }

@@ -58,9 +58,18 @@ typedef struct lrr__hemi_ctx {
 int lrr__hemi_simd(void);
 /* The leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of pixels a..b of a
  * row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
- * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]; bit-identical to the
- * scalar path (hemicube.c's leaf_at). cells: hemicube.c's leaf table of this depth, or NULL
- * to descend. */
+ * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]: codes for
+ * lrr__hemi_leaf_of, whose leaves are bit-identical to the scalar path's (hemicube.c's
+ * leaf_at). cells: hemicube.c's leaf table of this depth, or NULL to descend (the codes are
+ * then the leaves). */
+/* With a table, lrr__hemi_leaves_run's code of a pixel is its cell (a table slot, the
+ * lookup left to the caller: once per run of equal codes) or its leaf | LRR__LEAF_DESCENT
+ * (descended; depth <= 6, so leaves < 2^12). Equal leaves may have two codes. */
+#define LRR__LEAF_DESCENT 0x80000000u
+static inline uint32_t lrr__hemi_leaf_of(uint32_t code, const uint16_t *cells)
+{
+    return !cells ? code : code & LRR__LEAF_DESCENT ? code & ~LRR__LEAF_DESCENT : cells[code];
+}
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
                           const uint16_t *cells, uint32_t *leaf, int simd);

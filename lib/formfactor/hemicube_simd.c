@@ -137,15 +137,15 @@ __attribute__((target("avx2"))) static void leaves_run4(const double b1k[3], con
                 int ci[4];
                 _mm_storeu_si128((__m128i *)ci, _mm256_cvttpd_epi32(cell));
                 for (int j = 0; j < 4; j++)
-                    out[j] = cells[ci[j]];
+                    out[j] = (uint32_t)ci[j]; /* the cell: its code */
                 done = 1;
             }
         }
-        if (!done) {
+        if (!done) { /* leaves, marked when there is a table (lrr__hemi_leaf_of) */
             double idx[4];
             _mm256_storeu_pd(idx, descend4(b0, b1, b2, depth));
             for (int j = 0; j < 4; j++)
-                out[j] = (uint32_t)idx[j];
+                out[j] = (uint32_t)idx[j] | (cells ? LRR__LEAF_DESCENT : 0);
         }
         for (int j = 0; j < 4 && x + j <= b; j++)
             leaf[x - a + j] = out[j];
@@ -252,6 +252,43 @@ T512 static inline __m512d descend8(__m512d b0, __m512d b1, __m512d b2, unsigned
     return idx;
 }
 
+/* The cells (i1, i2, down) of t_j = b_j·2^d: table slot and whether every lane is in one
+ * with margins m12 (t1, t2) and m0 (t0), sums 2^d − 1 or 2^d − 2 and t_j >= 0. */
+T512 static inline __mmask8 cells8(__m512d t0, __m512d t1, __m512d t2, __m512d sv, __m512d up,
+                                   __m512d down, __m512d m12, __m512d m0, __m512d *cell)
+{
+    const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
+    const __m512d i0 = _mm512_roundscale_pd(t0, FLOOR_NO_EXC),
+                  i1 = _mm512_roundscale_pd(t1, FLOOR_NO_EXC),
+                  i2 = _mm512_roundscale_pd(t2, FLOOR_NO_EXC);
+    const __m512d f0 = _mm512_sub_pd(t0, i0), f1 = _mm512_sub_pd(t1, i1), f2 = _mm512_sub_pd(t2, i2);
+    const __m512d g0 = _mm512_min_pd(f0, _mm512_sub_pd(one, f0)),
+                  g1 = _mm512_min_pd(f1, _mm512_sub_pd(one, f1)),
+                  g2 = _mm512_min_pd(f2, _mm512_sub_pd(one, f2));
+    const __m512d sum = _mm512_add_pd(_mm512_add_pd(i0, i1), i2);
+    const __mmask8 isdown = _mm512_cmp_pd_mask(sum, down, _CMP_EQ_OQ);
+    const __mmask8 ok = _mm512_cmp_pd_mask(g0, m0, _CMP_GE_OQ) &
+                        _mm512_cmp_pd_mask(g1, m12, _CMP_GE_OQ) &
+                        _mm512_cmp_pd_mask(g2, m12, _CMP_GE_OQ) &
+                        (_mm512_cmp_pd_mask(sum, up, _CMP_EQ_OQ) | isdown) &
+                        _mm512_cmp_pd_mask(t0, zero, _CMP_GT_OQ) &
+                        _mm512_cmp_pd_mask(t1, zero, _CMP_GT_OQ) &
+                        _mm512_cmp_pd_mask(t2, zero, _CMP_GT_OQ);
+    /* rejected lanes get slot 0 (the caller does not use them) */
+    *cell = _mm512_maskz_mov_pd(
+        ok, _mm512_add_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2),
+                                        _mm512_set1_pd(2.0)),
+                          _mm512_maskz_mov_pd(isdown, one)));
+    return ok;
+}
+
+/* Pixels a..b's leaf codes (lrr__hemi_leaf_of): with the table, first from t_j ≈ n_j·rcp14(nd)·2^d
+ * without the division (a 512-bit divide per eight pixels was the bulk of this loop): rcp14
+ * is within 2^-14 of 1/nd relative, so that t_j is within 2^-13·2^d of the scalar path's
+ * t_j = fl(n_j·fl(1/nd))·2^d (same n_j, nd, t_j < 2^d), and t0 = (2^d − t1) − t2 within
+ * 2^-12·2^d + 5u·2^d of (1 − b1) − b2 scaled: eight lanes at least 2^-12·2^d (t1, t2) and
+ * 2^-11·2^d (t0) from the grid lines are then in the scalar path's cell beyond the table's
+ * margin, b_j in (0, 1): their codes are the cells. Otherwise the exact path below. */
 T512 static void leaves_run8(const double b1k[3], const double b2k[3], const double denk[3],
                              const double *sxt, double sy, int a, int b, unsigned depth,
                              const uint16_t *cells, uint32_t *leaf)
@@ -264,15 +301,31 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
                   q2 = _mm512_set1_pd(b2k[2]);
     const double s = (double)((uint64_t)1 << depth);
     const __m512d sv = _mm512_set1_pd(s), need = _mm512_set1_pd(0x1p-40 * s),
-                  up = _mm512_set1_pd(s - 1), down = _mm512_set1_pd(s - 2);
+                  up = _mm512_set1_pd(s - 1), down = _mm512_set1_pd(s - 2),
+                  fast12 = _mm512_set1_pd(0x1p-12 * s), fast0 = _mm512_set1_pd(0x1p-11 * s);
     const __m512d last = _mm512_set1_pd(sxt[b]);
+    const __m256i descent = _mm256_set1_epi32((int)LRR__LEAF_DESCENT);
     for (int x = a; x <= b; x += 8) {
         const int n = b - x + 1 < 8 ? b - x + 1 : 8;
+        const __mmask8 lanes = (__mmask8)((1u << n) - 1);
         /* past the run: its last pixel, whose leaf is dropped */
-        const __m512d sx = _mm512_mask_loadu_pd(last, (__mmask8)((1u << n) - 1), sxt + x);
-        const __m512d r = _mm512_div_pd(one, lin8(d0, d1, d2, sx));
-        __m512d b1 = _mm512_mul_pd(lin8(p0, p1, p2, sx), r);
-        __m512d b2 = _mm512_mul_pd(lin8(q0, q1, q2, sx), r);
+        const __m512d sx = _mm512_mask_loadu_pd(last, lanes, sxt + x);
+        const __m512d nd = lin8(d0, d1, d2, sx), n1 = lin8(p0, p1, p2, sx),
+                      n2 = lin8(q0, q1, q2, sx);
+        __m512d cell;
+        if (cells) {
+            const __m512d rc = _mm512_rcp14_pd(nd);
+            const __m512d t1 = _mm512_mul_pd(_mm512_mul_pd(n1, rc), sv),
+                          t2 = _mm512_mul_pd(_mm512_mul_pd(n2, rc), sv);
+            const __m512d t0 = _mm512_sub_pd(_mm512_sub_pd(sv, t1), t2);
+            if (cells8(t0, t1, t2, sv, up, down, fast12, fast0, &cell) == 0xFF) {
+                _mm256_mask_storeu_epi32(leaf + (x - a), lanes, _mm512_cvttpd_epi32(cell));
+                continue;
+            }
+        }
+        const __m512d r = _mm512_div_pd(one, nd);
+        __m512d b1 = _mm512_mul_pd(n1, r);
+        __m512d b2 = _mm512_mul_pd(n2, r);
         /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
         b1 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ), b1);
         b2 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ), b2);
@@ -286,45 +339,18 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
             b2 = _mm512_mask_div_pd(b2, neg, b2, sum);
             b0 = _mm512_mask_mov_pd(b0, neg, zero);
         }
-        uint32_t out[8];
         __mmask8 ok = 0;
-        if (cells) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
-            const __m512d t0 = _mm512_mul_pd(b0, sv), t1 = _mm512_mul_pd(b1, sv),
-                          t2 = _mm512_mul_pd(b2, sv);
-            const __m512d i0 = _mm512_roundscale_pd(t0, FLOOR_NO_EXC), i1 = _mm512_roundscale_pd(t1, FLOOR_NO_EXC),
-                          i2 = _mm512_roundscale_pd(t2, FLOOR_NO_EXC);
-            const __m512d f0 = _mm512_sub_pd(t0, i0), f1 = _mm512_sub_pd(t1, i1),
-                          f2 = _mm512_sub_pd(t2, i2);
-            const __m512d m = _mm512_min_pd(
-                _mm512_min_pd(_mm512_min_pd(f0, _mm512_sub_pd(one, f0)),
-                              _mm512_min_pd(f1, _mm512_sub_pd(one, f1))),
-                _mm512_min_pd(f2, _mm512_sub_pd(one, f2)));
-            const __m512d sum = _mm512_add_pd(_mm512_add_pd(i0, i1), i2);
-            const __mmask8 isdown = _mm512_cmp_pd_mask(sum, down, _CMP_EQ_OQ);
-            ok = _mm512_cmp_pd_mask(m, need, _CMP_GE_OQ) &
-                 (_mm512_cmp_pd_mask(sum, up, _CMP_EQ_OQ) | isdown) &
-                 _mm512_cmp_pd_mask(b0, zero, _CMP_GT_OQ) &
-                 _mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ) &
-                 _mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ);
-            /* rejected lanes read slot 0 (their leaf comes from descend8) */
-            const __m512d cell = _mm512_maskz_mov_pd(
-                ok, _mm512_add_pd(
-                        _mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2), _mm512_set1_pd(2.0)),
-                        _mm512_maskz_mov_pd(isdown, one)));
-            int ci[8];
-            _mm256_storeu_si256((__m256i *)ci, _mm512_cvttpd_epi32(cell));
-            for (int j = 0; j < 8; j++)
-                out[j] = cells[ci[j]];
+        if (cells) /* the cell's leaf from the table, where the margin allows (hemicube.c) */
+            ok = cells8(_mm512_mul_pd(b0, sv), _mm512_mul_pd(b1, sv), _mm512_mul_pd(b2, sv), sv,
+                        up, down, need, need, &cell);
+        __m256i code = cells ? _mm512_cvttpd_epi32(cell) : _mm256_setzero_si256();
+        if (ok != 0xFF) { /* the others descend: their leaves, marked when there is a table */
+            __m256i idx = _mm512_cvttpd_epu32(descend8(b0, b1, b2, depth));
+            if (cells)
+                idx = _mm256_or_si256(idx, descent);
+            code = _mm256_mask_mov_epi32(idx, ok, code);
         }
-        if (ok != 0xFF) {
-            double idx[8];
-            _mm512_storeu_pd(idx, descend8(b0, b1, b2, depth));
-            for (int j = 0; j < 8; j++)
-                if (!(ok >> j & 1))
-                    out[j] = (uint32_t)idx[j];
-        }
-        for (int j = 0; j < n; j++)
-            leaf[x - a + j] = out[j];
+        _mm256_mask_storeu_epi32(leaf + (x - a), lanes, code);
     }
 }
 

@@ -345,7 +345,7 @@ static void test_leaves_run_exact(void **state)
                 double t1 = b1 * s, t2 = b2 * s;
                 on_lines += t1 == floor(t1) || t2 == floor(t2);
                 size_t want = lrr__descend(&b0, &b1, &b2, d);
-                assert_int_equal(leaf[x - a], want);
+                assert_int_equal(lrr__hemi_leaf_of(leaf[x - a], cells), want);
                 assert_int_equal(leaf_nt[x - a], want);
                 checked++;
             }
