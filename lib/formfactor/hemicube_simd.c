@@ -354,28 +354,29 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
     }
 }
 
+/* The edge function k at eight pixels: (A·px + B·py) + C, B·py hoisted as in depth_span4. */
+#define EDGE8(k) _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(A##k, px), BC##k), C##k)
+
 T512 static void depth_span8(const double abc[9], const double iz[3], double inv_area, double py,
                              int L, int R, float *depth, int32_t *item, int32_t id)
 {
-    __m512d A[3], BC[3], C[3], Z[3];
-    for (int k = 0; k < 3; k++) {
-        A[k] = _mm512_set1_pd(abc[3 * k]);
-        BC[k] = _mm512_set1_pd(abc[3 * k + 1] * py);
-        C[k] = _mm512_set1_pd(abc[3 * k + 2]);
-        Z[k] = _mm512_set1_pd(iz[k]);
-    }
+    /* named registers, not arrays: gcc kept w[3] on the stack (a store and two loads per
+     * vector in the hot loop) */
+    const __m512d A0 = _mm512_set1_pd(abc[0]), BC0 = _mm512_set1_pd(abc[1] * py),
+                  C0 = _mm512_set1_pd(abc[2]), A1 = _mm512_set1_pd(abc[3]),
+                  BC1 = _mm512_set1_pd(abc[4] * py), C1 = _mm512_set1_pd(abc[5]),
+                  A2 = _mm512_set1_pd(abc[6]), BC2 = _mm512_set1_pd(abc[7] * py),
+                  C2 = _mm512_set1_pd(abc[8]), Z0 = _mm512_set1_pd(iz[0]),
+                  Z1 = _mm512_set1_pd(iz[1]), Z2 = _mm512_set1_pd(iz[2]);
     const __m512d ia = _mm512_set1_pd(inv_area), step = _mm512_set1_pd(8.0);
     const __m256i idv = _mm256_set1_epi32(id);
     __m512d px = _mm512_add_pd(_mm512_set1_pd((double)L),
                                _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5));
     for (int x = L; x <= R; x += 8, px = _mm512_add_pd(px, step)) {
         const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
-        __m512d w[3];
-        for (int k = 0; k < 3; k++)
-            w[k] = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(A[k], px), BC[k]), C[k]);
         const __m512d z = _mm512_add_pd(
-            _mm512_add_pd(_mm512_mul_pd(w[0], Z[0]), _mm512_mul_pd(w[1], Z[1])),
-            _mm512_mul_pd(w[2], Z[2]));
+            _mm512_add_pd(_mm512_mul_pd(EDGE8(0), Z0), _mm512_mul_pd(EDGE8(1), Z1)),
+            _mm512_mul_pd(EDGE8(2), Z2));
         const __m256 zf = _mm512_cvtpd_ps(_mm512_mul_pd(z, ia));
         const __m256 old = _mm256_maskz_loadu_ps(lane, depth + x);
         /* ordered: NaN never wins, as in C */
@@ -386,6 +387,7 @@ T512 static void depth_span8(const double abc[9], const double iz[3], double inv
         _mm256_mask_storeu_epi32(item + x, gt, idv);
     }
 }
+#undef EDGE8
 
 /* breaks8 sixteen at a time, the last lanes masked */
 T512 static void breaks16(const int32_t *v, int n, uint64_t *mask)
