@@ -495,11 +495,10 @@ static void integrate_run(integ *in, const bary_plane *bp, size_t t, double sy, 
     const uint16_t *cells = depth <= LRR__LEAF_TABLE_DEPTH ? in->h->cells + cell_offset(depth) : NULL;
     for (int c = a; c <= b; c += CHUNK) {
         const int ce = b - c < CHUNK ? b : c + CHUNK - 1;
-        lrr__hemi_leaves_run(bp->b1, bp->b2, bp->den, in->h->sx, sy, c, ce, depth, cells, leaf,
-                             in->h->simd);
         uint64_t brk[CHUNK / 64];
+        lrr__hemi_leaves_run(bp->b1, bp->b2, bp->den, in->h->sx, sy, c, ce, depth, cells, leaf,
+                             brk, in->h->simd);
         const int n = ce - c + 1;
-        lrr__hemi_breaks((const int32_t *)leaf, n, brk, in->h->simd);
         for (int x = 0; x < n;) { /* runs of one leaf */
             const int e = next_break(brk, x + 1, n);
             put(in, t, lrr__hemi_leaf_of(leaf[x], cells), c + x, c + e - 1);

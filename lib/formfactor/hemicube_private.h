@@ -61,7 +61,8 @@ int lrr__hemi_simd(void);
  * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]: codes for
  * lrr__hemi_leaf_of, whose leaves are bit-identical to the scalar path's (hemicube.c's
  * leaf_at). cells: hemicube.c's leaf table of this depth, or NULL to descend (the codes are
- * then the leaves). */
+ * then the leaves). brk gets lrr__hemi_breaks of the b − a + 1 codes (made as they are:
+ * a pass over them per run was 4% of a Cornell R 64 profile). */
 /* With a table, lrr__hemi_leaves_run's code of a pixel is its cell (a table slot, the
  * lookup left to the caller: once per run of equal codes) or its leaf | LRR__LEAF_DESCENT
  * (descended; depth <= 6, so leaves < 2^12). Equal leaves may have two codes. */
@@ -72,7 +73,7 @@ static inline uint32_t lrr__hemi_leaf_of(uint32_t code, const uint16_t *cells)
 }
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf, int simd);
+                          const uint16_t *cells, uint32_t *leaf, uint64_t *brk, int simd);
 /* Where a row changes: bit x of mask ((n + 63)/64 words, all written) is set when x == 0 or
  * v[x] != v[x − 1], for x < n; simd as for lrr__hemi_leaves_run, or 0 for the scalar loop.
  * (Finding runs pixel by pixel was a fifth of a Cornell R 64 profile.) */

@@ -289,10 +289,25 @@ T512 static inline __mmask8 cells8(__m512d t0, __m512d t1, __m512d t2, __m512d s
  * 2^-12·2^d + 5u·2^d of (1 − b1) − b2 scaled: eight lanes at least 2^-12·2^d (t1, t2) and
  * 2^-11·2^d (t0) from the grid lines are then in the scalar path's cell beyond the table's
  * margin, b_j in (0, 1): their codes are the cells. Otherwise the exact path below. */
+/* The codes of lanes `lanes` at leaf[i..] (i % 8 == 0) and their bits of the change mask brk
+ * (lrr__hemi_breaks of the codes), *prev the codes of the eight before. */
+T512 static inline void put_codes8(__m256i code, __mmask8 lanes, int i, uint32_t *leaf,
+                                   uint64_t *brk, __m256i *prev)
+{
+    _mm256_mask_storeu_epi32(leaf + i, lanes, code);
+    /* lane l against lane l − 1, lane 0 against the last of *prev */
+    const __m256i before = _mm256_alignr_epi32(code, *prev, 7);
+    const uint64_t ne = _mm256_mask_cmpneq_epi32_mask(lanes, code, before);
+    brk[i >> 6] |= ne << (i & 63);
+    *prev = code;
+}
+
 T512 static void leaves_run8(const double b1k[3], const double b2k[3], const double denk[3],
                              const double *sxt, double sy, int a, int b, unsigned depth,
-                             const uint16_t *cells, uint32_t *leaf)
+                             const uint16_t *cells, uint32_t *leaf, uint64_t *brk)
 {
+    memset(brk, 0, (size_t)(b - a + 64) / 64 * sizeof *brk);
+    __m256i prev = _mm256_setzero_si256(); /* whatever it holds: bit 0 is set at the end */
     const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
     const __m512d d0 = _mm512_set1_pd(denk[0]), d1 = _mm512_set1_pd(denk[1] * sy),
                   d2 = _mm512_set1_pd(denk[2]), p0 = _mm512_set1_pd(b1k[0]),
@@ -319,7 +334,7 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
                           t2 = _mm512_mul_pd(_mm512_mul_pd(n2, rc), sv);
             const __m512d t0 = _mm512_sub_pd(_mm512_sub_pd(sv, t1), t2);
             if (cells8(t0, t1, t2, sv, up, down, fast12, fast0, &cell) == 0xFF) {
-                _mm256_mask_storeu_epi32(leaf + (x - a), lanes, _mm512_cvttpd_epi32(cell));
+                put_codes8(_mm512_cvttpd_epi32(cell), lanes, x - a, leaf, brk, &prev);
                 continue;
             }
         }
@@ -350,8 +365,9 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
                 idx = _mm256_or_si256(idx, descent);
             code = _mm256_mask_mov_epi32(idx, ok, code);
         }
-        _mm256_mask_storeu_epi32(leaf + (x - a), lanes, code);
+        put_codes8(code, lanes, x - a, leaf, brk, &prev);
     }
+    brk[0] |= 1;
 }
 
 /* The edge function k at eight pixels: (A·px + B·py) + C, B·py hoisted as in depth_span4. */
@@ -420,9 +436,14 @@ void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
 
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf, int simd)
+                          const uint16_t *cells, uint32_t *leaf, uint64_t *brk, int simd)
 {
-    (simd >= 2 ? leaves_run8 : leaves_run4)(b1k, b2k, denk, sxt, sy, a, b, depth, cells, leaf);
+    if (simd >= 2) {
+        leaves_run8(b1k, b2k, denk, sxt, sy, a, b, depth, cells, leaf, brk);
+        return;
+    }
+    leaves_run4(b1k, b2k, denk, sxt, sy, a, b, depth, cells, leaf);
+    lrr__hemi_breaks((const int32_t *)leaf, b - a + 1, brk, simd);
 }
 
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
@@ -447,9 +468,9 @@ void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_ar
 }
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf, int simd)
+                          const uint16_t *cells, uint32_t *leaf, uint64_t *brk, int simd)
 {
     (void)simd, (void)b1k, (void)b2k, (void)denk, (void)sxt, (void)sy, (void)a, (void)b, (void)depth,
-        (void)cells, (void)leaf;
+        (void)cells, (void)leaf, (void)brk;
 }
 #endif

@@ -332,10 +332,15 @@ static void test_leaves_run_exact(void **state)
             const double sy = (trial % 7) / 3.5 - 1 + 0.5 / W;
             const int level = 1 + (trial / 4) % lrr__hemi_simd(), a = trial % 5,
                       b = W - 1 - trial % 7;
-            uint32_t leaf[W];
-            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, cells, leaf, level);
-            uint32_t leaf_nt[W];
-            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, NULL, leaf_nt, level);
+            uint32_t leaf[W], leaf_nt[W];
+            uint64_t brk[(W + 63) / 64], brk_nt[(W + 63) / 64], want_brk[(W + 63) / 64];
+            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, cells, leaf, brk, level);
+            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, NULL, leaf_nt, brk_nt, level);
+            /* the change masks: those of the codes as made */
+            lrr__hemi_breaks((const int32_t *)leaf, b - a + 1, want_brk, 0);
+            assert_memory_equal(brk, want_brk, (size_t)(b - a + 64) / 64 * sizeof *brk);
+            lrr__hemi_breaks((const int32_t *)leaf_nt, b - a + 1, want_brk, 0);
+            assert_memory_equal(brk_nt, want_brk, (size_t)(b - a + 64) / 64 * sizeof *brk);
             for (int x = a; x <= b; x++) {
                 const double sx = sxt[x];
                 const double r = 1.0 / (den[0] * sx + den[1] * sy + den[2]);
