@@ -229,6 +229,8 @@ static inline __attribute__((always_inline)) int edge_span(const edge_fn *e, dou
     return *L <= *R;
 }
 
+#define SPAN_ROWS 64 /* rows per lrr__hemi_depth_rows */
+
 static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, float *depth,
                        int32_t *item, int simd)
 {
@@ -252,17 +254,30 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
     double inv_area = 1.0 / area;
     const double abc[9] = {e0.A, e0.B, e0.C, e1.A, e1.B, e1.C, e2.A, e2.B, e2.C},
                  vz[3] = {a.iz, b.iz, c.iz};
+    if (simd) { /* the rows' spans, then their depth tests in one call (one per row was a
+                   fifth of depth_span8's time, its set-up) */
+        int32_t span[2 * SPAN_ROWS];
+        for (int y = y0; y <= y1; y += SPAN_ROWS) {
+            const int ye = y1 - y < SPAN_ROWS ? y1 : y + SPAN_ROWS - 1;
+            for (int yy = y; yy <= ye; yy++) {
+                const double py = yy + 0.5;
+                int L = x0, R = x1;
+                if (!edge_span(&e0, py, &L, &R) || !edge_span(&e1, py, &L, &R) ||
+                    !edge_span(&e2, py, &L, &R))
+                    L = 1, R = 0;
+                span[2 * (yy - y)] = L;
+                span[2 * (yy - y) + 1] = R;
+            }
+            lrr__hemi_depth_rows(abc, vz, inv_area, y, ye, span, W, depth, item, id, simd);
+        }
+        return;
+    }
     for (int y = y0; y <= y1; y++) {
         double py = y + 0.5;
         int L = x0, R = x1;
         if (!edge_span(&e0, py, &L, &R) || !edge_span(&e1, py, &L, &R) ||
             !edge_span(&e2, py, &L, &R))
             continue;
-        if (simd) {
-            lrr__hemi_depth_span(abc, vz, inv_area, py, L, R, depth + (size_t)y * W,
-                                 item + (size_t)y * W, id, simd);
-            continue;
-        }
         for (int x = L; x <= R; x++) {
             double px = x + 0.5;
             double w0 = edge_at(&e0, px, py), w1 = edge_at(&e1, px, py),

@@ -84,6 +84,12 @@ void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd);
  * depth and item point at the row. Bit-identical to the scalar loop. */
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
                           int L, int R, float *depth, int32_t *item, int32_t id, int simd);
+/* lrr__hemi_depth_span of rows y0..y1 at py = y + 0.5, row y's pixels span[2(y − y0)] ..
+ * span[2(y − y0) + 1] (none when the first is greater); depth and item point at the face
+ * (W pixels a row). */
+void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
+                          int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                          int32_t id, int simd);
 
 /* An Embree scene (robust, watertight) of g's triangles, built once per form-factor build;
  * diag is the scene's bounding-box diagonal (for the ray origins' offset). */

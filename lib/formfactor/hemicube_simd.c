@@ -31,15 +31,6 @@ int lrr__hemi_simd(void)
     return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") ? 2 : 1;
 }
 
-/* a·sx + b·sy + c, multiplied and added in the scalar path's order */
-__attribute__((target("avx2"))) static inline __m256d lin(const double k[3], __m256d sx,
-                                                          __m256d sy)
-{
-    return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(k[0]), sx),
-                                       _mm256_mul_pd(_mm256_set1_pd(k[1]), sy)),
-                         _mm256_set1_pd(k[2]));
-}
-
 /* lrr__descend's leaves of four lanes of barycentrics, as selects */
 __attribute__((target("avx2"))) static inline __m256d descend4(__m256d b0, __m256d b1,
                                                                __m256d b2, unsigned depth)
@@ -373,36 +364,72 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
 /* The edge function k at eight pixels: (A·px + B·py) + C, B·py hoisted as in depth_span4. */
 #define EDGE8(k) _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(A##k, px), BC##k), C##k)
 
+/* named registers, not arrays: gcc kept w[3] on the stack (a store and two loads per vector
+ * in the hot loop) */
+#define DEPTH8_SETUP()                                                                        \
+    const __m512d A0 = _mm512_set1_pd(abc[0]), C0 = _mm512_set1_pd(abc[2]),                  \
+                  A1 = _mm512_set1_pd(abc[3]), C1 = _mm512_set1_pd(abc[5]),                  \
+                  A2 = _mm512_set1_pd(abc[6]), C2 = _mm512_set1_pd(abc[8]),                  \
+                  Z0 = _mm512_set1_pd(iz[0]), Z1 = _mm512_set1_pd(iz[1]),                    \
+                  Z2 = _mm512_set1_pd(iz[2]), ia = _mm512_set1_pd(inv_area),                 \
+                  step = _mm512_set1_pd(8.0),                                                \
+                  offs = _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5);              \
+    const __m256i idv = _mm256_set1_epi32(id)
+
+/* One row's span L..R at py of depth_span8 / depth_rows8 (DEPTH8_SETUP in scope). */
+#define DEPTH8_ROW(py, L, R, depth, item)                                                     \
+    do {                                                                                      \
+        const __m512d BC0 = _mm512_set1_pd(abc[1] * (py)), BC1 = _mm512_set1_pd(abc[4] * (py)), \
+                      BC2 = _mm512_set1_pd(abc[7] * (py));                                   \
+        __m512d px = _mm512_add_pd(_mm512_set1_pd((double)(L)), offs);                        \
+        for (int x = (L); x <= (R); x += 8, px = _mm512_add_pd(px, step))                     \
+            depth8_step(A0, BC0, C0, A1, BC1, C1, A2, BC2, C2, Z0, Z1, Z2, ia, idv, px, x, R, \
+                        depth, item);                                                         \
+    } while (0)
+
+/* Eight pixels x.. (up to R) of a row: the edge functions (B·py hoisted into BC), 1/z and the
+ * float compare, as raster_tri's scalar loop lane by lane. */
+T512 static inline void depth8_step(__m512d A0, __m512d BC0, __m512d C0, __m512d A1,
+                                    __m512d BC1, __m512d C1, __m512d A2, __m512d BC2,
+                                    __m512d C2, __m512d Z0, __m512d Z1, __m512d Z2, __m512d ia,
+                                    __m256i idv, __m512d px, int x, int R, float *depth,
+                                    int32_t *item)
+{
+    const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
+    const __m512d z = _mm512_add_pd(
+        _mm512_add_pd(_mm512_mul_pd(EDGE8(0), Z0), _mm512_mul_pd(EDGE8(1), Z1)),
+        _mm512_mul_pd(EDGE8(2), Z2));
+    const __m256 zf = _mm512_cvtpd_ps(_mm512_mul_pd(z, ia));
+    const __m256 old = _mm256_maskz_loadu_ps(lane, depth + x);
+    /* ordered: NaN never wins, as in C */
+    const __mmask8 gt = _mm256_mask_cmp_ps_mask(lane, zf, old, _CMP_GT_OQ);
+    if (!gt)
+        return;
+    _mm256_mask_storeu_ps(depth + x, gt, zf);
+    _mm256_mask_storeu_epi32(item + x, gt, idv);
+}
+
 T512 static void depth_span8(const double abc[9], const double iz[3], double inv_area, double py,
                              int L, int R, float *depth, int32_t *item, int32_t id)
 {
-    /* named registers, not arrays: gcc kept w[3] on the stack (a store and two loads per
-     * vector in the hot loop) */
-    const __m512d A0 = _mm512_set1_pd(abc[0]), BC0 = _mm512_set1_pd(abc[1] * py),
-                  C0 = _mm512_set1_pd(abc[2]), A1 = _mm512_set1_pd(abc[3]),
-                  BC1 = _mm512_set1_pd(abc[4] * py), C1 = _mm512_set1_pd(abc[5]),
-                  A2 = _mm512_set1_pd(abc[6]), BC2 = _mm512_set1_pd(abc[7] * py),
-                  C2 = _mm512_set1_pd(abc[8]), Z0 = _mm512_set1_pd(iz[0]),
-                  Z1 = _mm512_set1_pd(iz[1]), Z2 = _mm512_set1_pd(iz[2]);
-    const __m512d ia = _mm512_set1_pd(inv_area), step = _mm512_set1_pd(8.0);
-    const __m256i idv = _mm256_set1_epi32(id);
-    __m512d px = _mm512_add_pd(_mm512_set1_pd((double)L),
-                               _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5));
-    for (int x = L; x <= R; x += 8, px = _mm512_add_pd(px, step)) {
-        const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
-        const __m512d z = _mm512_add_pd(
-            _mm512_add_pd(_mm512_mul_pd(EDGE8(0), Z0), _mm512_mul_pd(EDGE8(1), Z1)),
-            _mm512_mul_pd(EDGE8(2), Z2));
-        const __m256 zf = _mm512_cvtpd_ps(_mm512_mul_pd(z, ia));
-        const __m256 old = _mm256_maskz_loadu_ps(lane, depth + x);
-        /* ordered: NaN never wins, as in C */
-        const __mmask8 gt = _mm256_mask_cmp_ps_mask(lane, zf, old, _CMP_GT_OQ);
-        if (!gt)
-            continue;
-        _mm256_mask_storeu_ps(depth + x, gt, zf);
-        _mm256_mask_storeu_epi32(item + x, gt, idv);
+    DEPTH8_SETUP();
+    DEPTH8_ROW(py, L, R, depth, item);
+}
+
+T512 static void depth_rows8(const double abc[9], const double iz[3], double inv_area, int y0,
+                             int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                             int32_t id)
+{
+    DEPTH8_SETUP();
+    for (int y = y0; y <= y1; y++) {
+        const int L = span[2 * (y - y0)], R = span[2 * (y - y0) + 1];
+        float *drow = depth + (size_t)y * W;
+        int32_t *irow = item + (size_t)y * W;
+        DEPTH8_ROW(y + 0.5, L, R, drow, irow);
     }
 }
+#undef DEPTH8_ROW
+#undef DEPTH8_SETUP
 #undef EDGE8
 
 /* breaks8 sixteen at a time, the last lanes masked */
@@ -451,6 +478,20 @@ void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_ar
 {
     (simd >= 2 ? depth_span8 : depth_span4)(abc, iz, inv_area, py, L, R, depth, item, id);
 }
+
+void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
+                          int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                          int32_t id, int simd)
+{
+    if (simd >= 2) {
+        depth_rows8(abc, iz, inv_area, y0, y1, span, W, depth, item, id);
+        return;
+    }
+    for (int y = y0; y <= y1; y++)
+        if (span[2 * (y - y0)] <= span[2 * (y - y0) + 1])
+            depth_span4(abc, iz, inv_area, y + 0.5, span[2 * (y - y0)], span[2 * (y - y0) + 1],
+                        depth + (size_t)y * W, item + (size_t)y * W, id);
+}
 #else
 int lrr__hemi_simd(void) { return 0; }
 void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
@@ -459,6 +500,13 @@ void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
     memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
     for (int x = 0; x < n; x++)
         mask[x >> 6] |= (uint64_t)(x == 0 || v[x] != v[x - 1]) << (x & 63);
+}
+void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
+                          int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                          int32_t id, int simd)
+{
+    (void)abc, (void)iz, (void)inv_area, (void)y0, (void)y1, (void)span, (void)W, (void)depth,
+        (void)item, (void)id, (void)simd;
 }
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
                           int L, int R, float *depth, int32_t *item, int32_t id, int simd)
