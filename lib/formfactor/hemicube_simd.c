@@ -273,13 +273,45 @@ T512 static inline __mmask8 cells8(__m512d t0, __m512d t1, __m512d t2, __m512d s
     return ok;
 }
 
-/* Pixels a..b's leaf codes (lrr__hemi_leaf_of): with the table, first from t_j ≈ n_j·rcp14(nd)·2^d
- * without the division (a 512-bit divide per eight pixels was the bulk of this loop): rcp14
- * is within 2^-14 of 1/nd relative, so that t_j is within 2^-13·2^d of the scalar path's
- * t_j = fl(n_j·fl(1/nd))·2^d (same n_j, nd, t_j < 2^d), and t0 = (2^d − t1) − t2 within
- * 2^-12·2^d + 5u·2^d of (1 − b1) − b2 scaled: eight lanes at least 2^-12·2^d (t1, t2) and
- * 2^-11·2^d (t0) from the grid lines are then in the scalar path's cell beyond the table's
- * margin, b_j in (0, 1): their codes are the cells. Otherwise the exact path below. */
+/* Pixels a..b's leaf codes (lrr__hemi_leaf_of): with the table, first from t̃_j =
+ * n_j·rcp14(nd)·2^d without the division (a 512-bit divide per eight pixels was the bulk of
+ * this loop): rcp14 is within 2^-14 of 1/nd relative, so t̃_j is within 2^-13·2^d of the
+ * scalar path's t_j = fl(n_j·fl(1/nd))·2^d (same n_j, nd, t_j < 2^d) for j = 1, 2, and t0
+ * is bounded through them (fast_cells8): eight lanes that qualify are in the scalar path's
+ * cell beyond the table's margin, b_j in (0, 1); their codes are the cells. Otherwise the
+ * exact path below. */
+/* The fast path's cells (see leaves_run8) from t̃1, t̃2 alone: with f_j = t̃_j − i_j in
+ * [m12, 1 − m12] and u = f1 + f2 at least m0 from 1, the scalar t0 is (2^d − i1 − i2) − u
+ * within 2^-12·2^d (+ a few ulps), so it lies at least 2^-12·2^d − ε from every integer,
+ * its floor 2^d − i1 − i2 − 1 − down with down = [u > 1]: the sum rule holds by itself, and
+ * t0 > 0 is i1 + i2 + down <= 2^d − 1 (a third of cells8's operations fewer). *code gets
+ * the cell's slot; the mask says which lanes qualify. */
+T512 static inline __mmask8 fast_cells8(__m512d t1, __m512d t2, __m512d sv, __m512d smax,
+                                        __m512d m12, __m512d m12hi, __m512d ulo, __m512d uhi,
+                                        __m256i *code)
+{
+    const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
+    const __m512d i1 = _mm512_roundscale_pd(t1, FLOOR_NO_EXC),
+                  i2 = _mm512_roundscale_pd(t2, FLOOR_NO_EXC);
+    const __m512d f1 = _mm512_sub_pd(t1, i1), f2 = _mm512_sub_pd(t2, i2);
+    const __m512d u = _mm512_add_pd(f1, f2);
+    const __mmask8 down = _mm512_cmp_pd_mask(u, uhi, _CMP_GE_OQ);
+    const __mmask8 ok =
+        _mm512_cmp_pd_mask(f1, m12, _CMP_GE_OQ) & _mm512_cmp_pd_mask(f1, m12hi, _CMP_LE_OQ) &
+        _mm512_cmp_pd_mask(f2, m12, _CMP_GE_OQ) & _mm512_cmp_pd_mask(f2, m12hi, _CMP_LE_OQ) &
+        (_mm512_cmp_pd_mask(u, ulo, _CMP_LE_OQ) | down) &
+        _mm512_cmp_pd_mask(_mm512_min_pd(i1, i2), zero, _CMP_GE_OQ) &
+        _mm512_cmp_pd_mask(_mm512_mask_add_pd(_mm512_add_pd(i1, i2), down,
+                                              _mm512_add_pd(i1, i2), one),
+                           smax, _CMP_LE_OQ);
+    /* exact small integers: (i1·2^d + i2)·2 + down */
+    const __m512d cell = _mm512_mask_add_pd(
+        _mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2), _mm512_set1_pd(2.0)), down,
+        _mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2), _mm512_set1_pd(2.0)), one);
+    *code = _mm512_cvttpd_epi32(_mm512_maskz_mov_pd(ok, cell));
+    return ok;
+}
+
 /* The codes of lanes `lanes` at leaf[i..] (i % 8 == 0) and their bits of the change mask brk
  * (lrr__hemi_breaks of the codes), *prev the codes of the eight before. */
 T512 static inline void put_codes8(__m256i code, __mmask8 lanes, int i, uint32_t *leaf,
@@ -308,7 +340,8 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
     const double s = (double)((uint64_t)1 << depth);
     const __m512d sv = _mm512_set1_pd(s), need = _mm512_set1_pd(0x1p-40 * s),
                   up = _mm512_set1_pd(s - 1), down = _mm512_set1_pd(s - 2),
-                  fast12 = _mm512_set1_pd(0x1p-12 * s), fast0 = _mm512_set1_pd(0x1p-11 * s);
+                  m12 = _mm512_set1_pd(0x1p-12 * s), m12hi = _mm512_set1_pd(1 - 0x1p-12 * s),
+                  ulo = _mm512_set1_pd(1 - 0x1p-11 * s), uhi = _mm512_set1_pd(1 + 0x1p-11 * s);
     const __m512d last = _mm512_set1_pd(sxt[b]);
     const __m256i descent = _mm256_set1_epi32((int)LRR__LEAF_DESCENT);
     for (int x = a; x <= b; x += 8) {
@@ -323,9 +356,9 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
             const __m512d rc = _mm512_rcp14_pd(nd);
             const __m512d t1 = _mm512_mul_pd(_mm512_mul_pd(n1, rc), sv),
                           t2 = _mm512_mul_pd(_mm512_mul_pd(n2, rc), sv);
-            const __m512d t0 = _mm512_sub_pd(_mm512_sub_pd(sv, t1), t2);
-            if (cells8(t0, t1, t2, sv, up, down, fast12, fast0, &cell) == 0xFF) {
-                put_codes8(_mm512_cvttpd_epi32(cell), lanes, x - a, leaf, brk, &prev);
+            __m256i code;
+            if (fast_cells8(t1, t2, sv, up, m12, m12hi, ulo, uhi, &code) == 0xFF) {
+                put_codes8(code, lanes, x - a, leaf, brk, &prev);
                 continue;
             }
         }
