@@ -137,13 +137,7 @@ static int clip_plane(const cvert *in, int n, cvert *out, double a, double b, do
 
 /* Edge function coefficients A·px + B·py + C for edge a→b, computed from the canonical
  * (lexicographically ordered) endpoints and negated when reversed: exact antisymmetry. */
-typedef struct {
-    double A, B, C;
-    int owns_ties;   /* top-left rule: this triangle owns pixel centres exactly on the edge */
-    double k0, k1;   /* A ≠ 0: the crossing pixel index k0 + k1·py, an estimate (edge_span) */
-    double tol;      /* how far (pixels) that estimate may be from where the computed edge
-                        function changes sign (edge_span); +inf for A = 0 */
-} edge_fn;
+typedef lrr__hemi_edge edge_fn;
 
 static void edge_setup(const svert *a, const svert *b, int W, int H, edge_fn *e)
 {
@@ -247,10 +241,11 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
     int y0 = (int)fmax(0.0, floor(miny - 0.5)), y1 = (int)fmin(H - 1.0, ceil(maxy - 0.5));
     if (x0 > x1 || y0 > y1)
         return;
-    edge_fn e0, e1, e2;
-    edge_setup(&b, &c, W, H, &e0); /* weight of a */
-    edge_setup(&c, &a, W, H, &e1); /* weight of b */
-    edge_setup(&a, &b, W, H, &e2); /* weight of c */
+    edge_fn ee[3];
+    edge_setup(&b, &c, W, H, &ee[0]); /* weight of a */
+    edge_setup(&c, &a, W, H, &ee[1]); /* weight of b */
+    edge_setup(&a, &b, W, H, &ee[2]); /* weight of c */
+    const edge_fn e0 = ee[0], e1 = ee[1], e2 = ee[2];
     double inv_area = 1.0 / area;
     const double abc[9] = {e0.A, e0.B, e0.C, e1.A, e1.B, e1.C, e2.A, e2.B, e2.C},
                  vz[3] = {a.iz, b.iz, c.iz};
@@ -259,7 +254,11 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
         int32_t span[2 * SPAN_ROWS];
         for (int y = y0; y <= y1; y += SPAN_ROWS) {
             const int ye = y1 - y < SPAN_ROWS ? y1 : y + SPAN_ROWS - 1;
+            if (simd >= 2)
+                lrr__hemi_spans(ee, x0, x1, y, ye, span);
             for (int yy = y; yy <= ye; yy++) {
+                if (simd >= 2 && span[2 * (yy - y)] != INT32_MIN)
+                    continue; /* settled eight rows at a time */
                 const double py = yy + 0.5;
                 int L = x0, R = x1;
                 if (!edge_span(&e0, py, &L, &R) || !edge_span(&e1, py, &L, &R) ||

@@ -79,6 +79,20 @@ void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double
  * (Finding runs pixel by pixel was a fifth of a Cornell R 64 profile.) */
 void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd);
 #define LRR__LEAF_TABLE_DEPTH 6 /* hemicube.c's cell table: leaf depths 0..6 */
+/* Edge function coefficients A·px + B·py + C of one edge of a screen triangle (hemicube.c's
+ * edge_setup, edge_span). */
+typedef struct {
+    double A, B, C;
+    int owns_ties;   /* top-left rule: this triangle owns pixel centres exactly on the edge */
+    double k0, k1;   /* A ≠ 0: the crossing pixel index k0 + k1·py, an estimate (edge_span) */
+    double tol;      /* how far (pixels) that estimate may be from where the computed edge
+                        function changes sign (edge_span); +inf for A = 0 */
+} lrr__hemi_edge;
+/* hemicube.c's edge_span of the three edges for rows y0..y1 (py = y + 0.5), starting from
+ * x0..x1, eight rows at a time (AVX-512 only): span[2(y − y0)], span[2(y − y0) + 1] get the
+ * row's pixels (first > last: none) where edge_span's test-free cases settle every edge,
+ * else span[2(y − y0)] = INT32_MIN (the caller runs edge_span). */
+void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span);
 /* The rasteriser's depth test for pixels L..R of the row at py of one triangle (raster_tri):
  * abc holds the edge functions A, B, C of the weights of the three vertices, iz their 1/depth;
  * depth and item point at the row. Bit-identical to the scalar loop. */

@@ -396,6 +396,86 @@ static void test_breaks_exact(void **state)
     }
 }
 
+/* hemicube.c's edge_setup (the canonical-order edge of a→b), copied: the edges
+ * lrr__hemi_spans gets. */
+static void edge_of(const double a[2], const double b[2], int W, int H, lrr__hemi_edge *e)
+{
+    const int swap = (b[0] < a[0]) || (b[0] == a[0] && b[1] < a[1]);
+    const double *p = swap ? b : a, *q = swap ? a : b;
+    double A = -(q[1] - p[1]), B = q[0] - p[0];
+    double C = -(A * p[0] + B * p[1]);
+    if (swap) { A = -A; B = -B; C = -C; }
+    e->A = A, e->B = B, e->C = C;
+    const double dx = b[0] - a[0], dy = b[1] - a[1];
+    e->owns_ties = dy > 0 || (dy == 0 && dx < 0);
+    e->k0 = A != 0 ? -C / A - 0.5 : 0;
+    e->k1 = A != 0 ? -B / A : 0;
+    const double S = fabs(A) * W + fabs(B) * H + fabs(C);
+    e->tol = A != 0 ? 16 * 0x1p-53 * S / fabs(A) + 0x1p-30 : INFINITY;
+}
+
+/* lrr__hemi_spans against the per-pixel test (every edge function > 0, or 0 on an edge the
+ * triangle owns) at every pixel of the range, on rows it settles: random triangles, some
+ * with vertices on the half-pixel grid (pixel centres on edges, horizontal edges: A = 0) and
+ * beyond the screen (the guard band). */
+static void test_spans_exact(void **state)
+{
+    (void)state;
+    if (lrr__hemi_simd() < 2)
+        skip();
+    enum { W = 64, H = 64 };
+    uint64_t rng = 777;
+    size_t settled = 0, rows = 0, covered = 0;
+    for (int trial = 0; trial < 3000; trial++) {
+        double v[3][2];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 2; j++) {
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                const double u = (double)(rng >> 11) * 0x1p-53;
+                v[i][j] = trial % 3 == 0 ? floor(u * 2 * W) / 2 : (u * 1.6 - 0.3) * W;
+            }
+        if (trial % 5 == 1)
+            v[1][1] = v[0][1]; /* a horizontal edge */
+        double area = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) -
+                      (v[1][1] - v[0][1]) * (v[2][0] - v[0][0]);
+        if (area == 0)
+            continue;
+        if (area < 0) { /* positively oriented, as raster_tri makes them */
+            for (int j = 0; j < 2; j++) {
+                const double t = v[1][j];
+                v[1][j] = v[2][j], v[2][j] = t;
+            }
+        }
+        lrr__hemi_edge e[3];
+        edge_of(v[1], v[2], W, H, &e[0]);
+        edge_of(v[2], v[0], W, H, &e[1]);
+        edge_of(v[0], v[1], W, H, &e[2]);
+        const int x0 = trial % 4, x1 = W - 1 - trial % 3, y0 = trial % 7, y1 = H - 1 - trial % 5;
+        int32_t span[2 * H];
+        lrr__hemi_spans(e, x0, x1, y0, y1, span);
+        for (int y = y0; y <= y1; y++) {
+            rows++;
+            const int32_t L = span[2 * (y - y0)], R = span[2 * (y - y0) + 1];
+            if (L == INT32_MIN)
+                continue;
+            settled++;
+            const double py = y + 0.5;
+            for (int x = x0; x <= x1; x++) {
+                const double px = x + 0.5;
+                int in = 1;
+                for (int k = 0; k < 3; k++) {
+                    const double f = e[k].A * px + e[k].B * py + e[k].C;
+                    in &= f > 0 || (f == 0 && e[k].owns_ties);
+                }
+                covered += in;
+                assert_int_equal(in, x >= L && x <= R);
+            }
+        }
+    }
+    print_message("spans: %zu of %zu rows settled, %zu pixels covered\n", settled, rows, covered);
+    assert_true(settled > rows / 2 && covered > 0);
+}
+
 static void test_depth_span_exact(void **state)
 {
     (void)state;
@@ -458,6 +538,7 @@ int main(void)
         cmocka_unit_test(test_leaves_run_exact),
         cmocka_unit_test(test_depth_span_exact),
         cmocka_unit_test(test_breaks_exact),
+        cmocka_unit_test(test_spans_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
