@@ -520,9 +520,27 @@ static void test_depth_span_exact(void **state)
             }
             ties += x >= L && x <= R && x % 3 == 0;
         }
+        /* the same row through lrr__hemi_depth_rows, at its height in a face, with an empty
+         * row after it that must stay as it is */
+        const int y = trial % 16;
+        float fd[17 * W];
+        int32_t fi[17 * W];
+        for (int j = 0; j < 17 * W; j++)
+            fd[j] = j % W == 0 ? -1.0f : 2.0f, fi[j] = -5;
+        memcpy(fd + y * W, depth, sizeof depth);
+        memcpy(fi + y * W, item, sizeof item);
+        const int32_t span[4] = {L, R, 1, 0};
+        lrr__hemi_depth_rows(abc, iz, inv_area, y, y + 1, span, W, fd, fi, 7, level);
         lrr__hemi_depth_span(abc, iz, inv_area, py, L, R, depth, item, 7, level);
         assert_memory_equal(depth, want_d, sizeof depth);
         assert_memory_equal(item, want_i, sizeof item);
+        assert_memory_equal(fd + y * W, want_d, sizeof depth);
+        assert_memory_equal(fi + y * W, want_i, sizeof item);
+        for (int j = 0; j < 17 * W; j++)
+            if (j / W != y) {
+                assert_true(fd[j] == (j % W == 0 ? -1.0f : 2.0f));
+                assert_int_equal(fi[j], -5);
+            }
     }
     assert_true(writes > 1000 && ties > 1000);
 }
