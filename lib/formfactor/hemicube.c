@@ -137,13 +137,7 @@ static int clip_plane(const cvert *in, int n, cvert *out, double a, double b, do
 
 /* Edge function coefficients A·px + B·py + C for edge a→b, computed from the canonical
  * (lexicographically ordered) endpoints and negated when reversed: exact antisymmetry. */
-typedef struct {
-    double A, B, C;
-    int owns_ties;   /* top-left rule: this triangle owns pixel centres exactly on the edge */
-    double k0, k1;   /* A ≠ 0: the crossing pixel index k0 + k1·py, an estimate (edge_span) */
-    double tol;      /* how far (pixels) that estimate may be from where the computed edge
-                        function changes sign (edge_span); +inf for A = 0 */
-} edge_fn;
+typedef lrr__hemi_edge edge_fn;
 
 static void edge_setup(const svert *a, const svert *b, int W, int H, edge_fn *e)
 {
@@ -186,7 +180,8 @@ static inline double edge_at(const edge_fn *e, double px, double py)
  * exact per-pixel test, so the covered pixels are exactly those of a test at every pixel
  * (measured: that test was 44% of a Cornell R 64 profile, most of it on the bounding box's
  * empty half). */
-static inline int edge_span(const edge_fn *e, double py, int *L, int *R)
+static inline __attribute__((always_inline)) int edge_span(const edge_fn *e, double py, int *L,
+                                                          int *R)
 {
     if (e->A == 0) /* constant along the row */
         return inside(e, edge_at(e, *L + 0.5, py));
@@ -228,6 +223,8 @@ static inline int edge_span(const edge_fn *e, double py, int *L, int *R)
     return *L <= *R;
 }
 
+#define SPAN_ROWS 64 /* rows per lrr__hemi_depth_rows */
+
 static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, float *depth,
                        int32_t *item, int simd)
 {
@@ -244,24 +241,42 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
     int y0 = (int)fmax(0.0, floor(miny - 0.5)), y1 = (int)fmin(H - 1.0, ceil(maxy - 0.5));
     if (x0 > x1 || y0 > y1)
         return;
-    edge_fn e0, e1, e2;
-    edge_setup(&b, &c, W, H, &e0); /* weight of a */
-    edge_setup(&c, &a, W, H, &e1); /* weight of b */
-    edge_setup(&a, &b, W, H, &e2); /* weight of c */
+    edge_fn ee[3];
+    edge_setup(&b, &c, W, H, &ee[0]); /* weight of a */
+    edge_setup(&c, &a, W, H, &ee[1]); /* weight of b */
+    edge_setup(&a, &b, W, H, &ee[2]); /* weight of c */
+    const edge_fn e0 = ee[0], e1 = ee[1], e2 = ee[2];
     double inv_area = 1.0 / area;
     const double abc[9] = {e0.A, e0.B, e0.C, e1.A, e1.B, e1.C, e2.A, e2.B, e2.C},
                  vz[3] = {a.iz, b.iz, c.iz};
+    if (simd) { /* the rows' spans, then their depth tests in one call (one per row was a
+                   fifth of depth_span8's time, its set-up) */
+        int32_t span[2 * SPAN_ROWS];
+        for (int y = y0; y <= y1; y += SPAN_ROWS) {
+            const int ye = y1 - y < SPAN_ROWS ? y1 : y + SPAN_ROWS - 1;
+            if (simd >= 2)
+                lrr__hemi_spans(ee, x0, x1, y, ye, span);
+            for (int yy = y; yy <= ye; yy++) {
+                if (simd >= 2 && span[2 * (yy - y)] != INT32_MIN)
+                    continue; /* settled eight rows at a time */
+                const double py = yy + 0.5;
+                int L = x0, R = x1;
+                if (!edge_span(&e0, py, &L, &R) || !edge_span(&e1, py, &L, &R) ||
+                    !edge_span(&e2, py, &L, &R))
+                    L = 1, R = 0;
+                span[2 * (yy - y)] = L;
+                span[2 * (yy - y) + 1] = R;
+            }
+            lrr__hemi_depth_rows(abc, vz, inv_area, y, ye, span, W, depth, item, id, simd);
+        }
+        return;
+    }
     for (int y = y0; y <= y1; y++) {
         double py = y + 0.5;
         int L = x0, R = x1;
         if (!edge_span(&e0, py, &L, &R) || !edge_span(&e1, py, &L, &R) ||
             !edge_span(&e2, py, &L, &R))
             continue;
-        if (simd) {
-            lrr__hemi_depth_span(abc, vz, inv_area, py, L, R, depth + (size_t)y * W,
-                                 item + (size_t)y * W, id, simd);
-            continue;
-        }
         for (int x = L; x <= R; x++) {
             double px = x + 0.5;
             double w0 = edge_at(&e0, px, py), w1 = edge_at(&e1, px, py),
@@ -378,35 +393,8 @@ static inline size_t leaf_target(const hemi_ctx *h, size_t t, size_t leaf)
     return lrr__patch_of_leaf(g, t, leaf);
 }
 
-/* row[p] += w for a run of pixels, held in a register while consecutive pixels show the same
- * p: the same additions in the same order, without a store-to-load dependency per pixel
- * (that chain was 45% of integrate_face once the leaves came four at a time). */
-typedef struct {
-    double *row;
-    size_t cur;
-    double acc;
-} streak;
-
-static inline void streak_add(streak *s, size_t p, double w)
-{
-    if (p != s->cur) {
-        if (s->cur != SIZE_MAX)
-            s->row[s->cur] = s->acc;
-        s->cur = p;
-        s->acc = s->row[p];
-    }
-    s->acc += w;
-}
-
-static inline void streak_end(streak *s)
-{
-    if (s->cur != SIZE_MAX)
-        s->row[s->cur] = s->acc;
-    s->cur = SIZE_MAX;
-}
-
 /* ------------------------------------------------------------------ leaves of a row
- * Leaf depths (a triangle's patch or subpatch levels) up to LEAF_TABLE_DEPTH take the SIMD
+ * Leaf depths (a triangle's patch or subpatch levels) up to LRR__LEAF_TABLE_DEPTH take the SIMD
  * path's leaf from a table of the regular grid's cells (2·4^depth entries; deeper ones
  * descend): the leaves of a uniform quadtree of depth d are the cells of the grid of lines
  * b_j = m/2^d, so with t_j = b_j·2^d and i_j = floor(t_j) the leaf is that of cell
@@ -416,21 +404,20 @@ static inline void streak_end(streak *s)
  * exact) drops that bit, and the middle child's 1 − 2t moves a value by at most 2^-54 per
  * level, which that margin (doubled per level like the values) cannot cross; the sum rules
  * out rounded values on no cell (two coordinates >= 0.5). Other pixels descend. */
-#define LEAF_TABLE_DEPTH 6
 
 /* Where depth's table starts in hemi_ctx.cells: depths 0..depth−1 hold 2·4^d entries each. */
 static size_t cell_offset(unsigned depth) { return 2 * (((size_t)1 << (2 * depth)) - 1) / 3; }
 
-/* The leaves of the grids of depth 0..LEAF_TABLE_DEPTH: lrr__descend at each cell's centroid
+/* The leaves of the grids of depth 0..LRR__LEAF_TABLE_DEPTH: lrr__descend at each cell's centroid
  * (a third of a cell from its lines, far beyond rounding). Slots of no cell stay 0. */
 static lrr_status cell_table(lrr_context *ctx, uint16_t **out)
 {
     uint16_t *c;
-    lrr_status st = lrr__calloc(ctx, &c, cell_offset(LEAF_TABLE_DEPTH + 1), sizeof *c,
+    lrr_status st = lrr__calloc(ctx, &c, cell_offset(LRR__LEAF_TABLE_DEPTH + 1), sizeof *c,
                                 "hemicube leaf table");
     if (st)
         return st;
-    for (unsigned d = 0; d <= LEAF_TABLE_DEPTH; d++) {
+    for (unsigned d = 0; d <= LRR__LEAF_TABLE_DEPTH; d++) {
         const size_t s = (size_t)1 << d;
         uint16_t *t = c + cell_offset(d);
         for (size_t i1 = 0; i1 < s; i1++)
@@ -457,17 +444,22 @@ static inline size_t leaf_at(const bary_plane *bp, double sx, double sy, unsigne
     return lrr__descend(&b0, &b1, &b2, depth);
 }
 
-/* The row's accumulation: streak, and leaf_target's last answer (adaptive trees search). */
+/* The row's accumulation: the face's row being integrated, and leaf_target's last answer
+ * (adaptive trees search). */
 typedef struct {
     const hemi_ctx *h;
     const face *f;
-    streak acc;
+    double *row;
+    const double *pre;   /* the face row's prefix sums of the multipliers */
+    size_t row0;         /* the face row's first pixel */
     size_t last_leaf, last_p, last_t;
 } integ;
 
-/* Pixels pix0..pix1 show leaf `leaf` of triangle t: row[p] += their multipliers in pixel
- * order (or the item buffer gets p). */
-static inline void put(integ *in, size_t t, size_t leaf, size_t pix0, size_t pix1)
+/* Pixels x0..x1 of the face row show leaf `leaf` of triangle t: row[p] += their multipliers
+ * as a difference of prefix sums (the pixel-order sum's dependency chain was a tenth of a
+ * Cornell R 64 profile; relative rounding ~1e-16 of the row's total, far below F̄'s float),
+ * or the item buffer gets p. */
+static inline void put(integ *in, size_t t, size_t leaf, int x0, int x1)
 {
     if (leaf != in->last_leaf || t != in->last_t) {
         in->last_p = leaf_target(in->h, t, leaf);
@@ -475,55 +467,64 @@ static inline void put(integ *in, size_t t, size_t leaf, size_t pix0, size_t pix
         in->last_t = t;
     }
     const size_t p = in->last_p;
-    if (!in->acc.row) {
-        for (size_t pix = pix0; pix <= pix1; pix++)
-            in->f->item[pix] = (int32_t)p;
+    if (!in->row) {
+        for (int x = x0; x <= x1; x++)
+            in->f->item[in->row0 + x] = (int32_t)p;
         return;
     }
-    streak_add(&in->acc, p, in->f->weight[pix0]);
-    double acc = in->acc.acc; /* the same additions in the same order */
-    for (size_t pix = pix0 + 1; pix <= pix1; pix++)
-        acc += in->f->weight[pix];
-    in->acc.acc = acc;
+    in->row[p] += in->pre[x1 + 1] - in->pre[x0];
 }
 
 #define CHUNK 256 /* pixels per lrr__hemi_leaves_run */
 
-/* Pixels a..b of row y (height sy) all show triangle t. */
-static void integrate_run(integ *in, const bary_plane *bp, size_t t, double sy, int y, int a,
-                          int b)
+/* The first set bit of mask at or after `from`, else n (lrr__hemi_breaks' mask of n bits). */
+static inline int next_break(const uint64_t *mask, int from, int n)
+{
+    if (from >= n)
+        return n;
+    int w = from >> 6;
+    uint64_t bits = mask[w] & (~(uint64_t)0 << (from & 63));
+    while (!bits) {
+        if (++w * 64 >= n)
+            return n;
+        bits = mask[w];
+    }
+    return w * 64 + __builtin_ctzll(bits);
+}
+
+/* Pixels a..b of the face row (height sy) all show triangle t. */
+static void integrate_run(integ *in, const bary_plane *bp, size_t t, double sy, int a, int b)
 {
     const unsigned depth = leaf_depth(in->h, t);
-    const size_t row0 = (size_t)y * in->f->W;
     if (depth == 0) { /* one leaf: lrr__descend returns 0 whatever the barycentrics */
-        put(in, t, 0, row0 + a, row0 + b);
+        put(in, t, 0, a, b);
         return;
     }
+    uint32_t leaf[CHUNK];
     if (!in->h->simd || depth > 16) {
         for (int x = a; x <= b; x++)
-            put(in, t, leaf_at(bp, in->h->sx[x], sy, depth), row0 + x, row0 + x);
+            put(in, t, leaf_at(bp, in->h->sx[x], sy, depth), x, x);
         return;
     }
-    const uint16_t *cells = depth <= LEAF_TABLE_DEPTH ? in->h->cells + cell_offset(depth) : NULL;
-    uint32_t leaf[CHUNK];
+    const uint16_t *cells = depth <= LRR__LEAF_TABLE_DEPTH ? in->h->cells + cell_offset(depth) : NULL;
     for (int c = a; c <= b; c += CHUNK) {
         const int ce = b - c < CHUNK ? b : c + CHUNK - 1;
+        uint64_t brk[CHUNK / 64];
         lrr__hemi_leaves_run(bp->b1, bp->b2, bp->den, in->h->sx, sy, c, ce, depth, cells, leaf,
-                             in->h->simd);
-        for (int x = c; x <= ce;) { /* runs of one leaf */
-            int e = x;
-            while (e < ce && leaf[e + 1 - c] == leaf[x - c])
-                e++;
-            put(in, t, leaf[x - c], row0 + x, row0 + e);
-            x = e + 1;
+                             brk, in->h->simd);
+        const int n = ce - c + 1;
+        for (int x = 0; x < n;) { /* runs of one leaf */
+            const int e = next_break(brk, x + 1, n);
+            put(in, t, lrr__hemi_leaf_of(leaf[x], cells), c + x, c + e - 1);
+            x = e;
         }
     }
 }
 
 /* Accumulates the visible patches (or subpatches) of face f into row (k or n doubles), or
  * only resolves the item buffer to patch ids when row is NULL (the device integration then
- * sums the multiplier map per patch in this same order; markers stay). Returns the delta form
- * factors of the pixels showing back faces. */
+ * sums the multiplier map per patch; markers stay). Returns the delta form factors of the
+ * pixels showing back faces. */
 #define BARY_CACHE 16
 
 static double integrate_face(const hemi_ctx *h, const double x[3], const face *f, double *row)
@@ -541,37 +542,36 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
         return back;
     }
     const double half = 0.5 * f->W;
-    integ in = {h, f, {row, SIZE_MAX, 0}, SIZE_MAX, 0, SIZE_MAX};
+    integ in = {h, f, row, NULL, 0, SIZE_MAX, 0, SIZE_MAX};
     /* the face's bary_planes by triangle id mod BARY_CACHE: a row's runs alternate between a
      * few triangles (one set-up per run was 5% of a Cornell R 32 profile) */
     bary_plane bpc[BARY_CACHE];
     int32_t set_for[BARY_CACHE]; /* the triangle each is set up for */
     for (int c = 0; c < BARY_CACHE; c++)
         set_for[c] = -1;
+    uint64_t brk[4096 / 64]; /* W <= 4096 (lrr__multiplier_map_create) */
     for (int y = 0; y < f->H; y++) {
         const double sy = f->side ? (y + 0.5) / half : (y + 0.5) / half - 1;
-        const int32_t *item = f->item + (size_t)y * f->W;
+        in.row0 = (size_t)y * f->W;
+        in.pre = f->prefix + (size_t)y * (f->W + 1);
+        const int32_t *item = f->item + in.row0;
+        lrr__hemi_breaks(item, f->W, brk, h->simd);
         for (int xx = 0; xx < f->W;) {
-            int32_t id = item[xx];
-            if (id < 0) {
-                if (id == LRR__ITEM_BACK)
-                    back += f->weight[(size_t)y * f->W + xx];
-                xx++;
-                continue;
+            const int32_t id = item[xx];
+            const int end = next_break(brk, xx + 1, f->W);
+            if (id >= 0) {
+                const int c = id % BARY_CACHE;
+                if (id != set_for[c]) {
+                    bary_setup(&h->tri[id], x, f, &bpc[c]);
+                    set_for[c] = id;
+                }
+                integrate_run(&in, &bpc[c], (size_t)id, sy, xx, end - 1);
+            } else if (id == LRR__ITEM_BACK) {
+                back += in.pre[end] - in.pre[xx];
             }
-            int end = xx + 1;
-            while (end < f->W && item[end] == id)
-                end++;
-            const int c = id % BARY_CACHE;
-            if (id != set_for[c]) {
-                bary_setup(&h->tri[id], x, f, &bpc[c]);
-                set_for[c] = id;
-            }
-            integrate_run(&in, &bpc[c], (size_t)id, sy, y, xx, end - 1);
             xx = end;
         }
     }
-    streak_end(&in.acc);
     return back;
 }
 
@@ -667,6 +667,7 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         f->H = fi == 0 ? (int)R : (int)R / 2;
         f->side = fi != 0;
         f->weight = fi == 0 ? h->mm->top : h->mm->side;
+        f->prefix = fi == 0 ? h->pre_top : h->pre_side;
         f->depth = sc->depth + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
         f->item = sc->item + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
         if (fi == 0) {
@@ -864,6 +865,26 @@ static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, tri_info *
     return LRR_OK;
 }
 
+/* The multiplier maps' running sums per row, R + 1 from 0: the top's R rows, then the
+ * side's R/2 (integrate_face sums a run of pixels as a difference of two). */
+static lrr_status prefix_maps(lrr_context *ctx, const lrr__multiplier_map *mm, double **out)
+{
+    const size_t R = mm->res, rows = R + R / 2;
+    double *pre;
+    lrr_status st = lrr__calloc(ctx, &pre, rows, (R + 1) * sizeof *pre, "hemicube prefix sums");
+    if (st)
+        return st;
+    for (size_t y = 0; y < rows; y++) {
+        const double *w = y < R ? mm->top + y * R : mm->side + (y - R) * R;
+        double *p = pre + y * (R + 1), acc = 0;
+        p[0] = 0;
+        for (size_t x = 0; x < R; x++)
+            p[x + 1] = acc += w[x];
+    }
+    *out = pre;
+    return LRR_OK;
+}
+
 /* rows (or 0..count-1 when NULL) on the CPU, OpenMP over receivers. */
 static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_options *opts,
                            const size_t *rows, size_t count, float *out, double *back)
@@ -961,16 +982,18 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
      * treat such points as lying in the plane (edge-on / tangent), and put the near plane
      * there too so touching geometry (a block on the floor) is still seen up close. */
     uint16_t *cells = NULL;
-    double *sx = NULL;
+    double *sx = NULL, *pre = NULL;
     if (!rc && ((st = cell_table(ctx, &cells)) ||
-                (st = lrr__calloc(ctx, &sx, R, sizeof *sx, "hemicube pixel columns")))) {
+                (st = lrr__calloc(ctx, &sx, R, sizeof *sx, "hemicube pixel columns")) ||
+                (st = prefix_maps(ctx, &mm, &pre)))) {
+        lrr_aligned_free(sx);
         lrr_aligned_free(cells);
         lrr_aligned_free(tri);
         lrr__multiplier_map_free(&mm);
         return st;
     }
     hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc, lrr__hemi_simd(),
-                  cells, sx};
+                  cells, sx, pre, pre ? pre + (size_t)R * (R + 1) : NULL};
     /* pixel column x looks along sx = (x + 0.5)/(R/2) − 1 (every face is R wide) */
     for (unsigned c = 0; sx && c < R; c++)
         sx[c] = (c + 0.5) / (0.5 * R) - 1;
@@ -983,6 +1006,7 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
             st = rst;
         lrr__raycaster_destroy(rc);
     }
+    lrr_aligned_free(pre);
     lrr_aligned_free(sx);
     lrr_aligned_free(cells);
     lrr_aligned_free(tri);

@@ -21,6 +21,8 @@ typedef struct lrr__hemi_face {
     int W, H;              /* pixels */
     int side;              /* 0 top: rows span [-1,1]; 1 side: rows span heights [0,1] */
     const double *weight;  /* multiplier map of this face */
+    const double *prefix;  /* per row y, W + 1 running sums of weight from 0 (hemi_ctx's
+                              prefix maps; unused by rays) */
     float *depth;          /* the rasteriser's z-buffer (unused by rays) */
     int32_t *item;         /* per pixel, what is seen from the front: the triangle
                               (rasteriser) or already its patch (ray caster); else
@@ -46,6 +48,8 @@ typedef struct lrr__hemi_ctx {
     const uint16_t *cells; /* the rasteriser's leaves of the regular grids (hemicube.c's
                               cell_table) */
     const double *sx;      /* per pixel column x: (x + 0.5)/(R/2) − 1, as the faces have it */
+    const double *pre_top, *pre_side; /* the multiplier maps' prefix sums per row (R + 1
+                                         per row, from 0): a run's weight in O(1) */
 } lrr__hemi_ctx;
 
 /* What lrr__hemi_leaves_run and lrr__hemi_depth_span may use here: 0 none (or the
@@ -54,17 +58,52 @@ typedef struct lrr__hemi_ctx {
 int lrr__hemi_simd(void);
 /* The leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of pixels a..b of a
  * row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
- * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]; bit-identical to the
- * scalar path (hemicube.c's leaf_at). cells: hemicube.c's leaf table of this depth, or NULL
- * to descend. */
+ * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]: codes for
+ * lrr__hemi_leaf_of, whose leaves are bit-identical to the scalar path's (hemicube.c's
+ * leaf_at). cells: hemicube.c's leaf table of this depth, or NULL to descend (the codes are
+ * then the leaves). brk gets lrr__hemi_breaks of the b − a + 1 codes (made as they are:
+ * a pass over them per run was 4% of a Cornell R 64 profile). */
+/* With a table, lrr__hemi_leaves_run's code of a pixel is its cell (a table slot, the
+ * lookup left to the caller: once per run of equal codes) or its leaf | LRR__LEAF_DESCENT
+ * (descended; depth <= 6, so leaves < 2^12). Equal leaves may have two codes. */
+#define LRR__LEAF_DESCENT 0x80000000u
+static inline uint32_t lrr__hemi_leaf_of(uint32_t code, const uint16_t *cells)
+{
+    return !cells ? code : code & LRR__LEAF_DESCENT ? code & ~LRR__LEAF_DESCENT : cells[code];
+}
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf, int simd);
+                          const uint16_t *cells, uint32_t *leaf, uint64_t *brk, int simd);
+/* Where a row changes: bit x of mask ((n + 63)/64 words, all written) is set when x == 0 or
+ * v[x] != v[x − 1], for x < n; simd as for lrr__hemi_leaves_run, or 0 for the scalar loop.
+ * (Finding runs pixel by pixel was a fifth of a Cornell R 64 profile.) */
+void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd);
+#define LRR__LEAF_TABLE_DEPTH 6 /* hemicube.c's cell table: leaf depths 0..6 */
+/* Edge function coefficients A·px + B·py + C of one edge of a screen triangle (hemicube.c's
+ * edge_setup, edge_span). */
+typedef struct {
+    double A, B, C;
+    int owns_ties;   /* top-left rule: this triangle owns pixel centres exactly on the edge */
+    double k0, k1;   /* A ≠ 0: the crossing pixel index k0 + k1·py, an estimate (edge_span) */
+    double tol;      /* how far (pixels) that estimate may be from where the computed edge
+                        function changes sign (edge_span); +inf for A = 0 */
+} lrr__hemi_edge;
+/* hemicube.c's edge_span of the three edges for rows y0..y1 (py = y + 0.5), starting from
+ * x0..x1, eight rows at a time (AVX-512 only): span[2(y − y0)], span[2(y − y0) + 1] get the
+ * row's pixels (first > last: none) where edge_span's test-free cases settle every edge,
+ * else span[2(y − y0)] = INT32_MIN (the caller runs edge_span). */
+void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span);
 /* The rasteriser's depth test for pixels L..R of the row at py of one triangle (raster_tri):
  * abc holds the edge functions A, B, C of the weights of the three vertices, iz their 1/depth;
  * depth and item point at the row. Bit-identical to the scalar loop. */
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
                           int L, int R, float *depth, int32_t *item, int32_t id, int simd);
+/* lrr__hemi_depth_span of rows y0..y1 at py = y + 0.5, row y's pixels span[2(y − y0)] ..
+ * span[2(y − y0) + 1] (none when the first is greater); depth and item point at the face
+ * (W pixels a row). */
+void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
+                          int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                          int32_t id, int simd);
 
 /* An Embree scene (robust, watertight) of g's triangles, built once per form-factor build;
  * diag is the scene's bounding-box diagonal (for the ray origins' offset). */

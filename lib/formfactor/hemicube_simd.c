@@ -31,15 +31,6 @@ int lrr__hemi_simd(void)
     return __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") ? 2 : 1;
 }
 
-/* a·sx + b·sy + c, multiplied and added in the scalar path's order */
-__attribute__((target("avx2"))) static inline __m256d lin(const double k[3], __m256d sx,
-                                                          __m256d sy)
-{
-    return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(k[0]), sx),
-                                       _mm256_mul_pd(_mm256_set1_pd(k[1]), sy)),
-                         _mm256_set1_pd(k[2]));
-}
-
 /* lrr__descend's leaves of four lanes of barycentrics, as selects */
 __attribute__((target("avx2"))) static inline __m256d descend4(__m256d b0, __m256d b1,
                                                                __m256d b2, unsigned depth)
@@ -137,15 +128,15 @@ __attribute__((target("avx2"))) static void leaves_run4(const double b1k[3], con
                 int ci[4];
                 _mm_storeu_si128((__m128i *)ci, _mm256_cvttpd_epi32(cell));
                 for (int j = 0; j < 4; j++)
-                    out[j] = cells[ci[j]];
+                    out[j] = (uint32_t)ci[j]; /* the cell: its code */
                 done = 1;
             }
         }
-        if (!done) {
+        if (!done) { /* leaves, marked when there is a table (lrr__hemi_leaf_of) */
             double idx[4];
             _mm256_storeu_pd(idx, descend4(b0, b1, b2, depth));
             for (int j = 0; j < 4; j++)
-                out[j] = (uint32_t)idx[j];
+                out[j] = (uint32_t)idx[j] | (cells ? LRR__LEAF_DESCENT : 0);
         }
         for (int j = 0; j < 4 && x + j <= b; j++)
             leaf[x - a + j] = out[j];
@@ -188,6 +179,23 @@ __attribute__((target("avx2"))) static void depth_span4(const double abc[9], con
         _mm_maskstore_ps((float *)(item + x), gti, _mm_castsi128_ps(idv));
     }
 }
+/* Bit x of mask: x == 0 or v[x] != v[x − 1] (lrr__hemi_breaks), eight at a time. */
+__attribute__((target("avx2"))) static void breaks8(const int32_t *v, int n, uint64_t *mask)
+{
+    int x = 1;
+    for (; x + 8 <= n; x += 8) {
+        const __m256i a = _mm256_loadu_si256((const __m256i *)(v + x)),
+                      b = _mm256_loadu_si256((const __m256i *)(v + x - 1));
+        const uint64_t ne =
+            (uint64_t)(~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(a, b))) & 0xFF);
+        mask[x >> 6] |= ne << (x & 63);
+        if ((x & 63) > 56)
+            mask[(x >> 6) + 1] |= ne >> (64 - (x & 63));
+    }
+    for (; x < n; x++)
+        mask[x >> 6] |= (uint64_t)(v[x] != v[x - 1]) << (x & 63);
+}
+
 /* ------------------------------------------------------------------ eight lanes (AVX-512)
  * The same steps as leaves_run4 and depth_span4, lane by lane, with masks for the selects and
  * a run's or span's last lanes. A lane the cell table's margin rejects descends alone (four
@@ -235,10 +243,94 @@ T512 static inline __m512d descend8(__m512d b0, __m512d b1, __m512d b2, unsigned
     return idx;
 }
 
+/* The cells (i1, i2, down) of t_j = b_j·2^d: table slot and whether every lane is in one
+ * with margins m12 (t1, t2) and m0 (t0), sums 2^d − 1 or 2^d − 2 and t_j >= 0. */
+T512 static inline __mmask8 cells8(__m512d t0, __m512d t1, __m512d t2, __m512d sv, __m512d up,
+                                   __m512d down, __m512d m12, __m512d m0, __m512d *cell)
+{
+    const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
+    const __m512d i0 = _mm512_roundscale_pd(t0, FLOOR_NO_EXC),
+                  i1 = _mm512_roundscale_pd(t1, FLOOR_NO_EXC),
+                  i2 = _mm512_roundscale_pd(t2, FLOOR_NO_EXC);
+    const __m512d f0 = _mm512_sub_pd(t0, i0), f1 = _mm512_sub_pd(t1, i1), f2 = _mm512_sub_pd(t2, i2);
+    const __m512d g0 = _mm512_min_pd(f0, _mm512_sub_pd(one, f0)),
+                  g1 = _mm512_min_pd(f1, _mm512_sub_pd(one, f1)),
+                  g2 = _mm512_min_pd(f2, _mm512_sub_pd(one, f2));
+    const __m512d sum = _mm512_add_pd(_mm512_add_pd(i0, i1), i2);
+    const __mmask8 isdown = _mm512_cmp_pd_mask(sum, down, _CMP_EQ_OQ);
+    const __mmask8 ok = _mm512_cmp_pd_mask(g0, m0, _CMP_GE_OQ) &
+                        _mm512_cmp_pd_mask(g1, m12, _CMP_GE_OQ) &
+                        _mm512_cmp_pd_mask(g2, m12, _CMP_GE_OQ) &
+                        (_mm512_cmp_pd_mask(sum, up, _CMP_EQ_OQ) | isdown) &
+                        _mm512_cmp_pd_mask(t0, zero, _CMP_GT_OQ) &
+                        _mm512_cmp_pd_mask(t1, zero, _CMP_GT_OQ) &
+                        _mm512_cmp_pd_mask(t2, zero, _CMP_GT_OQ);
+    /* rejected lanes get slot 0 (the caller does not use them) */
+    *cell = _mm512_maskz_mov_pd(
+        ok, _mm512_add_pd(_mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2),
+                                        _mm512_set1_pd(2.0)),
+                          _mm512_maskz_mov_pd(isdown, one)));
+    return ok;
+}
+
+/* Pixels a..b's leaf codes (lrr__hemi_leaf_of): with the table, first from t̃_j =
+ * n_j·rcp14(nd)·2^d without the division (a 512-bit divide per eight pixels was the bulk of
+ * this loop): rcp14 is within 2^-14 of 1/nd relative, so t̃_j is within 2^-13·2^d of the
+ * scalar path's t_j = fl(n_j·fl(1/nd))·2^d (same n_j, nd, t_j < 2^d) for j = 1, 2, and t0
+ * is bounded through them (fast_cells8): eight lanes that qualify are in the scalar path's
+ * cell beyond the table's margin, b_j in (0, 1); their codes are the cells. Otherwise the
+ * exact path below. */
+/* The fast path's cells (see leaves_run8) from t̃1, t̃2 alone: with f_j = t̃_j − i_j in
+ * [m12, 1 − m12] and u = f1 + f2 at least m0 from 1, the scalar t0 is (2^d − i1 − i2) − u
+ * within 2^-12·2^d (+ a few ulps), so it lies at least 2^-12·2^d − ε from every integer,
+ * its floor 2^d − i1 − i2 − 1 − down with down = [u > 1]: the sum rule holds by itself, and
+ * t0 > 0 is i1 + i2 + down <= 2^d − 1 (a third of cells8's operations fewer). *code gets
+ * the cell's slot; the mask says which lanes qualify. */
+T512 static inline __mmask8 fast_cells8(__m512d t1, __m512d t2, __m512d sv, __m512d smax,
+                                        __m512d m12, __m512d m12hi, __m512d ulo, __m512d uhi,
+                                        __m256i *code)
+{
+    const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
+    const __m512d i1 = _mm512_roundscale_pd(t1, FLOOR_NO_EXC),
+                  i2 = _mm512_roundscale_pd(t2, FLOOR_NO_EXC);
+    const __m512d f1 = _mm512_sub_pd(t1, i1), f2 = _mm512_sub_pd(t2, i2);
+    const __m512d u = _mm512_add_pd(f1, f2);
+    const __mmask8 down = _mm512_cmp_pd_mask(u, uhi, _CMP_GE_OQ);
+    const __mmask8 ok =
+        _mm512_cmp_pd_mask(f1, m12, _CMP_GE_OQ) & _mm512_cmp_pd_mask(f1, m12hi, _CMP_LE_OQ) &
+        _mm512_cmp_pd_mask(f2, m12, _CMP_GE_OQ) & _mm512_cmp_pd_mask(f2, m12hi, _CMP_LE_OQ) &
+        (_mm512_cmp_pd_mask(u, ulo, _CMP_LE_OQ) | down) &
+        _mm512_cmp_pd_mask(_mm512_min_pd(i1, i2), zero, _CMP_GE_OQ) &
+        _mm512_cmp_pd_mask(_mm512_mask_add_pd(_mm512_add_pd(i1, i2), down,
+                                              _mm512_add_pd(i1, i2), one),
+                           smax, _CMP_LE_OQ);
+    /* exact small integers: (i1·2^d + i2)·2 + down */
+    const __m512d cell = _mm512_mask_add_pd(
+        _mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2), _mm512_set1_pd(2.0)), down,
+        _mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2), _mm512_set1_pd(2.0)), one);
+    *code = _mm512_cvttpd_epi32(_mm512_maskz_mov_pd(ok, cell));
+    return ok;
+}
+
+/* The codes of lanes `lanes` at leaf[i..] (i % 8 == 0) and their bits of the change mask brk
+ * (lrr__hemi_breaks of the codes), *prev the codes of the eight before. */
+T512 static inline void put_codes8(__m256i code, __mmask8 lanes, int i, uint32_t *leaf,
+                                   uint64_t *brk, __m256i *prev)
+{
+    _mm256_mask_storeu_epi32(leaf + i, lanes, code);
+    /* lane l against lane l − 1, lane 0 against the last of *prev */
+    const __m256i before = _mm256_alignr_epi32(code, *prev, 7);
+    const uint64_t ne = _mm256_mask_cmpneq_epi32_mask(lanes, code, before);
+    brk[i >> 6] |= ne << (i & 63);
+    *prev = code;
+}
+
 T512 static void leaves_run8(const double b1k[3], const double b2k[3], const double denk[3],
                              const double *sxt, double sy, int a, int b, unsigned depth,
-                             const uint16_t *cells, uint32_t *leaf)
+                             const uint16_t *cells, uint32_t *leaf, uint64_t *brk)
 {
+    memset(brk, 0, (size_t)(b - a + 64) / 64 * sizeof *brk);
+    __m256i prev = _mm256_setzero_si256(); /* whatever it holds: bit 0 is set at the end */
     const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
     const __m512d d0 = _mm512_set1_pd(denk[0]), d1 = _mm512_set1_pd(denk[1] * sy),
                   d2 = _mm512_set1_pd(denk[2]), p0 = _mm512_set1_pd(b1k[0]),
@@ -247,15 +339,32 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
                   q2 = _mm512_set1_pd(b2k[2]);
     const double s = (double)((uint64_t)1 << depth);
     const __m512d sv = _mm512_set1_pd(s), need = _mm512_set1_pd(0x1p-40 * s),
-                  up = _mm512_set1_pd(s - 1), down = _mm512_set1_pd(s - 2);
+                  up = _mm512_set1_pd(s - 1), down = _mm512_set1_pd(s - 2),
+                  m12 = _mm512_set1_pd(0x1p-12 * s), m12hi = _mm512_set1_pd(1 - 0x1p-12 * s),
+                  ulo = _mm512_set1_pd(1 - 0x1p-11 * s), uhi = _mm512_set1_pd(1 + 0x1p-11 * s);
     const __m512d last = _mm512_set1_pd(sxt[b]);
+    const __m256i descent = _mm256_set1_epi32((int)LRR__LEAF_DESCENT);
     for (int x = a; x <= b; x += 8) {
         const int n = b - x + 1 < 8 ? b - x + 1 : 8;
+        const __mmask8 lanes = (__mmask8)((1u << n) - 1);
         /* past the run: its last pixel, whose leaf is dropped */
-        const __m512d sx = _mm512_mask_loadu_pd(last, (__mmask8)((1u << n) - 1), sxt + x);
-        const __m512d r = _mm512_div_pd(one, lin8(d0, d1, d2, sx));
-        __m512d b1 = _mm512_mul_pd(lin8(p0, p1, p2, sx), r);
-        __m512d b2 = _mm512_mul_pd(lin8(q0, q1, q2, sx), r);
+        const __m512d sx = _mm512_mask_loadu_pd(last, lanes, sxt + x);
+        const __m512d nd = lin8(d0, d1, d2, sx), n1 = lin8(p0, p1, p2, sx),
+                      n2 = lin8(q0, q1, q2, sx);
+        __m512d cell;
+        if (cells) {
+            const __m512d rc = _mm512_rcp14_pd(nd);
+            const __m512d t1 = _mm512_mul_pd(_mm512_mul_pd(n1, rc), sv),
+                          t2 = _mm512_mul_pd(_mm512_mul_pd(n2, rc), sv);
+            __m256i code;
+            if (fast_cells8(t1, t2, sv, up, m12, m12hi, ulo, uhi, &code) == 0xFF) {
+                put_codes8(code, lanes, x - a, leaf, brk, &prev);
+                continue;
+            }
+        }
+        const __m512d r = _mm512_div_pd(one, nd);
+        __m512d b1 = _mm512_mul_pd(n1, r);
+        __m512d b2 = _mm512_mul_pd(n2, r);
         /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
         b1 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ), b1);
         b2 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ), b2);
@@ -269,86 +378,197 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
             b2 = _mm512_mask_div_pd(b2, neg, b2, sum);
             b0 = _mm512_mask_mov_pd(b0, neg, zero);
         }
-        uint32_t out[8];
         __mmask8 ok = 0;
-        if (cells) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
-            const __m512d t0 = _mm512_mul_pd(b0, sv), t1 = _mm512_mul_pd(b1, sv),
-                          t2 = _mm512_mul_pd(b2, sv);
-            const __m512d i0 = _mm512_roundscale_pd(t0, FLOOR_NO_EXC), i1 = _mm512_roundscale_pd(t1, FLOOR_NO_EXC),
-                          i2 = _mm512_roundscale_pd(t2, FLOOR_NO_EXC);
-            const __m512d f0 = _mm512_sub_pd(t0, i0), f1 = _mm512_sub_pd(t1, i1),
-                          f2 = _mm512_sub_pd(t2, i2);
-            const __m512d m = _mm512_min_pd(
-                _mm512_min_pd(_mm512_min_pd(f0, _mm512_sub_pd(one, f0)),
-                              _mm512_min_pd(f1, _mm512_sub_pd(one, f1))),
-                _mm512_min_pd(f2, _mm512_sub_pd(one, f2)));
-            const __m512d sum = _mm512_add_pd(_mm512_add_pd(i0, i1), i2);
-            const __mmask8 isdown = _mm512_cmp_pd_mask(sum, down, _CMP_EQ_OQ);
-            ok = _mm512_cmp_pd_mask(m, need, _CMP_GE_OQ) &
-                 (_mm512_cmp_pd_mask(sum, up, _CMP_EQ_OQ) | isdown) &
-                 _mm512_cmp_pd_mask(b0, zero, _CMP_GT_OQ) &
-                 _mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ) &
-                 _mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ);
-            /* rejected lanes read slot 0 (their leaf comes from descend8) */
-            const __m512d cell = _mm512_maskz_mov_pd(
-                ok, _mm512_add_pd(
-                        _mm512_mul_pd(_mm512_add_pd(_mm512_mul_pd(i1, sv), i2), _mm512_set1_pd(2.0)),
-                        _mm512_maskz_mov_pd(isdown, one)));
-            int ci[8];
-            _mm256_storeu_si256((__m256i *)ci, _mm512_cvttpd_epi32(cell));
-            for (int j = 0; j < 8; j++)
-                out[j] = cells[ci[j]];
+        if (cells) /* the cell's leaf from the table, where the margin allows (hemicube.c) */
+            ok = cells8(_mm512_mul_pd(b0, sv), _mm512_mul_pd(b1, sv), _mm512_mul_pd(b2, sv), sv,
+                        up, down, need, need, &cell);
+        __m256i code = cells ? _mm512_cvttpd_epi32(cell) : _mm256_setzero_si256();
+        if (ok != 0xFF) { /* the others descend: their leaves, marked when there is a table */
+            __m256i idx = _mm512_cvttpd_epu32(descend8(b0, b1, b2, depth));
+            if (cells)
+                idx = _mm256_or_si256(idx, descent);
+            code = _mm256_mask_mov_epi32(idx, ok, code);
         }
-        if (ok != 0xFF) {
-            double idx[8];
-            _mm512_storeu_pd(idx, descend8(b0, b1, b2, depth));
-            for (int j = 0; j < 8; j++)
-                if (!(ok >> j & 1))
-                    out[j] = (uint32_t)idx[j];
-        }
-        for (int j = 0; j < n; j++)
-            leaf[x - a + j] = out[j];
+        put_codes8(code, lanes, x - a, leaf, brk, &prev);
     }
+    brk[0] |= 1;
+}
+
+/* The edge function k at eight pixels: (A·px + B·py) + C, B·py hoisted as in depth_span4. */
+#define EDGE8(k) _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(A##k, px), BC##k), C##k)
+
+/* named registers, not arrays: gcc kept w[3] on the stack (a store and two loads per vector
+ * in the hot loop) */
+#define DEPTH8_SETUP()                                                                        \
+    const __m512d A0 = _mm512_set1_pd(abc[0]), C0 = _mm512_set1_pd(abc[2]),                  \
+                  A1 = _mm512_set1_pd(abc[3]), C1 = _mm512_set1_pd(abc[5]),                  \
+                  A2 = _mm512_set1_pd(abc[6]), C2 = _mm512_set1_pd(abc[8]),                  \
+                  Z0 = _mm512_set1_pd(iz[0]), Z1 = _mm512_set1_pd(iz[1]),                    \
+                  Z2 = _mm512_set1_pd(iz[2]), ia = _mm512_set1_pd(inv_area),                 \
+                  step = _mm512_set1_pd(8.0),                                                \
+                  offs = _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5);              \
+    const __m256i idv = _mm256_set1_epi32(id)
+
+/* One row's span L..R at py of depth_span8 / depth_rows8 (DEPTH8_SETUP in scope). */
+#define DEPTH8_ROW(py, L, R, depth, item)                                                     \
+    do {                                                                                      \
+        const __m512d BC0 = _mm512_set1_pd(abc[1] * (py)), BC1 = _mm512_set1_pd(abc[4] * (py)), \
+                      BC2 = _mm512_set1_pd(abc[7] * (py));                                   \
+        __m512d px = _mm512_add_pd(_mm512_set1_pd((double)(L)), offs);                        \
+        for (int x = (L); x <= (R); x += 8, px = _mm512_add_pd(px, step))                     \
+            depth8_step(A0, BC0, C0, A1, BC1, C1, A2, BC2, C2, Z0, Z1, Z2, ia, idv, px, x, R, \
+                        depth, item);                                                         \
+    } while (0)
+
+/* Eight pixels x.. (up to R) of a row: the edge functions (B·py hoisted into BC), 1/z and the
+ * float compare, as raster_tri's scalar loop lane by lane. */
+T512 static inline void depth8_step(__m512d A0, __m512d BC0, __m512d C0, __m512d A1,
+                                    __m512d BC1, __m512d C1, __m512d A2, __m512d BC2,
+                                    __m512d C2, __m512d Z0, __m512d Z1, __m512d Z2, __m512d ia,
+                                    __m256i idv, __m512d px, int x, int R, float *depth,
+                                    int32_t *item)
+{
+    const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
+    const __m512d z = _mm512_add_pd(
+        _mm512_add_pd(_mm512_mul_pd(EDGE8(0), Z0), _mm512_mul_pd(EDGE8(1), Z1)),
+        _mm512_mul_pd(EDGE8(2), Z2));
+    const __m256 zf = _mm512_cvtpd_ps(_mm512_mul_pd(z, ia));
+    const __m256 old = _mm256_maskz_loadu_ps(lane, depth + x);
+    /* ordered: NaN never wins, as in C */
+    const __mmask8 gt = _mm256_mask_cmp_ps_mask(lane, zf, old, _CMP_GT_OQ);
+    if (!gt)
+        return;
+    _mm256_mask_storeu_ps(depth + x, gt, zf);
+    _mm256_mask_storeu_epi32(item + x, gt, idv);
 }
 
 T512 static void depth_span8(const double abc[9], const double iz[3], double inv_area, double py,
                              int L, int R, float *depth, int32_t *item, int32_t id)
 {
-    __m512d A[3], BC[3], C[3], Z[3];
-    for (int k = 0; k < 3; k++) {
-        A[k] = _mm512_set1_pd(abc[3 * k]);
-        BC[k] = _mm512_set1_pd(abc[3 * k + 1] * py);
-        C[k] = _mm512_set1_pd(abc[3 * k + 2]);
-        Z[k] = _mm512_set1_pd(iz[k]);
+    DEPTH8_SETUP();
+    DEPTH8_ROW(py, L, R, depth, item);
+}
+
+T512 static void depth_rows8(const double abc[9], const double iz[3], double inv_area, int y0,
+                             int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                             int32_t id)
+{
+    DEPTH8_SETUP();
+    for (int y = y0; y <= y1; y++) {
+        const int L = span[2 * (y - y0)], R = span[2 * (y - y0) + 1];
+        float *drow = depth + (size_t)y * W;
+        int32_t *irow = item + (size_t)y * W;
+        DEPTH8_ROW(y + 0.5, L, R, drow, irow);
     }
-    const __m512d ia = _mm512_set1_pd(inv_area), step = _mm512_set1_pd(8.0);
-    const __m256i idv = _mm256_set1_epi32(id);
-    __m512d px = _mm512_add_pd(_mm512_set1_pd((double)L),
-                               _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5));
-    for (int x = L; x <= R; x += 8, px = _mm512_add_pd(px, step)) {
-        const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
-        __m512d w[3];
-        for (int k = 0; k < 3; k++)
-            w[k] = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(A[k], px), BC[k]), C[k]);
-        const __m512d z = _mm512_add_pd(
-            _mm512_add_pd(_mm512_mul_pd(w[0], Z[0]), _mm512_mul_pd(w[1], Z[1])),
-            _mm512_mul_pd(w[2], Z[2]));
-        const __m256 zf = _mm512_cvtpd_ps(_mm512_mul_pd(z, ia));
-        const __m256 old = _mm256_maskz_loadu_ps(lane, depth + x);
-        /* ordered: NaN never wins, as in C */
-        const __mmask8 gt = _mm256_mask_cmp_ps_mask(lane, zf, old, _CMP_GT_OQ);
-        if (!gt)
-            continue;
-        _mm256_mask_storeu_ps(depth + x, gt, zf);
-        _mm256_mask_storeu_epi32(item + x, gt, idv);
+}
+#undef DEPTH8_ROW
+#undef DEPTH8_SETUP
+#undef EDGE8
+
+/* lrr__hemi_spans: edge_span's cases without a pixel test, lane by lane (its expressions,
+ * unfused): an edge with A = 0 is a sign test per row; else a row where no pixel index lies
+ * within tol of the crossing estimate xc is cut at n = floor(xc + tol), and one whose start
+ * (A > 0) or end (A < 0) lies beyond that tolerance keeps it (checked against x0, x1: the
+ * narrower range edge_span would see only moves further inside). Per-row spans were 11% of
+ * a Cornell R 64 profile. */
+T512 static void spans8(const lrr__hemi_edge *e, int x0, int x1, int y0, int y1, int32_t *span)
+{
+    const __m512d offs = _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5),
+                  big = _mm512_set1_pd(0x1p30), one = _mm512_set1_pd(1.0),
+                  X0 = _mm512_set1_pd(x0), X1 = _mm512_set1_pd(x1);
+    for (int y = y0; y <= y1; y += 8) {
+        const __m512d py = _mm512_add_pd(_mm512_set1_pd((double)y), offs);
+        __m512d L = X0, R = X1;
+        __mmask8 exact = 0, empty = 0;
+        for (int k = 0; k < 3; k++) {
+            const lrr__hemi_edge *ek = &e[k];
+            if (ek->A == 0) { /* (A·px + B·py) + C at any px */
+                const __m512d v = _mm512_add_pd(
+                    _mm512_add_pd(_mm512_set1_pd(ek->A * (x0 + 0.5)),
+                                  _mm512_mul_pd(_mm512_set1_pd(ek->B), py)),
+                    _mm512_set1_pd(ek->C));
+                const __mmask8 in = _mm512_cmp_pd_mask(v, _mm512_setzero_pd(), _CMP_GT_OQ) |
+                                    (ek->owns_ties ? _mm512_cmp_pd_mask(v, _mm512_setzero_pd(),
+                                                                        _CMP_EQ_OQ)
+                                                   : 0);
+                empty |= (__mmask8)~in;
+                continue;
+            }
+            const __m512d xc = _mm512_add_pd(_mm512_set1_pd(ek->k0),
+                                             _mm512_mul_pd(_mm512_set1_pd(ek->k1), py));
+            const __m512d hi = _mm512_add_pd(xc, _mm512_set1_pd(ek->tol)),
+                          lo = _mm512_sub_pd(xc, _mm512_set1_pd(ek->tol));
+            const __m512d n = _mm512_roundscale_pd(hi, FLOOR_NO_EXC);
+            const __mmask8 fast = _mm512_cmp_pd_mask(lo, _mm512_sub_pd(_mm512_setzero_pd(), big),
+                                                     _CMP_GT_OQ) &
+                                  _mm512_cmp_pd_mask(hi, big, _CMP_LT_OQ) &
+                                  _mm512_cmp_pd_mask(n, lo, _CMP_LT_OQ);
+            __mmask8 settled;
+            if (ek->A > 0) { /* inside from n + 1 on */
+                L = _mm512_mask_max_pd(L, fast, L, _mm512_add_pd(n, one));
+                settled = fast | _mm512_cmp_pd_mask(X0, hi, _CMP_GT_OQ);
+            } else { /* inside up to n */
+                R = _mm512_mask_min_pd(R, fast, R, n);
+                settled = fast | _mm512_cmp_pd_mask(X1, lo, _CMP_LT_OQ);
+            }
+            exact |= (__mmask8)~settled;
+        }
+        empty |= _mm512_cmp_pd_mask(L, R, _CMP_GT_OQ);
+        int32_t l[8], r[8];
+        _mm256_storeu_si256((__m256i *)l, _mm512_cvttpd_epi32(L));
+        _mm256_storeu_si256((__m256i *)r, _mm512_cvttpd_epi32(R));
+        for (int j = 0; j < 8 && y + j <= y1; j++) {
+            const int i = 2 * (y + j - y0);
+            span[i] = exact >> j & 1 ? INT32_MIN : empty >> j & 1 ? 1 : l[j];
+            span[i + 1] = empty >> j & 1 ? 0 : r[j];
+        }
     }
+}
+
+void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span)
+{
+    spans8(e, x0, x1, y0, y1, span);
+}
+
+/* breaks8 sixteen at a time, the last lanes masked */
+T512 static void breaks16(const int32_t *v, int n, uint64_t *mask)
+{
+    for (int x = 1; x < n; x += 16) {
+        const __mmask16 k = (__mmask16)(n - x >= 16 ? 0xFFFF : (1u << (n - x)) - 1);
+        const __m512i a = _mm512_maskz_loadu_epi32(k, v + x),
+                      b = _mm512_maskz_loadu_epi32(k, v + x - 1);
+        const uint64_t ne = _mm512_mask_cmpneq_epi32_mask(k, a, b);
+        mask[x >> 6] |= ne << (x & 63);
+        if ((x & 63) > 48 && ((x >> 6) + 1) * 64 < n) /* lanes in the next word */
+            mask[(x >> 6) + 1] |= ne >> (64 - (x & 63));
+    }
+}
+
+void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
+{
+    memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
+    if (n <= 0)
+        return;
+    mask[0] = 1;
+    if (simd >= 2)
+        breaks16(v, n, mask);
+    else if (simd)
+        breaks8(v, n, mask);
+    else
+        for (int x = 1; x < n; x++)
+            mask[x >> 6] |= (uint64_t)(v[x] != v[x - 1]) << (x & 63);
 }
 
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf, int simd)
+                          const uint16_t *cells, uint32_t *leaf, uint64_t *brk, int simd)
 {
-    (simd >= 2 ? leaves_run8 : leaves_run4)(b1k, b2k, denk, sxt, sy, a, b, depth, cells, leaf);
+    if (simd >= 2) {
+        leaves_run8(b1k, b2k, denk, sxt, sy, a, b, depth, cells, leaf, brk);
+        return;
+    }
+    leaves_run4(b1k, b2k, denk, sxt, sy, a, b, depth, cells, leaf);
+    lrr__hemi_breaks((const int32_t *)leaf, b - a + 1, brk, simd);
 }
 
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
@@ -356,8 +576,40 @@ void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_ar
 {
     (simd >= 2 ? depth_span8 : depth_span4)(abc, iz, inv_area, py, L, R, depth, item, id);
 }
+
+void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
+                          int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                          int32_t id, int simd)
+{
+    if (simd >= 2) {
+        depth_rows8(abc, iz, inv_area, y0, y1, span, W, depth, item, id);
+        return;
+    }
+    for (int y = y0; y <= y1; y++)
+        if (span[2 * (y - y0)] <= span[2 * (y - y0) + 1])
+            depth_span4(abc, iz, inv_area, y + 0.5, span[2 * (y - y0)], span[2 * (y - y0) + 1],
+                        depth + (size_t)y * W, item + (size_t)y * W, id);
+}
 #else
 int lrr__hemi_simd(void) { return 0; }
+void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span)
+{
+    (void)e, (void)x0, (void)x1, (void)y0, (void)y1, (void)span;
+}
+void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
+{
+    (void)simd;
+    memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
+    for (int x = 0; x < n; x++)
+        mask[x >> 6] |= (uint64_t)(x == 0 || v[x] != v[x - 1]) << (x & 63);
+}
+void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
+                          int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                          int32_t id, int simd)
+{
+    (void)abc, (void)iz, (void)inv_area, (void)y0, (void)y1, (void)span, (void)W, (void)depth,
+        (void)item, (void)id, (void)simd;
+}
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
                           int L, int R, float *depth, int32_t *item, int32_t id, int simd)
 {
@@ -366,9 +618,9 @@ void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_ar
 }
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
                           const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf, int simd)
+                          const uint16_t *cells, uint32_t *leaf, uint64_t *brk, int simd)
 {
     (void)simd, (void)b1k, (void)b2k, (void)denk, (void)sxt, (void)sy, (void)a, (void)b, (void)depth,
-        (void)cells, (void)leaf;
+        (void)cells, (void)leaf, (void)brk;
 }
 #endif

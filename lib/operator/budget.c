@@ -8,7 +8,8 @@
  *              weight n), the copied geometry (36 + 1 bytes per input triangle, n_tri+1
  *              patch offsets) and for clusters the renumbering (2 size_t per subpatch);
  *   working    the larger of the two phases, which never overlap:
- *                hemicubes  multiplier map (R² + R²/2 doubles), triangle table
+ *                hemicubes  multiplier map (R² + R²/2 doubles) and its per-row prefix
+ *                           sums ((R + R/2)·(R + 1) doubles, rasteriser only), triangle table
  *                           (LRR__HEMICUBE_TRI_BYTES per triangle) and per thread a depth
  *                           and an item buffer (3R² floats and int32) and one row (k doubles);
  *                           each receiver's back-face share (n doubles);
@@ -77,6 +78,7 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
               add3(&out->per_subpatch, 1, 1, sizeof(size_t)) &&
               /* hemicube phase */
               add3(&hemi, rr + rr / 2, 1, sizeof(double)) &&
+              add3(&hemi, (size_t)R + R / 2, (size_t)R + 1, sizeof(double)) && /* its prefix sums */
               add3(&hemi, n_tri, 1, LRR__HEMICUBE_TRI_BYTES) &&
               add3(&hemi, T, 3 * rr, sizeof(float)) && add3(&hemi, T, k, sizeof(double)) &&
               add3(&hemi, n, 1, sizeof(double)); /* back-face shares (leak indicator) */

@@ -332,10 +332,15 @@ static void test_leaves_run_exact(void **state)
             const double sy = (trial % 7) / 3.5 - 1 + 0.5 / W;
             const int level = 1 + (trial / 4) % lrr__hemi_simd(), a = trial % 5,
                       b = W - 1 - trial % 7;
-            uint32_t leaf[W];
-            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, cells, leaf, level);
-            uint32_t leaf_nt[W];
-            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, NULL, leaf_nt, level);
+            uint32_t leaf[W], leaf_nt[W];
+            uint64_t brk[(W + 63) / 64], brk_nt[(W + 63) / 64], want_brk[(W + 63) / 64];
+            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, cells, leaf, brk, level);
+            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, NULL, leaf_nt, brk_nt, level);
+            /* the change masks: those of the codes as made */
+            lrr__hemi_breaks((const int32_t *)leaf, b - a + 1, want_brk, 0);
+            assert_memory_equal(brk, want_brk, (size_t)(b - a + 64) / 64 * sizeof *brk);
+            lrr__hemi_breaks((const int32_t *)leaf_nt, b - a + 1, want_brk, 0);
+            assert_memory_equal(brk_nt, want_brk, (size_t)(b - a + 64) / 64 * sizeof *brk);
             for (int x = a; x <= b; x++) {
                 const double sx = sxt[x];
                 const double r = 1.0 / (den[0] * sx + den[1] * sy + den[2]);
@@ -345,7 +350,7 @@ static void test_leaves_run_exact(void **state)
                 double t1 = b1 * s, t2 = b2 * s;
                 on_lines += t1 == floor(t1) || t2 == floor(t2);
                 size_t want = lrr__descend(&b0, &b1, &b2, d);
-                assert_int_equal(leaf[x - a], want);
+                assert_int_equal(lrr__hemi_leaf_of(leaf[x - a], cells), want);
                 assert_int_equal(leaf_nt[x - a], want);
                 checked++;
             }
@@ -362,6 +367,115 @@ static void test_leaves_run_exact(void **state)
  * stored depths equal to the span's (a tie keeps the old) or one float below (it wins). One
  * edge function cancels to ~1e-9 of its terms, so a multiply and add fused into one rounding
  * (what gcc does to intrinsics when FMA is on) changes the float depth. */
+/* lrr__hemi_breaks at every level against the definition: lengths across word boundaries,
+ * changes at every position (random ids from a small set, so runs of all lengths). */
+static void test_breaks_exact(void **state)
+{
+    (void)state;
+    enum { N = 300 };
+    int32_t v[N];
+    uint64_t rng = 99;
+    for (int n = 1; n <= N; n += (n < 140 ? 1 : 37)) {
+        for (int trial = 0; trial < 4; trial++) {
+            for (int x = 0; x < n; x++) {
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                v[x] = (int32_t)(rng >> 61) - 2; /* -2..5: markers too */
+            }
+            for (int level = 0; level <= lrr__hemi_simd(); level++) {
+                uint64_t mask[(N + 63) / 64 + 1];
+                const int words = (n + 63) / 64;
+                mask[words] = 0x5a5a; /* must stay: the function writes (n + 63)/64 words */
+                lrr__hemi_breaks(v, n, mask, level);
+                assert_int_equal(mask[words], 0x5a5a);
+                for (int x = 0; x < words * 64; x++) {
+                    const int want = x < n && (x == 0 || v[x] != v[x - 1]);
+                    assert_int_equal((int)(mask[x >> 6] >> (x & 63) & 1), want);
+                }
+            }
+        }
+    }
+}
+
+/* hemicube.c's edge_setup (the canonical-order edge of a→b), copied: the edges
+ * lrr__hemi_spans gets. */
+static void edge_of(const double a[2], const double b[2], int W, int H, lrr__hemi_edge *e)
+{
+    const int swap = (b[0] < a[0]) || (b[0] == a[0] && b[1] < a[1]);
+    const double *p = swap ? b : a, *q = swap ? a : b;
+    double A = -(q[1] - p[1]), B = q[0] - p[0];
+    double C = -(A * p[0] + B * p[1]);
+    if (swap) { A = -A; B = -B; C = -C; }
+    e->A = A, e->B = B, e->C = C;
+    const double dx = b[0] - a[0], dy = b[1] - a[1];
+    e->owns_ties = dy > 0 || (dy == 0 && dx < 0);
+    e->k0 = A != 0 ? -C / A - 0.5 : 0;
+    e->k1 = A != 0 ? -B / A : 0;
+    const double S = fabs(A) * W + fabs(B) * H + fabs(C);
+    e->tol = A != 0 ? 16 * 0x1p-53 * S / fabs(A) + 0x1p-30 : INFINITY;
+}
+
+/* lrr__hemi_spans against the per-pixel test (every edge function > 0, or 0 on an edge the
+ * triangle owns) at every pixel of the range, on rows it settles: random triangles, some
+ * with vertices on the half-pixel grid (pixel centres on edges, horizontal edges: A = 0) and
+ * beyond the screen (the guard band). */
+static void test_spans_exact(void **state)
+{
+    (void)state;
+    if (lrr__hemi_simd() < 2)
+        skip();
+    enum { W = 64, H = 64 };
+    uint64_t rng = 777;
+    size_t settled = 0, rows = 0, covered = 0;
+    for (int trial = 0; trial < 3000; trial++) {
+        double v[3][2];
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 2; j++) {
+                rng = rng * 6364136223846793005ull + 1442695040888963407ull;
+                const double u = (double)(rng >> 11) * 0x1p-53;
+                v[i][j] = trial % 3 == 0 ? floor(u * 2 * W) / 2 : (u * 1.6 - 0.3) * W;
+            }
+        if (trial % 5 == 1)
+            v[1][1] = v[0][1]; /* a horizontal edge */
+        double area = (v[1][0] - v[0][0]) * (v[2][1] - v[0][1]) -
+                      (v[1][1] - v[0][1]) * (v[2][0] - v[0][0]);
+        if (area == 0)
+            continue;
+        if (area < 0) { /* positively oriented, as raster_tri makes them */
+            for (int j = 0; j < 2; j++) {
+                const double t = v[1][j];
+                v[1][j] = v[2][j], v[2][j] = t;
+            }
+        }
+        lrr__hemi_edge e[3];
+        edge_of(v[1], v[2], W, H, &e[0]);
+        edge_of(v[2], v[0], W, H, &e[1]);
+        edge_of(v[0], v[1], W, H, &e[2]);
+        const int x0 = trial % 4, x1 = W - 1 - trial % 3, y0 = trial % 7, y1 = H - 1 - trial % 5;
+        int32_t span[2 * H];
+        lrr__hemi_spans(e, x0, x1, y0, y1, span);
+        for (int y = y0; y <= y1; y++) {
+            rows++;
+            const int32_t L = span[2 * (y - y0)], R = span[2 * (y - y0) + 1];
+            if (L == INT32_MIN)
+                continue;
+            settled++;
+            const double py = y + 0.5;
+            for (int x = x0; x <= x1; x++) {
+                const double px = x + 0.5;
+                int in = 1;
+                for (int k = 0; k < 3; k++) {
+                    const double f = e[k].A * px + e[k].B * py + e[k].C;
+                    in &= f > 0 || (f == 0 && e[k].owns_ties);
+                }
+                covered += in;
+                assert_int_equal(in, x >= L && x <= R);
+            }
+        }
+    }
+    print_message("spans: %zu of %zu rows settled, %zu pixels covered\n", settled, rows, covered);
+    assert_true(settled > rows / 2 && covered > 0);
+}
+
 static void test_depth_span_exact(void **state)
 {
     (void)state;
@@ -406,9 +520,27 @@ static void test_depth_span_exact(void **state)
             }
             ties += x >= L && x <= R && x % 3 == 0;
         }
+        /* the same row through lrr__hemi_depth_rows, at its height in a face, with an empty
+         * row after it that must stay as it is */
+        const int y = trial % 16;
+        float fd[17 * W];
+        int32_t fi[17 * W];
+        for (int j = 0; j < 17 * W; j++)
+            fd[j] = j % W == 0 ? -1.0f : 2.0f, fi[j] = -5;
+        memcpy(fd + y * W, depth, sizeof depth);
+        memcpy(fi + y * W, item, sizeof item);
+        const int32_t span[4] = {L, R, 1, 0};
+        lrr__hemi_depth_rows(abc, iz, inv_area, y, y + 1, span, W, fd, fi, 7, level);
         lrr__hemi_depth_span(abc, iz, inv_area, py, L, R, depth, item, 7, level);
         assert_memory_equal(depth, want_d, sizeof depth);
         assert_memory_equal(item, want_i, sizeof item);
+        assert_memory_equal(fd + y * W, want_d, sizeof depth);
+        assert_memory_equal(fi + y * W, want_i, sizeof item);
+        for (int j = 0; j < 17 * W; j++)
+            if (j / W != y) {
+                assert_true(fd[j] == (j % W == 0 ? -1.0f : 2.0f));
+                assert_int_equal(fi[j], -5);
+            }
     }
     assert_true(writes > 1000 && ties > 1000);
 }
@@ -423,6 +555,8 @@ int main(void)
         cmocka_unit_test(test_back_face_share),
         cmocka_unit_test(test_leaves_run_exact),
         cmocka_unit_test(test_depth_span_exact),
+        cmocka_unit_test(test_breaks_exact),
+        cmocka_unit_test(test_spans_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
