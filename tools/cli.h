@@ -55,10 +55,11 @@ void cli_irradiance_error_pct(size_t m, const float *truth, const float *approx,
 double cli_now(void); /* monotonic seconds */
 /* OpenBLAS 0.3.21 falls back to its SSE3 "Prescott" kernels on a CPU model it does not know
  * (an Emerald Rapids Xeon: the SMW factorisation at k = 3456 took 19-29 s instead of
- * 6.7-8.0 s, sgemv 3× the read floor). It reads OPENBLAS_CORETYPE only when it loads, so
- * this runs the program again (execv of /proc/self/exe, same argv) with the family the
- * CPU's instructions support, SkylakeX or Haswell; a no-op when OPENBLAS_CORETYPE is set,
- * OpenBLAS chose anything else, or it is not the BLAS loaded. say: a line on stderr. */
+ * 6.2-8.0 s, sgemv 3× the read floor). It reads OPENBLAS_CORETYPE only when it loads, so
+ * this runs the program again (execv of the binary /proc/self/exe names, same argv) with
+ * the family the CPU's instructions support, SkylakeX or Haswell; a no-op when
+ * OPENBLAS_CORETYPE is set, OpenBLAS chose anything else, or it is not the BLAS loaded.
+ * say: a line on stderr. */
 void cli_fair_openblas(char *argv[], int say);
 
 /* ------------------------------------------------------------------ progress bar */

@@ -431,7 +431,13 @@ void cli_fair_openblas(char *argv[], int say)
                 argv[0], strcmp(want, "SkylakeX") == 0 ? "AVX-512" : "AVX2", want);
         fflush(stderr);
     }
-    execv("/proc/self/exe", argv);
+    /* the binary's own path, not /proc/self/exe, so ps and top still show its name */
+    char self[4096];
+    ssize_t len = readlink("/proc/self/exe", self, sizeof self - 1);
+    if (len > 0) {
+        self[len] = '\0';
+        execv(self, argv);
+    }
     unsetenv("OPENBLAS_CORETYPE"); /* exec failed: go on with Prescott */
 #else
     (void)argv, (void)say;
