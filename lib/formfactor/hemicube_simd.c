@@ -179,6 +179,63 @@ __attribute__((target("avx2"))) static void depth_span4(const double abc[9], con
         _mm_maskstore_ps((float *)(item + x), gti, _mm_castsi128_ps(idv));
     }
 }
+/* lrr__hemi_spans four rows at a time: spans8's steps (see there) with AVX2 compares and
+ * blends, lane by lane the same IEEE operations (no FMA in target "avx2"). Without it the
+ * AVX2 path ran edge_span per row: Cornell LRR_SIMD=avx2, 1 thread, R 32 0.288 → 0.210 s,
+ * R 64 0.654 → 0.613 s, R 128 1.690 → 1.463 s (best of 5). */
+__attribute__((target("avx2"))) static void spans4(const lrr__hemi_edge *e, int x0, int x1,
+                                                  int y0, int y1, int32_t *span)
+{
+    const __m256d offs = _mm256_setr_pd(0.5, 1.5, 2.5, 3.5), big = _mm256_set1_pd(0x1p30),
+                  nbig = _mm256_set1_pd(-0x1p30), one = _mm256_set1_pd(1.0),
+                  zero = _mm256_setzero_pd(), X0 = _mm256_set1_pd(x0), X1 = _mm256_set1_pd(x1);
+    for (int y = y0; y <= y1; y += 4) {
+        const __m256d py = _mm256_add_pd(_mm256_set1_pd((double)y), offs);
+        __m256d L = X0, R = X1;
+        int exact = 0, empty = 0;
+        for (int k = 0; k < 3; k++) {
+            const lrr__hemi_edge *ek = &e[k];
+            if (ek->A == 0) { /* (A·px + B·py) + C at any px */
+                const __m256d v = _mm256_add_pd(
+                    _mm256_add_pd(_mm256_set1_pd(ek->A * (x0 + 0.5)),
+                                  _mm256_mul_pd(_mm256_set1_pd(ek->B), py)),
+                    _mm256_set1_pd(ek->C));
+                int in = _mm256_movemask_pd(_mm256_cmp_pd(v, zero, _CMP_GT_OQ));
+                if (ek->owns_ties)
+                    in |= _mm256_movemask_pd(_mm256_cmp_pd(v, zero, _CMP_EQ_OQ));
+                empty |= ~in & 15;
+                continue;
+            }
+            const __m256d xc = _mm256_add_pd(_mm256_set1_pd(ek->k0),
+                                             _mm256_mul_pd(_mm256_set1_pd(ek->k1), py));
+            const __m256d hi = _mm256_add_pd(xc, _mm256_set1_pd(ek->tol)),
+                          lo = _mm256_sub_pd(xc, _mm256_set1_pd(ek->tol));
+            const __m256d n = _mm256_round_pd(hi, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+            const __m256d fast = _mm256_and_pd(
+                _mm256_and_pd(_mm256_cmp_pd(lo, nbig, _CMP_GT_OQ), _mm256_cmp_pd(hi, big, _CMP_LT_OQ)),
+                _mm256_cmp_pd(n, lo, _CMP_LT_OQ));
+            __m256d settled;
+            if (ek->A > 0) { /* inside from n + 1 on */
+                L = _mm256_blendv_pd(L, _mm256_max_pd(L, _mm256_add_pd(n, one)), fast);
+                settled = _mm256_or_pd(fast, _mm256_cmp_pd(X0, hi, _CMP_GT_OQ));
+            } else { /* inside up to n */
+                R = _mm256_blendv_pd(R, _mm256_min_pd(R, n), fast);
+                settled = _mm256_or_pd(fast, _mm256_cmp_pd(X1, lo, _CMP_LT_OQ));
+            }
+            exact |= ~_mm256_movemask_pd(settled) & 15;
+        }
+        empty |= _mm256_movemask_pd(_mm256_cmp_pd(L, R, _CMP_GT_OQ));
+        int32_t l[4], r[4];
+        _mm_storeu_si128((__m128i *)l, _mm256_cvttpd_epi32(L));
+        _mm_storeu_si128((__m128i *)r, _mm256_cvttpd_epi32(R));
+        for (int j = 0; j < 4 && y + j <= y1; j++) {
+            const int i = 2 * (y + j - y0);
+            span[i] = exact >> j & 1 ? INT32_MIN : empty >> j & 1 ? 1 : l[j];
+            span[i + 1] = empty >> j & 1 ? 0 : r[j];
+        }
+    }
+}
+
 /* Bit x of mask: x == 0 or v[x] != v[x − 1] (lrr__hemi_breaks), eight at a time. */
 __attribute__((target("avx2"))) static void breaks8(const int32_t *v, int n, uint64_t *mask)
 {
@@ -525,9 +582,10 @@ T512 static void spans8(const lrr__hemi_edge *e, int x0, int x1, int y0, int y1,
     }
 }
 
-void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span)
+void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
+                     int simd)
 {
-    spans8(e, x0, x1, y0, y1, span);
+    (simd >= 2 ? spans8 : spans4)(e, x0, x1, y0, y1, span);
 }
 
 /* breaks8 sixteen at a time, the last lanes masked */
@@ -592,9 +650,10 @@ void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_ar
 }
 #else
 int lrr__hemi_simd(void) { return 0; }
-void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span)
+void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
+                     int simd)
 {
-    (void)e, (void)x0, (void)x1, (void)y0, (void)y1, (void)span;
+    (void)e, (void)x0, (void)x1, (void)y0, (void)y1, (void)span, (void)simd;
 }
 void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
 {
