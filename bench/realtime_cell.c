@@ -526,6 +526,15 @@ done:
     return rc;
 }
 
+/* A floor's bandwidth becomes candidate (from source name) where that is higher; NAN never. */
+static void take_faster(double *bw, const char **source, double candidate, const char *name)
+{
+    if (candidate > *bw) {
+        *bw = candidate;
+        *source = name;
+    }
+}
+
 /* The floors, the ratios to them and to the paper's method, the bytes each row reads. */
 static void rt_floors(const rt_args *a, size_t n, size_t k, rt_cell *r)
 {
@@ -538,32 +547,21 @@ static void rt_floors(const rt_args *a, size_t n, size_t k, rt_cell *r)
     r->bw_source = "read-kernel";
     if (r->rows[RT_SGEMV3].t.median > 0) {
         r->bw_sgemv3 = 3.0 * f32_bytes / (r->rows[RT_SGEMV3].t.median / 1e3);
-        if (r->bw_sgemv3 > r->bw) {
-            r->bw = r->bw_sgemv3;
-            r->bw_source = "sgemv3";
-        }
+        take_faster(&r->bw, &r->bw_source, r->bw_sgemv3, "sgemv3");
     }
     /* A matrix the last-level cache holds is read from the cache, warm, frame after frame:
      * its floor is the read loops over as many bytes, repeated the same way (a 260 MiB L3
      * holds every cell of the paper's table; the DRAM loop alone would put the floor too
      * low). */
-    r->bw16 = r->bw;
-    r->bw16_source = r->bw_source;
     r->bw_resident = r->bw_resident16 = NAN;
     if (r->fits_llc) {
         r->bw_resident = measure_bandwidth((size_t)f32_bytes);
         r->bw_resident16 = measure_bandwidth((size_t)(f32_bytes / 2));
-        if (r->bw_resident > r->bw) {
-            r->bw = r->bw_resident;
-            r->bw_source = "resident-read";
-        }
-        r->bw16 = r->bw;
-        r->bw16_source = r->bw_source;
-        if (r->bw_resident16 > r->bw16) {
-            r->bw16 = r->bw_resident16;
-            r->bw16_source = "resident-read";
-        }
+        take_faster(&r->bw, &r->bw_source, r->bw_resident, "resident-read");
     }
+    r->bw16 = r->bw;
+    r->bw16_source = r->bw_source;
+    take_faster(&r->bw16, &r->bw16_source, r->bw_resident16, "resident-read");
     const double paper_ms = r->rows[RT_PAPER].t.median;
     for (int i = 0; i < RT_COUNT; i++) {
         rt_row *w = &r->rows[i];

@@ -42,11 +42,9 @@ LRR__DECLARE_PANELS(avx2)
 LRR__DECLARE_PANELS(avx512)
 LRR__DECLARE_PANELS(avx2_pf)
 LRR__DECLARE_PANELS(avx512_pf)
-/* how far ahead the _pf panel variants prefetch, bytes (panel_kernel.c) */
-#define LRR__PREFETCH_AHEAD 4096
 
 /* The fastest variant this CPU runs for rows of k entries, or the one named by force
- * (LRR_SIMD: c, avx2, avx512). */
+ * (LRR_SIMD: c, avx2, avx2+prefetch, avx512, avx512+prefetch). */
 lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, size_t k,
                               const lrr__kernel **out);
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
