@@ -122,6 +122,7 @@ static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned 
     if (s == LRR_OK)
         s = lrr_scene_subdivide(scene, &(lrr_subdivision){.levels = levels});
     lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
+    cli_idle_openblas(); /* the last build's SMW left OpenBLAS's workers spinning */
     double t0 = cli_now();
     if (s == LRR_OK)
         s = lrr_operator_build(scene, &bo, &op);
@@ -170,6 +171,7 @@ static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, int no_rota
     lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
     cli_progress bar;
     progress_begin(&bar, "hemicubes", &bo);
+    cli_idle_openblas(); /* the last build's SMW left OpenBLAS's workers spinning */
     double t0 = cli_now();
     if (s == LRR_OK)
         s = lrr_operator_build(scene, &bo, op);

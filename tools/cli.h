@@ -61,6 +61,10 @@ double cli_now(void); /* monotonic seconds */
  * OPENBLAS_CORETYPE is set, OpenBLAS chose anything else, or it is not the BLAS loaded.
  * say: a line on stderr. */
 void cli_fair_openblas(char *argv[], int say);
+/* Ends OpenBLAS's thread pool (it starts again with the next BLAS call) so that its workers'
+ * spin-wait does not take a core from the hemicubes' OpenMP threads; cli_fair_openblas calls
+ * it when it does not run the program again. A no-op without that OpenBLAS symbol. */
+void cli_idle_openblas(void);
 
 /* ------------------------------------------------------------------ progress bar */
 typedef struct cli_progress {
