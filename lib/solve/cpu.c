@@ -21,6 +21,7 @@
 #include "solve/solve.h"
 
 #include <cblas.h>
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -242,6 +243,34 @@ lrr_status lrr__solver_opencl_panels(lrr_solver *s, int panels)
     return s->cl ? lrr__cl_fbar_panels(s->cl, panels) : LRR_ERR_INVALID_ARG;
 }
 
+/* Σ_i weight_i·E_i over subpatches i0..i1−1 per channel into acc (products in float, as
+ * ever, sums in double), two subpatches in flight; returns 0 when an entry may be negative,
+ * NaN or infinite (the smallest entry is < 0, or a sum is not finite), for the caller's
+ * scan. One chain per channel, with the check inside, was ~1.8 ns an entry: a fifth of a
+ * 3456 × 216 frame (perf, Intel Xeon). */
+static inline int segment_sum(const float *weight, const float *E, size_t i0, size_t i1,
+                              double acc[3])
+{
+    double r0 = 0, g0 = 0, b0 = 0, r1 = 0, g1 = 0, b1 = 0;
+    float lo = 0;
+    size_t i = i0;
+    for (; i + 2 <= i1; i += 2) {
+        const float w0 = weight[i], w1 = weight[i + 1], *e = E + 3 * i;
+        r0 += w0 * e[0], g0 += w0 * e[1], b0 += w0 * e[2];
+        r1 += w1 * e[3], g1 += w1 * e[4], b1 += w1 * e[5];
+        for (int j = 0; j < 6; j++)
+            lo = e[j] < lo ? e[j] : lo;
+    }
+    if (i < i1) {
+        const float w0 = weight[i], *e = E + 3 * i;
+        r0 += w0 * e[0], g0 += w0 * e[1], b0 += w0 * e[2];
+        for (int j = 0; j < 3; j++)
+            lo = e[j] < lo ? e[j] : lo;
+    }
+    acc[0] = r0 + r1, acc[1] = g0 + g1, acc[2] = b0 + b1;
+    return lo >= 0 && isfinite(acc[0]) && isfinite(acc[1]) && isfinite(acc[2]);
+}
+
 /* w = Vᵀ E (3×k), validating E; nz[p] = 1 where w_p ≠ 0 (m_emit of them). With prev, also
  * ch[p] = 1 where the patch's emission changed (m_changed) and dw = Vᵀ(E − prev). */
 static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
@@ -258,17 +287,20 @@ static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
     for (size_t p = 0; p < k; p++) {
         double acc[3] = {0, 0, 0}, dacc[3] = {0, 0, 0};
         int changed = 0;
-        for (size_t i = first[p]; i < first[p + 1]; i++)
-            for (int c = 0; c < 3; c++) {
-                float e = E[3 * i + c], v = op->weight[i];
-                if (!(e >= 0.0f) || !isfinite(e))
-                    bad = bad < 3 * i + c ? bad : 3 * i + c;
-                acc[c] += v * e;
-                if (prev && e != prev[3 * i + c]) {
-                    changed = 1;
-                    dacc[c] += v * ((double)e - prev[3 * i + c]);
+        if (prev || !segment_sum(op->weight, E, first[p], first[p + 1], acc)) {
+            acc[0] = acc[1] = acc[2] = 0;
+            for (size_t i = first[p]; i < first[p + 1]; i++)
+                for (int c = 0; c < 3; c++) {
+                    float e = E[3 * i + c], v = op->weight[i];
+                    if (!(e >= 0.0f) || !isfinite(e))
+                        bad = bad < 3 * i + c ? bad : 3 * i + c;
+                    acc[c] += v * e;
+                    if (prev && e != prev[3 * i + c]) {
+                        changed = 1;
+                        dacc[c] += v * ((double)e - prev[3 * i + c]);
+                    }
                 }
-            }
+        }
         for (int c = 0; c < 3; c++) {
             s->w[c * k + p] = (float)acc[c];
             s->dw[c * k + p] = (float)dacc[c];
