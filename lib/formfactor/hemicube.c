@@ -226,7 +226,7 @@ static inline __attribute__((always_inline)) int edge_span(const edge_fn *e, dou
 #define SPAN_ROWS 64 /* rows per lrr__hemi_depth_rows */
 
 static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, float *depth,
-                       int32_t *item, int simd)
+                       int32_t *item, const lrr__hemi_codes *lc, int simd)
 {
     double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
     if (area == 0 || !isfinite(area))
@@ -266,7 +266,7 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
                 span[2 * (yy - y)] = L;
                 span[2 * (yy - y) + 1] = R;
             }
-            lrr__hemi_depth_rows(abc, vz, inv_area, y, ye, span, W, depth, item, id, simd);
+            lrr__hemi_depth_rows(abc, vz, inv_area, y, ye, span, W, depth, item, id, lc, simd);
         }
         return;
     }
@@ -293,6 +293,51 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
 /* ------------------------------------------------------------------ one hemicube */
 typedef lrr__hemi_face face;
 typedef lrr__hemi_ctx hemi_ctx;
+
+/* The barycentric coordinates of the point that pixel (sx, sy) of a face shows on a
+ * triangle's plane, as ratios of linear functions of (sx, sy): with dir = sx·right + sy·up +
+ * fwd, w0 = v0 − x, c = n·w0 and α_j the dual basis of (e1, e2) (Gram inverse), the ray
+ * x + t·dir meets the plane at t = c / n·dir, so b_j = (c·dir·α_j − (w0·α_j)·n·dir) / n·dir.
+ * Set up once per run of pixels showing the same triangle: 9 coefficients instead of a
+ * ray-plane intersection per pixel (that was 36% of a Cornell R 64 profile). */
+typedef struct {
+    double b1[3], b2[3], den[3]; /* coefficients of sx, sy, 1 */
+} bary_plane;
+
+static void bary_setup(const tri_info *ti, const double x[3], const face *f, bary_plane *bp)
+{
+    double w0[3] = {ti->v0[0] - x[0], ti->v0[1] - x[1], ti->v0[2] - x[2]}, a1[3], a2[3];
+    for (int j = 0; j < 3; j++) {
+        a1[j] = (ti->g22 * ti->e1[j] - ti->g12 * ti->e2[j]) * ti->inv;
+        a2[j] = (ti->g11 * ti->e2[j] - ti->g12 * ti->e1[j]) * ti->inv;
+    }
+    const double c = lrr__dot3(ti->n, w0), w1 = lrr__dot3(w0, a1), w2 = lrr__dot3(w0, a2);
+    const double *basis[3] = {f->right, f->up, f->fwd};
+    for (int m = 0; m < 3; m++) {
+        double nd = lrr__dot3(ti->n, basis[m]);
+        bp->den[m] = nd;
+        bp->b1[m] = c * lrr__dot3(basis[m], a1) - w1 * nd;
+        bp->b2[m] = c * lrr__dot3(basis[m], a2) - w2 * nd;
+    }
+}
+
+/* The leaves of triangle t: depth[t] levels for patches, depth[t] + levels for subpatches. */
+static inline unsigned leaf_depth(const hemi_ctx *h, size_t t)
+{
+    return h->g->depth[t] + (h->by_subpatch ? h->g->levels : 0);
+}
+
+/* The patch (or subpatch) of leaf `leaf` of triangle t; the uniform quadtree's inline. */
+static inline size_t leaf_target(const hemi_ctx *h, size_t t, size_t leaf)
+{
+    const lrr__geometry *g = h->g;
+    if (h->by_subpatch)
+        return lrr__subpatch_id(g, g->sub0[t] + leaf);
+    if (!g->origin && !g->node)
+        return g->patch0[t] + leaf;
+    return lrr__patch_of_leaf(g, t, leaf);
+}
+
 
 static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t, int32_t id)
 {
@@ -344,52 +389,24 @@ static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t,
         s[i].y = f->side ? tmp[i].y * iz * half : (tmp[i].y * iz + 1) * half;
         s[i].iz = iz;
     }
+    /* the SIMD depth test writes the leaf codes of a triangle with a cell table (the
+       integration then runs no leaf pass for it) */
+    lrr__hemi_codes lc, *lcp = NULL;
+    const unsigned depth = leaf_depth(h, t);
+    if (h->simd && id >= 0 && depth >= 1 && depth <= LRR__LEAF_TABLE_DEPTH) {
+        bary_plane bp;
+        bary_setup(&h->tri[t], x, f, &bp);
+        memcpy(lc.b1, bp.b1, sizeof lc.b1);
+        memcpy(lc.b2, bp.b2, sizeof lc.b2);
+        memcpy(lc.den, bp.den, sizeof lc.den);
+        lc.sxt = h->sx;
+        lc.syt = f->sy;
+        lc.depth = depth;
+        lc.code = f->code;
+        lcp = &lc;
+    }
     for (int i = 1; i + 1 < n; i++)
-        raster_tri(s[0], s[i], s[i + 1], id, f->W, f->H, f->depth, f->item, h->simd);
-}
-
-/* The barycentric coordinates of the point that pixel (sx, sy) of a face shows on a
- * triangle's plane, as ratios of linear functions of (sx, sy): with dir = sx·right + sy·up +
- * fwd, w0 = v0 − x, c = n·w0 and α_j the dual basis of (e1, e2) (Gram inverse), the ray
- * x + t·dir meets the plane at t = c / n·dir, so b_j = (c·dir·α_j − (w0·α_j)·n·dir) / n·dir.
- * Set up once per run of pixels showing the same triangle: 9 coefficients instead of a
- * ray-plane intersection per pixel (that was 36% of a Cornell R 64 profile). */
-typedef struct {
-    double b1[3], b2[3], den[3]; /* coefficients of sx, sy, 1 */
-} bary_plane;
-
-static void bary_setup(const tri_info *ti, const double x[3], const face *f, bary_plane *bp)
-{
-    double w0[3] = {ti->v0[0] - x[0], ti->v0[1] - x[1], ti->v0[2] - x[2]}, a1[3], a2[3];
-    for (int j = 0; j < 3; j++) {
-        a1[j] = (ti->g22 * ti->e1[j] - ti->g12 * ti->e2[j]) * ti->inv;
-        a2[j] = (ti->g11 * ti->e2[j] - ti->g12 * ti->e1[j]) * ti->inv;
-    }
-    const double c = lrr__dot3(ti->n, w0), w1 = lrr__dot3(w0, a1), w2 = lrr__dot3(w0, a2);
-    const double *basis[3] = {f->right, f->up, f->fwd};
-    for (int m = 0; m < 3; m++) {
-        double nd = lrr__dot3(ti->n, basis[m]);
-        bp->den[m] = nd;
-        bp->b1[m] = c * lrr__dot3(basis[m], a1) - w1 * nd;
-        bp->b2[m] = c * lrr__dot3(basis[m], a2) - w2 * nd;
-    }
-}
-
-/* The leaves of triangle t: depth[t] levels for patches, depth[t] + levels for subpatches. */
-static inline unsigned leaf_depth(const hemi_ctx *h, size_t t)
-{
-    return h->g->depth[t] + (h->by_subpatch ? h->g->levels : 0);
-}
-
-/* The patch (or subpatch) of leaf `leaf` of triangle t; the uniform quadtree's inline. */
-static inline size_t leaf_target(const hemi_ctx *h, size_t t, size_t leaf)
-{
-    const lrr__geometry *g = h->g;
-    if (h->by_subpatch)
-        return lrr__subpatch_id(g, g->sub0[t] + leaf);
-    if (!g->origin && !g->node)
-        return g->patch0[t] + leaf;
-    return lrr__patch_of_leaf(g, t, leaf);
+        raster_tri(s[0], s[i], s[i + 1], id, f->W, f->H, f->depth, f->item, lcp, h->simd);
 }
 
 /* ------------------------------------------------------------------ leaves of a row
@@ -491,6 +508,23 @@ static inline int next_break(const uint64_t *mask, int from, int n)
     return w * 64 + __builtin_ctzll(bits);
 }
 
+/* Pixels a..b of the face row show triangle t, whose codes the depth test wrote (crow, their
+ * change mask cbrk): runs of one code, split as integrate_run splits them. */
+static void coded_run(integ *in, size_t t, unsigned depth, const uint32_t *crow,
+                      const uint64_t *cbrk, int a, int b)
+{
+    const uint16_t *cells = in->h->cells + cell_offset(depth);
+    for (int c = a; c <= b; c += CHUNK) {
+        const int ce = b - c < CHUNK ? b : c + CHUNK - 1;
+        for (int x = c; x <= ce;) {
+            int e = next_break(cbrk, x + 1, ce + 1);
+            e = e > ce + 1 ? ce + 1 : e;
+            put(in, t, lrr__hemi_leaf_of(crow[x], cells), x, e - 1);
+            x = e;
+        }
+    }
+}
+
 /* Pixels a..b of the face row (height sy) all show triangle t. */
 static void integrate_run(integ *in, const bary_plane *bp, size_t t, double sy, int a, int b)
 {
@@ -540,7 +574,6 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
         }
         return back;
     }
-    const double half = 0.5 * f->W;
     integ in = {h, f, row, NULL, 0, SIZE_MAX, 0, SIZE_MAX};
     /* the face's bary_planes by triangle id mod BARY_CACHE: a row's runs alternate between a
      * few triangles (one set-up per run was 5% of a Cornell R 32 profile) */
@@ -548,17 +581,23 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
     int32_t set_for[BARY_CACHE]; /* the triangle each is set up for */
     for (int c = 0; c < BARY_CACHE; c++)
         set_for[c] = -1;
-    uint64_t brk[4096 / 64]; /* W <= 4096 (lrr__multiplier_map_create) */
+    uint64_t brk[4096 / 64], cbrk[4096 / 64]; /* W <= 4096 (lrr__multiplier_map_create) */
     for (int y = 0; y < f->H; y++) {
-        const double sy = f->side ? (y + 0.5) / half : (y + 0.5) / half - 1;
+        const double sy = f->sy[y];
         in.row0 = (size_t)y * f->W;
         in.pre = f->prefix + (size_t)y * (f->W + 1);
         const int32_t *item = f->item + in.row0;
+        const uint32_t *crow = f->code + in.row0;
         lrr__hemi_breaks(item, f->W, brk, h->simd);
+        if (h->simd) /* where the depth test's codes change (render_face) */
+            lrr__hemi_breaks((const int32_t *)crow, f->W, cbrk, h->simd);
         for (int xx = 0; xx < f->W;) {
             const int32_t id = item[xx];
             const int end = next_break(brk, xx + 1, f->W);
-            if (id >= 0) {
+            const unsigned depth = id >= 0 ? leaf_depth(h, (size_t)id) : 0;
+            if (h->simd && depth >= 1 && depth <= LRR__LEAF_TABLE_DEPTH) {
+                coded_run(&in, (size_t)id, depth, crow, cbrk, xx, end - 1);
+            } else if (id >= 0) {
                 const int c = id % BARY_CACHE;
                 if (id != set_for[c]) {
                     bary_setup(&h->tri[id], x, f, &bpc[c]);
@@ -577,6 +616,7 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
 typedef struct {
     float *depth;
     int32_t *item;
+    uint32_t *code;
     double *row;
 } scratch;
 
@@ -665,10 +705,12 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         f->W = (int)R;
         f->H = fi == 0 ? (int)R : (int)R / 2;
         f->side = fi != 0;
+        f->sy = fi == 0 ? h->sy_top : h->sy_side;
         f->weight = fi == 0 ? h->mm->top : h->mm->side;
         f->prefix = fi == 0 ? h->pre_top : h->pre_side;
         f->depth = sc->depth + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
         f->item = sc->item + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
+        f->code = sc->code + (fi == 0 ? 0 : rr + (size_t)(fi - 1) * rr / 2);
         if (fi == 0) {
             memcpy(f->fwd, N, sizeof N);
             memcpy(f->right, U, sizeof U);
@@ -787,7 +829,8 @@ static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_bui
         #pragma omp parallel num_threads(nthreads)
         {
             scratch sc = {0};
-            if (lrr__calloc(ctx, &sc.depth, P, sizeof(float), "hemicube depth buffer")) {
+            if (lrr__calloc(ctx, &sc.depth, P, sizeof(float), "hemicube depth buffer") ||
+                lrr__calloc(ctx, &sc.code, P, sizeof(uint32_t), "hemicube code buffer")) {
                 #pragma omp atomic write
                 failed = 1;
             }
@@ -800,6 +843,7 @@ static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_bui
                              back ? back + i : NULL);
             }
             lrr_aligned_free(sc.depth);
+            lrr_aligned_free(sc.code);
         }
         if (failed) {
             st = LRR_ERR_NOMEM;
@@ -899,6 +943,7 @@ static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_
         scratch sc = {0};
         int ok = lrr__calloc(ctx, &sc.depth, rr * 3, sizeof(float), "hemicube depth buffer") == 0 &&
                  lrr__calloc(ctx, &sc.item, rr * 3, sizeof(int32_t), "hemicube item buffer") == 0 &&
+                 lrr__calloc(ctx, &sc.code, rr * 3, sizeof(uint32_t), "hemicube code buffer") == 0 &&
                  lrr__calloc(ctx, &sc.row, cols, sizeof(double), "hemicube row") == 0;
         if (!ok) {
             #pragma omp atomic write
@@ -926,6 +971,7 @@ static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_
         }
         lrr_aligned_free(sc.depth);
         lrr_aligned_free(sc.item);
+        lrr_aligned_free(sc.code);
         lrr_aligned_free(sc.row);
     }
     if (failed)
@@ -983,7 +1029,7 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
     uint16_t *cells = NULL;
     double *sx = NULL, *pre = NULL;
     if (!rc && ((st = cell_table(ctx, &cells)) ||
-                (st = lrr__calloc(ctx, &sx, R, sizeof *sx, "hemicube pixel columns")) ||
+                (st = lrr__calloc(ctx, &sx, 3 * (size_t)R, sizeof *sx, "hemicube pixel columns")) ||
                 (st = prefix_maps(ctx, &mm, &pre)))) {
         lrr_aligned_free(sx);
         lrr_aligned_free(cells);
@@ -992,10 +1038,17 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
         return st;
     }
     hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc, lrr__hemi_simd(),
-                  cells, sx, pre, pre ? pre + (size_t)R * (R + 1) : NULL};
-    /* pixel column x looks along sx = (x + 0.5)/(R/2) − 1 (every face is R wide) */
-    for (unsigned c = 0; sx && c < R; c++)
-        sx[c] = (c + 0.5) / (0.5 * R) - 1;
+                  cells, sx, sx ? sx + R : NULL, sx ? sx + 2 * (size_t)R : NULL, pre,
+                  pre ? pre + (size_t)R * (R + 1) : NULL};
+    /* pixel column x looks along sx = (x + 0.5)/(R/2) − 1 (every face is R wide), row y
+     * along sy = that on the top face, (y + 0.5)/(R/2) on a side (a division per row of each
+     * triangle in the depth test, else) */
+    for (unsigned c = 0; sx && c < R; c++) {
+        const double half = 0.5 * R;
+        sx[c] = (c + 0.5) / half - 1;
+        sx[R + c] = (c + 0.5) / half - 1;
+        sx[2 * (size_t)R + c] = (c + 0.5) / half;
+    }
     /* the device integration takes the same item buffers, rasterised or ray cast */
     st = on_device ? device_rows(ctx, &h, opts, out, back)
                    : cpu_rows(ctx, &h, opts, rows, count, out, back);

@@ -20,6 +20,7 @@ typedef struct lrr__hemi_face {
     double right[3], up[3], fwd[3];
     int W, H;              /* pixels */
     int side;              /* 0 top: rows span [-1,1]; 1 side: rows span heights [0,1] */
+    const double *sy;      /* per row: its sy (hemi_ctx's sy_top or sy_side) */
     const double *weight;  /* multiplier map of this face */
     const double *prefix;  /* per row y, W + 1 running sums of weight from 0 (hemi_ctx's
                               prefix maps; unused by rays) */
@@ -27,6 +28,8 @@ typedef struct lrr__hemi_face {
     int32_t *item;         /* per pixel, what is seen from the front: the triangle
                               (rasteriser) or already its patch (ray caster); else
                               LRR__ITEM_NONE or LRR__ITEM_BACK */
+    uint32_t *code;        /* per pixel where the item is a triangle with codes (SIMD
+                              rasteriser, lrr__hemi_depth_rows): its leaf code */
 } lrr__hemi_face;
 
 /* Item-buffer markers: nothing seen (or a triangle edge-on), or the back of a triangle,
@@ -48,6 +51,7 @@ typedef struct lrr__hemi_ctx {
     const uint16_t *cells; /* the rasteriser's leaves of the regular grids (hemicube.c's
                               cell_table) */
     const double *sx;      /* per pixel column x: (x + 0.5)/(R/2) − 1, as the faces have it */
+    const double *sy_top, *sy_side; /* per pixel row y: sy of the top face and of the sides */
     const double *pre_top, *pre_side; /* the multiplier maps' prefix sums per row (R + 1
                                          per row, from 0): a run's weight in O(1) */
 } lrr__hemi_ctx;
@@ -99,12 +103,25 @@ void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, 
  * depth and item point at the row. Bit-identical to the scalar loop. */
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
                           int L, int R, float *depth, int32_t *item, int32_t id, int simd);
+/* What lrr__hemi_depth_rows needs to write a triangle's leaf codes where it wins the depth
+ * test: its barycentric plane on the face (hemicube.c's bary_plane), the face's sx and sy
+ * per column and row, its leaf depth (1..LRR__LEAF_TABLE_DEPTH) and the face's code buffer
+ * (W a row). */
+typedef struct {
+    double b1[3], b2[3], den[3];
+    const double *sxt, *syt; /* hemi_ctx.sx, the face's sy */
+    unsigned depth;
+    uint32_t *code;
+} lrr__hemi_codes;
 /* lrr__hemi_depth_span of rows y0..y1 at py = y + 0.5, row y's pixels span[2(y − y0)] ..
  * span[2(y − y0) + 1] (none when the first is greater); depth and item point at the face
- * (W pixels a row). */
+ * (W pixels a row). With lc, also code[pixel] for the pixels it wins: the code
+ * lrr__hemi_leaves_run gives that pixel (with the cell table), so the integration needs no
+ * per-run leaf pass (that pass's set-up per run of a triangle was most of its time: ~150
+ * cycles a run against ~2.6 a pixel, Cornell R 64/128). */
 void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
                           int y1, const int32_t *span, int W, float *depth, int32_t *item,
-                          int32_t id, int simd);
+                          int32_t id, const lrr__hemi_codes *lc, int simd);
 
 /* An Embree scene (robust, watertight) of g's triangles, built once per form-factor build;
  * diag is the scene's bounding-box diagonal (for the ray origins' offset). */

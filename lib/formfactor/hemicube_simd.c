@@ -62,6 +62,89 @@ __attribute__((target("avx2"))) static inline __m256d descend4(__m256d b0, __m25
     return idx;
 }
 
+/* A triangle's leaf codes, four pixels at a time (leaves_run4, depth_rows4): its constants
+ * (a row's k1·sy go by value, as in codes8_k) */
+typedef struct {
+    __m256d d0, d2, p0, p2, q0, q2, sv, need, up, down;
+    unsigned depth;
+    int table; /* 1: codes with the cell table (lrr__hemi_leaf_of), 0: leaves */
+} codes4_k;
+
+__attribute__((target("avx2"))) static inline void codes4_setup(codes4_k *k, const double b1k[3],
+                                                               const double b2k[3],
+                                                               const double denk[3],
+                                                               unsigned depth, int table)
+{
+    k->d0 = _mm256_set1_pd(denk[0]), k->d2 = _mm256_set1_pd(denk[2]);
+    k->p0 = _mm256_set1_pd(b1k[0]), k->p2 = _mm256_set1_pd(b1k[2]);
+    k->q0 = _mm256_set1_pd(b2k[0]), k->q2 = _mm256_set1_pd(b2k[2]);
+    const double s = (double)((uint64_t)1 << depth);
+    k->sv = _mm256_set1_pd(s), k->need = _mm256_set1_pd(0x1p-40 * s),
+    k->up = _mm256_set1_pd(s - 1), k->down = _mm256_set1_pd(s - 2);
+    k->depth = depth;
+    k->table = table;
+}
+
+/* The codes of four pixels at columns sx, lane by lane as codes8 (a lane in a cell keeps its
+ * code when another descends), into out[0..3]. */
+__attribute__((target("avx2"))) static inline void codes4(const codes4_k *k, __m256d d1,
+                                                         __m256d p1, __m256d q1, __m256d sx,
+                                                         uint32_t out[4])
+{
+    /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy (d1, p1, q1) is the row's one product */
+    const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
+    __m256d r = _mm256_div_pd(one, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(k->d0, sx), d1), k->d2));
+    __m256d b1 = _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(k->p0, sx), p1), k->p2), r);
+    __m256d b2 = _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(k->q0, sx), q1), k->q2), r);
+    /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
+    b1 = _mm256_and_pd(b1, _mm256_cmp_pd(b1, zero, _CMP_GT_OQ));
+    b2 = _mm256_and_pd(b2, _mm256_cmp_pd(b2, zero, _CMP_GT_OQ));
+    b1 = _mm256_blendv_pd(b1, one, _mm256_cmp_pd(b1, one, _CMP_GT_OQ));
+    b2 = _mm256_blendv_pd(b2, one, _mm256_cmp_pd(b2, one, _CMP_GT_OQ));
+    __m256d b0 = _mm256_sub_pd(_mm256_sub_pd(one, b1), b2);
+    __m256d neg = _mm256_cmp_pd(b0, zero, _CMP_LT_OQ);
+    if (_mm256_movemask_pd(neg)) {
+        __m256d sum = _mm256_add_pd(b1, b2);
+        b1 = _mm256_blendv_pd(b1, _mm256_div_pd(b1, sum), neg);
+        b2 = _mm256_blendv_pd(b2, _mm256_div_pd(b2, sum), neg);
+        b0 = _mm256_blendv_pd(b0, zero, neg);
+    }
+    int okm = 0;
+    if (k->table) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
+        const __m256d sv = k->sv;
+        __m256d t0 = _mm256_mul_pd(b0, sv), t1 = _mm256_mul_pd(b1, sv), t2 = _mm256_mul_pd(b2, sv);
+        __m256d i0 = _mm256_round_pd(t0, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
+                i1 = _mm256_round_pd(t1, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
+                i2 = _mm256_round_pd(t2, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+        __m256d f0 = _mm256_sub_pd(t0, i0), f1 = _mm256_sub_pd(t1, i1), f2 = _mm256_sub_pd(t2, i2);
+        __m256d m = _mm256_min_pd(_mm256_min_pd(_mm256_min_pd(f0, _mm256_sub_pd(one, f0)),
+                                                _mm256_min_pd(f1, _mm256_sub_pd(one, f1))),
+                                  _mm256_min_pd(f2, _mm256_sub_pd(one, f2)));
+        __m256d sum = _mm256_add_pd(_mm256_add_pd(i0, i1), i2);
+        __m256d isdown = _mm256_cmp_pd(sum, k->down, _CMP_EQ_OQ);
+        __m256d ok = _mm256_and_pd(
+            _mm256_and_pd(_mm256_cmp_pd(m, k->need, _CMP_GE_OQ),
+                          _mm256_or_pd(_mm256_cmp_pd(sum, k->up, _CMP_EQ_OQ), isdown)),
+            _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(b0, zero, _CMP_GT_OQ),
+                                        _mm256_cmp_pd(b1, zero, _CMP_GT_OQ)),
+                          _mm256_cmp_pd(b2, zero, _CMP_GT_OQ)));
+        okm = _mm256_movemask_pd(ok);
+        if (okm) {
+            __m256d cell = _mm256_add_pd(
+                _mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(i1, sv), i2), _mm256_set1_pd(2.0)),
+                _mm256_and_pd(isdown, one));
+            _mm_storeu_si128((__m128i *)out, _mm256_cvttpd_epi32(cell)); /* the cells: codes */
+        }
+    }
+    if (okm != 15) { /* leaves, marked when there is a table (lrr__hemi_leaf_of) */
+        double idx[4];
+        _mm256_storeu_pd(idx, descend4(b0, b1, b2, k->depth));
+        for (int j = 0; j < 4; j++)
+            if (!(okm >> j & 1))
+                out[j] = (uint32_t)idx[j] | (k->table ? LRR__LEAF_DESCENT : 0);
+    }
+}
+
 __attribute__((target("avx2"))) static void leaves_run4(const double b1k[3], const double b2k[3],
                                                        const double denk[3], const double *sxt,
                                                        double sy, int a, int b, unsigned depth,
@@ -72,16 +155,10 @@ __attribute__((target("avx2"))) static void leaves_run4(const double b1k[3], con
      * 1.5% more instructions in a Cornell R 32 LRR_SIMD=avx2 run (callgrind 1.894G → 1.866G) */
     memset(brk, 0, (size_t)(b - a + 64) / 64 * sizeof *brk);
     __m128i prev = _mm_setzero_si128(); /* whatever it holds: bit 0 is set at the end */
-    const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
-    /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy is the same product at every pixel */
-    const __m256d d0 = _mm256_set1_pd(denk[0]), d1 = _mm256_set1_pd(denk[1] * sy),
-                  d2 = _mm256_set1_pd(denk[2]), p0 = _mm256_set1_pd(b1k[0]),
-                  p1 = _mm256_set1_pd(b1k[1] * sy), p2 = _mm256_set1_pd(b1k[2]),
-                  q0 = _mm256_set1_pd(b2k[0]), q1 = _mm256_set1_pd(b2k[1] * sy),
-                  q2 = _mm256_set1_pd(b2k[2]);
-    const double s = (double)((uint64_t)1 << depth);
-    const __m256d sv = _mm256_set1_pd(s), need = _mm256_set1_pd(0x1p-40 * s),
-                  up = _mm256_set1_pd(s - 1), down = _mm256_set1_pd(s - 2);
+    codes4_k k;
+    codes4_setup(&k, b1k, b2k, denk, depth, cells != NULL);
+    const __m256d d1 = _mm256_set1_pd(denk[1] * sy), p1 = _mm256_set1_pd(b1k[1] * sy),
+                  q1 = _mm256_set1_pd(b2k[1] * sy);
     for (int x = a; x <= b; x += 4) {
         __m256d sx;
         if (x + 3 <= b)
@@ -89,60 +166,8 @@ __attribute__((target("avx2"))) static void leaves_run4(const double b1k[3], con
         else /* past the run: repeat its last pixel, whose leaf is dropped */
             sx = _mm256_setr_pd(sxt[x], sxt[x + 1 <= b ? x + 1 : b], sxt[x + 2 <= b ? x + 2 : b],
                                 sxt[b]);
-        __m256d r = _mm256_div_pd(one, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d0, sx), d1), d2));
-        __m256d b1 = _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(p0, sx), p1), p2), r);
-        __m256d b2 = _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(q0, sx), q1), q2), r);
-        /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
-        b1 = _mm256_and_pd(b1, _mm256_cmp_pd(b1, zero, _CMP_GT_OQ));
-        b2 = _mm256_and_pd(b2, _mm256_cmp_pd(b2, zero, _CMP_GT_OQ));
-        b1 = _mm256_blendv_pd(b1, one, _mm256_cmp_pd(b1, one, _CMP_GT_OQ));
-        b2 = _mm256_blendv_pd(b2, one, _mm256_cmp_pd(b2, one, _CMP_GT_OQ));
-        __m256d b0 = _mm256_sub_pd(_mm256_sub_pd(one, b1), b2);
-        __m256d neg = _mm256_cmp_pd(b0, zero, _CMP_LT_OQ);
-        if (_mm256_movemask_pd(neg)) {
-            __m256d sum = _mm256_add_pd(b1, b2);
-            b1 = _mm256_blendv_pd(b1, _mm256_div_pd(b1, sum), neg);
-            b2 = _mm256_blendv_pd(b2, _mm256_div_pd(b2, sum), neg);
-            b0 = _mm256_blendv_pd(b0, zero, neg);
-        }
         uint32_t out[4];
-        int done = 0;
-        if (cells) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
-            __m256d t0 = _mm256_mul_pd(b0, sv), t1 = _mm256_mul_pd(b1, sv),
-                    t2 = _mm256_mul_pd(b2, sv);
-            __m256d i0 = _mm256_round_pd(t0, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
-                    i1 = _mm256_round_pd(t1, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
-                    i2 = _mm256_round_pd(t2, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-            __m256d f0 = _mm256_sub_pd(t0, i0), f1 = _mm256_sub_pd(t1, i1),
-                    f2 = _mm256_sub_pd(t2, i2);
-            __m256d m = _mm256_min_pd(_mm256_min_pd(_mm256_min_pd(f0, _mm256_sub_pd(one, f0)),
-                                                    _mm256_min_pd(f1, _mm256_sub_pd(one, f1))),
-                                      _mm256_min_pd(f2, _mm256_sub_pd(one, f2)));
-            __m256d sum = _mm256_add_pd(_mm256_add_pd(i0, i1), i2);
-            __m256d isdown = _mm256_cmp_pd(sum, down, _CMP_EQ_OQ);
-            __m256d ok = _mm256_and_pd(
-                _mm256_and_pd(_mm256_cmp_pd(m, need, _CMP_GE_OQ),
-                              _mm256_or_pd(_mm256_cmp_pd(sum, up, _CMP_EQ_OQ), isdown)),
-                _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(b0, zero, _CMP_GT_OQ),
-                                            _mm256_cmp_pd(b1, zero, _CMP_GT_OQ)),
-                              _mm256_cmp_pd(b2, zero, _CMP_GT_OQ)));
-            if (_mm256_movemask_pd(ok) == 15) {
-                __m256d cell = _mm256_add_pd(
-                    _mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(i1, sv), i2), _mm256_set1_pd(2.0)),
-                    _mm256_and_pd(isdown, one));
-                int ci[4];
-                _mm_storeu_si128((__m128i *)ci, _mm256_cvttpd_epi32(cell));
-                for (int j = 0; j < 4; j++)
-                    out[j] = (uint32_t)ci[j]; /* the cell: its code */
-                done = 1;
-            }
-        }
-        if (!done) { /* leaves, marked when there is a table (lrr__hemi_leaf_of) */
-            double idx[4];
-            _mm256_storeu_pd(idx, descend4(b0, b1, b2, depth));
-            for (int j = 0; j < 4; j++)
-                out[j] = (uint32_t)idx[j] | (cells ? LRR__LEAF_DESCENT : 0);
-        }
+        codes4(&k, d1, p1, q1, sx, out);
         for (int j = 0; j < 4 && x + j <= b; j++)
             leaf[x - a + j] = out[j];
         /* lane l against lane l − 1, lane 0 against the last of prev; x − a is a multiple of
@@ -164,9 +189,10 @@ __attribute__((target("avx2"))) static void leaves_run4(const double b1k[3], con
  * row (W pixels a row). The set-up once for all rows, as depth_rows8 (one call per row:
  * 4.6% more instructions in a Cornell R 32 LRR_SIMD=avx2 run, callgrind 1.986G → 1.894G). */
 __attribute__((target("avx2"))) static void depth_rows4(const double abc[9], const double iz[3],
-                                                       double inv_area, double py0, int rows,
-                                                       const int32_t *span, int W, float *depth,
-                                                       int32_t *item, int32_t id)
+                                                       double inv_area, double py0, int y0,
+                                                       int rows, const int32_t *span, int W,
+                                                       float *depth, int32_t *item, int32_t id,
+                                                       const lrr__hemi_codes *lc)
 {
     __m256d A[3], C[3], Z[3];
     for (int k = 0; k < 3; k++) {
@@ -177,9 +203,22 @@ __attribute__((target("avx2"))) static void depth_rows4(const double abc[9], con
     const __m256d ia = _mm256_set1_pd(inv_area), step = _mm256_set1_pd(4.0),
                   offs = _mm256_setr_pd(0.5, 1.5, 2.5, 3.5);
     const __m128i idv = _mm_set1_epi32(id), lanes = _mm_setr_epi32(0, 1, 2, 3);
-    for (int j = 0; j < rows; j++, depth += W, item += W) {
+    uint32_t *crow = lc ? lc->code + (size_t)y0 * W : NULL;
+    codes4_k ck;
+    __m256d cd1 = _mm256_setzero_pd(), cp1 = cd1, cq1 = cd1;
+    if (lc)
+        codes4_setup(&ck, lc->b1, lc->b2, lc->den, lc->depth, 1);
+    for (int j = 0; j < rows; j++, depth += W, item += W, crow += lc ? W : 0) {
         const int L = span[2 * j], R = span[2 * j + 1];
         const double py = py0 + j; /* exact: y + 0.5 */
+        if (L > R)
+            continue;
+        if (lc) { /* the row's sy as integrate_face has it */
+            const double sy = lc->syt[y0 + j];
+            cd1 = _mm256_set1_pd(lc->den[1] * sy);
+            cp1 = _mm256_set1_pd(lc->b1[1] * sy);
+            cq1 = _mm256_set1_pd(lc->b2[1] * sy);
+        }
         __m256d BC[3];
         for (int k = 0; k < 3; k++)
             BC[k] = _mm256_set1_pd(abc[3 * k + 1] * py);
@@ -202,6 +241,17 @@ __attribute__((target("avx2"))) static void depth_rows4(const double abc[9], con
             const __m128i gti = _mm_castps_si128(gt);
             _mm_maskstore_ps(depth + x, gti, zf);
             _mm_maskstore_ps((float *)(item + x), gti, _mm_castsi128_ps(idv));
+            if (lc) { /* the winners' codes; lanes past the span take its last column */
+                const double *sxt = lc->sxt;
+                const __m256d sx =
+                    x + 3 <= R ? _mm256_loadu_pd(sxt + x)
+                               : _mm256_setr_pd(sxt[x], sxt[x + 1 <= R ? x + 1 : R],
+                                                sxt[x + 2 <= R ? x + 2 : R], sxt[R]);
+                uint32_t out[4];
+                codes4(&ck, cd1, cp1, cq1, sx, out);
+                _mm_maskstore_ps((float *)(crow + x), gti,
+                                 _mm_castsi128_ps(_mm_loadu_si128((const __m128i *)out)));
+            }
         }
     }
 }
@@ -212,7 +262,7 @@ __attribute__((target("avx2"))) static void depth_span4(const double abc[9], con
                                                        float *depth, int32_t *item, int32_t id)
 {
     const int32_t span[2] = {L, R};
-    depth_rows4(abc, iz, inv_area, py, 1, span, 0, depth, item, id);
+    depth_rows4(abc, iz, inv_area, py, 0, 1, span, 0, depth, item, id, NULL);
 }
 
 /* lrr__hemi_spans four rows at a time: spans8's steps (see there) with AVX2 compares and
@@ -418,71 +468,97 @@ T512 static inline void put_codes8(__m256i code, __mmask8 lanes, int i, uint32_t
     *prev = code;
 }
 
+/* A triangle's leaf codes, eight pixels at a time (leaves_run8, depth_rows8): its constants
+ * (a row's k1·sy go by value: setting all of these per row of a triangle was ~30k cycles of
+ * a Cornell R 64 hemicube's 140k, their stores) */
+typedef struct {
+    __m512d d0, d2, p0, p2, q0, q2;
+    __m512d sv, need, up, down, m12, m12hi, ulo, uhi;
+    unsigned depth;
+    int table; /* 1: codes with the cell table (lrr__hemi_leaf_of), 0: leaves */
+} codes8_k;
+
+T512 static inline void codes8_setup(codes8_k *k, const double b1k[3], const double b2k[3],
+                                     const double denk[3], unsigned depth, int table)
+{
+    k->d0 = _mm512_set1_pd(denk[0]), k->d2 = _mm512_set1_pd(denk[2]),
+    k->p0 = _mm512_set1_pd(b1k[0]), k->p2 = _mm512_set1_pd(b1k[2]),
+    k->q0 = _mm512_set1_pd(b2k[0]), k->q2 = _mm512_set1_pd(b2k[2]);
+    const double s = (double)((uint64_t)1 << depth);
+    k->sv = _mm512_set1_pd(s), k->need = _mm512_set1_pd(0x1p-40 * s),
+    k->up = _mm512_set1_pd(s - 1), k->down = _mm512_set1_pd(s - 2),
+    k->m12 = _mm512_set1_pd(0x1p-12 * s), k->m12hi = _mm512_set1_pd(1 - 0x1p-12 * s),
+    k->ulo = _mm512_set1_pd(1 - 0x1p-11 * s), k->uhi = _mm512_set1_pd(1 + 0x1p-11 * s);
+    k->depth = depth;
+    k->table = table;
+}
+
+/* The codes of eight pixels at columns sx. Lane by lane: a pixel's code does not depend on
+ * the other lanes (the fast path gives the cell the exact path's table gives), so codes made
+ * in the depth test (depth_rows8) equal leaves_run8's. */
+T512 static inline __m256i codes8(const codes8_k *k, __m512d d1, __m512d p1, __m512d q1,
+                                 __m512d sx)
+{
+    /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy (d1, p1, q1) is the row's one product */
+    const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
+    const __m512d nd = lin8(k->d0, d1, k->d2, sx), n1 = lin8(k->p0, p1, k->p2, sx),
+                  n2 = lin8(k->q0, q1, k->q2, sx);
+    __m512d cell;
+    if (k->table) {
+        const __m512d rc = _mm512_rcp14_pd(nd);
+        const __m512d t1 = _mm512_mul_pd(_mm512_mul_pd(n1, rc), k->sv),
+                      t2 = _mm512_mul_pd(_mm512_mul_pd(n2, rc), k->sv);
+        __m256i code;
+        if (fast_cells8(t1, t2, k->sv, k->up, k->m12, k->m12hi, k->ulo, k->uhi, &code) == 0xFF)
+            return code;
+    }
+    const __m512d r = _mm512_div_pd(one, nd);
+    __m512d b1 = _mm512_mul_pd(n1, r);
+    __m512d b2 = _mm512_mul_pd(n2, r);
+    /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
+    b1 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ), b1);
+    b2 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ), b2);
+    b1 = _mm512_mask_mov_pd(b1, _mm512_cmp_pd_mask(b1, one, _CMP_GT_OQ), one);
+    b2 = _mm512_mask_mov_pd(b2, _mm512_cmp_pd_mask(b2, one, _CMP_GT_OQ), one);
+    __m512d b0 = _mm512_sub_pd(_mm512_sub_pd(one, b1), b2);
+    const __mmask8 neg = _mm512_cmp_pd_mask(b0, zero, _CMP_LT_OQ);
+    if (neg) {
+        const __m512d sum = _mm512_add_pd(b1, b2);
+        b1 = _mm512_mask_div_pd(b1, neg, b1, sum);
+        b2 = _mm512_mask_div_pd(b2, neg, b2, sum);
+        b0 = _mm512_mask_mov_pd(b0, neg, zero);
+    }
+    __mmask8 ok = 0;
+    if (k->table) /* the cell's leaf from the table, where the margin allows (hemicube.c) */
+        ok = cells8(_mm512_mul_pd(b0, k->sv), _mm512_mul_pd(b1, k->sv),
+                    _mm512_mul_pd(b2, k->sv), k->sv, k->up, k->down, k->need, k->need, &cell);
+    __m256i code = k->table ? _mm512_cvttpd_epi32(cell) : _mm256_setzero_si256();
+    if (ok != 0xFF) { /* the others descend: their leaves, marked when there is a table */
+        __m256i idx = _mm512_cvttpd_epu32(descend8(b0, b1, b2, k->depth));
+        if (k->table)
+            idx = _mm256_or_si256(idx, _mm256_set1_epi32((int)LRR__LEAF_DESCENT));
+        code = _mm256_mask_mov_epi32(idx, ok, code);
+    }
+    return code;
+}
+
 T512 static void leaves_run8(const double b1k[3], const double b2k[3], const double denk[3],
                              const double *sxt, double sy, int a, int b, unsigned depth,
                              const uint16_t *cells, uint32_t *leaf, uint64_t *brk)
 {
     memset(brk, 0, (size_t)(b - a + 64) / 64 * sizeof *brk);
     __m256i prev = _mm256_setzero_si256(); /* whatever it holds: bit 0 is set at the end */
-    const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
-    const __m512d d0 = _mm512_set1_pd(denk[0]), d1 = _mm512_set1_pd(denk[1] * sy),
-                  d2 = _mm512_set1_pd(denk[2]), p0 = _mm512_set1_pd(b1k[0]),
-                  p1 = _mm512_set1_pd(b1k[1] * sy), p2 = _mm512_set1_pd(b1k[2]),
-                  q0 = _mm512_set1_pd(b2k[0]), q1 = _mm512_set1_pd(b2k[1] * sy),
-                  q2 = _mm512_set1_pd(b2k[2]);
-    const double s = (double)((uint64_t)1 << depth);
-    const __m512d sv = _mm512_set1_pd(s), need = _mm512_set1_pd(0x1p-40 * s),
-                  up = _mm512_set1_pd(s - 1), down = _mm512_set1_pd(s - 2),
-                  m12 = _mm512_set1_pd(0x1p-12 * s), m12hi = _mm512_set1_pd(1 - 0x1p-12 * s),
-                  ulo = _mm512_set1_pd(1 - 0x1p-11 * s), uhi = _mm512_set1_pd(1 + 0x1p-11 * s);
+    codes8_k k;
+    codes8_setup(&k, b1k, b2k, denk, depth, cells != NULL);
+    const __m512d d1 = _mm512_set1_pd(denk[1] * sy), p1 = _mm512_set1_pd(b1k[1] * sy),
+                  q1 = _mm512_set1_pd(b2k[1] * sy);
     const __m512d last = _mm512_set1_pd(sxt[b]);
-    const __m256i descent = _mm256_set1_epi32((int)LRR__LEAF_DESCENT);
     for (int x = a; x <= b; x += 8) {
         const int n = b - x + 1 < 8 ? b - x + 1 : 8;
         const __mmask8 lanes = (__mmask8)((1u << n) - 1);
         /* past the run: its last pixel, whose leaf is dropped */
         const __m512d sx = _mm512_mask_loadu_pd(last, lanes, sxt + x);
-        const __m512d nd = lin8(d0, d1, d2, sx), n1 = lin8(p0, p1, p2, sx),
-                      n2 = lin8(q0, q1, q2, sx);
-        __m512d cell;
-        if (cells) {
-            const __m512d rc = _mm512_rcp14_pd(nd);
-            const __m512d t1 = _mm512_mul_pd(_mm512_mul_pd(n1, rc), sv),
-                          t2 = _mm512_mul_pd(_mm512_mul_pd(n2, rc), sv);
-            __m256i code;
-            if (fast_cells8(t1, t2, sv, up, m12, m12hi, ulo, uhi, &code) == 0xFF) {
-                put_codes8(code, lanes, x - a, leaf, brk, &prev);
-                continue;
-            }
-        }
-        const __m512d r = _mm512_div_pd(one, nd);
-        __m512d b1 = _mm512_mul_pd(n1, r);
-        __m512d b2 = _mm512_mul_pd(n2, r);
-        /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
-        b1 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ), b1);
-        b2 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ), b2);
-        b1 = _mm512_mask_mov_pd(b1, _mm512_cmp_pd_mask(b1, one, _CMP_GT_OQ), one);
-        b2 = _mm512_mask_mov_pd(b2, _mm512_cmp_pd_mask(b2, one, _CMP_GT_OQ), one);
-        __m512d b0 = _mm512_sub_pd(_mm512_sub_pd(one, b1), b2);
-        const __mmask8 neg = _mm512_cmp_pd_mask(b0, zero, _CMP_LT_OQ);
-        if (neg) {
-            const __m512d sum = _mm512_add_pd(b1, b2);
-            b1 = _mm512_mask_div_pd(b1, neg, b1, sum);
-            b2 = _mm512_mask_div_pd(b2, neg, b2, sum);
-            b0 = _mm512_mask_mov_pd(b0, neg, zero);
-        }
-        __mmask8 ok = 0;
-        if (cells) /* the cell's leaf from the table, where the margin allows (hemicube.c) */
-            ok = cells8(_mm512_mul_pd(b0, sv), _mm512_mul_pd(b1, sv), _mm512_mul_pd(b2, sv), sv,
-                        up, down, need, need, &cell);
-        __m256i code = cells ? _mm512_cvttpd_epi32(cell) : _mm256_setzero_si256();
-        if (ok != 0xFF) { /* the others descend: their leaves, marked when there is a table */
-            __m256i idx = _mm512_cvttpd_epu32(descend8(b0, b1, b2, depth));
-            if (cells)
-                idx = _mm256_or_si256(idx, descent);
-            code = _mm256_mask_mov_epi32(idx, ok, code);
-        }
-        put_codes8(code, lanes, x - a, leaf, brk, &prev);
+        put_codes8(codes8(&k, d1, p1, q1, sx), lanes, x - a, leaf, brk, &prev);
     }
     brk[0] |= 1;
 }
@@ -544,14 +620,48 @@ T512 static void depth_span8(const double abc[9], const double iz[3], double inv
 
 T512 static void depth_rows8(const double abc[9], const double iz[3], double inv_area, int y0,
                              int y1, const int32_t *span, int W, float *depth, int32_t *item,
-                             int32_t id)
+                             int32_t id, const lrr__hemi_codes *lc)
 {
     DEPTH8_SETUP();
+    codes8_k k;
+    if (lc)
+        codes8_setup(&k, lc->b1, lc->b2, lc->den, lc->depth, 1);
     for (int y = y0; y <= y1; y++) {
         const int L = span[2 * (y - y0)], R = span[2 * (y - y0) + 1];
         float *drow = depth + (size_t)y * W;
         int32_t *irow = item + (size_t)y * W;
-        DEPTH8_ROW(y + 0.5, L, R, drow, irow);
+        if (!lc) {
+            DEPTH8_ROW(y + 0.5, L, R, drow, irow);
+            continue;
+        }
+        if (L > R)
+            continue;
+        /* the row's sy as integrate_face has it */
+        const double sy = lc->syt[y];
+        const __m512d d1 = _mm512_set1_pd(lc->den[1] * sy), p1 = _mm512_set1_pd(lc->b1[1] * sy),
+                      q1 = _mm512_set1_pd(lc->b2[1] * sy);
+        uint32_t *crow = lc->code + (size_t)y * W;
+        const __m512d last = _mm512_set1_pd(lc->sxt[R]);
+        const double py = y + 0.5;
+        const __m512d BC0 = _mm512_set1_pd(abc[1] * py), BC1 = _mm512_set1_pd(abc[4] * py),
+                      BC2 = _mm512_set1_pd(abc[7] * py);
+        __m512d px = _mm512_add_pd(_mm512_set1_pd((double)L), offs);
+        for (int x = L; x <= R; x += 8, px = _mm512_add_pd(px, step)) {
+            const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
+            const __m512d z = _mm512_add_pd(
+                _mm512_add_pd(_mm512_mul_pd(EDGE8(0), Z0), _mm512_mul_pd(EDGE8(1), Z1)),
+                _mm512_mul_pd(EDGE8(2), Z2));
+            const __m256 zf = _mm512_cvtpd_ps(_mm512_mul_pd(z, ia));
+            const __m256 old = _mm256_maskz_loadu_ps(lane, drow + x);
+            const __mmask8 gt = _mm256_mask_cmp_ps_mask(lane, zf, old, _CMP_GT_OQ);
+            if (!gt)
+                continue;
+            _mm256_mask_storeu_ps(drow + x, gt, zf);
+            _mm256_mask_storeu_epi32(irow + x, gt, idv);
+            /* the winners' codes; lanes past the span take its last pixel's column */
+            const __m512d sx = _mm512_mask_loadu_pd(last, lane, lc->sxt + x);
+            _mm256_mask_storeu_epi32(crow + x, gt, codes8(&k, d1, p1, q1, sx));
+        }
     }
 }
 #undef DEPTH8_ROW
@@ -672,14 +782,14 @@ void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_ar
 
 void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
                           int y1, const int32_t *span, int W, float *depth, int32_t *item,
-                          int32_t id, int simd)
+                          int32_t id, const lrr__hemi_codes *lc, int simd)
 {
     if (simd >= 2) {
-        depth_rows8(abc, iz, inv_area, y0, y1, span, W, depth, item, id);
+        depth_rows8(abc, iz, inv_area, y0, y1, span, W, depth, item, id, lc);
         return;
     }
-    depth_rows4(abc, iz, inv_area, y0 + 0.5, y1 - y0 + 1, span, W, depth + (size_t)y0 * W,
-                item + (size_t)y0 * W, id);
+    depth_rows4(abc, iz, inv_area, y0 + 0.5, y0, y1 - y0 + 1, span, W, depth + (size_t)y0 * W,
+                item + (size_t)y0 * W, id, lc);
 }
 #else
 int lrr__hemi_simd(void) { return 0; }
@@ -697,10 +807,10 @@ void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
 }
 void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
                           int y1, const int32_t *span, int W, float *depth, int32_t *item,
-                          int32_t id, int simd)
+                          int32_t id, const lrr__hemi_codes *lc, int simd)
 {
     (void)abc, (void)iz, (void)inv_area, (void)y0, (void)y1, (void)span, (void)W, (void)depth,
-        (void)item, (void)id, (void)simd;
+        (void)item, (void)id, (void)lc, (void)simd;
 }
 void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
                           int L, int R, float *depth, int32_t *item, int32_t id, int simd)

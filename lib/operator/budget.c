@@ -10,8 +10,9 @@
  *   working    the larger of the two phases, which never overlap:
  *                hemicubes  multiplier map (R² + R²/2 doubles) and its per-row prefix
  *                           sums ((R + R/2)·(R + 1) doubles, rasteriser only), triangle table
- *                           (LRR__HEMICUBE_TRI_BYTES per triangle) and per thread a depth
- *                           and an item buffer (3R² floats and int32) and one row (k doubles);
+ *                           (LRR__HEMICUBE_TRI_BYTES per triangle) and per thread a depth,
+ *                           an item and a leaf-code buffer (3R² floats, int32 and uint32)
+ *                           and one row (k doubles);
  *                           each receiver's back-face share (n doubles);
  *                           on an OpenCL device the host holds a batch of patch ids instead
  *                           of the per-thread item buffers (see device_rows in hemicube.c)
@@ -81,6 +82,7 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
               add3(&hemi, (size_t)R + R / 2, (size_t)R + 1, sizeof(double)) && /* its prefix sums */
               add3(&hemi, n_tri, 1, LRR__HEMICUBE_TRI_BYTES) &&
               add3(&hemi, T, 3 * rr, sizeof(float)) && add3(&hemi, T, k, sizeof(double)) &&
+              add3(&hemi, T, 3 * rr, sizeof(uint32_t)) && /* the leaf codes (rasteriser) */
               add3(&hemi, n, 1, sizeof(double)); /* back-face shares (leak indicator) */
     if (ok && o->backend == LRR_BACKEND_OPENCL)
         ok = add3(&hemi, device_batch(n, 3 * rr), 3 * rr, sizeof(int32_t)) &&

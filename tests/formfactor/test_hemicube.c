@@ -367,6 +367,92 @@ static void test_leaves_run_exact(void **state)
  * stored depths equal to the span's (a tie keeps the old) or one float below (it wins). One
  * edge function cancels to ~1e-9 of its terms, so a multiply and add fused into one rounding
  * (what gcc does to intrinsics when FMA is on) changes the float depth. */
+/* lrr__hemi_depth_rows with leaf codes (lrr__hemi_codes): where it wins the depth test it
+ * writes the code lrr__hemi_leaves_run gives that pixel (same plane, the face's sx and sy,
+ * the cell table), and nothing where it loses; the integration's runs, hence F̄, depend on
+ * those codes being the per-pixel ones. Random depths (about half the pixels won), planes
+ * with perspective, leaf depths 1..6, top and side faces. */
+static void test_depth_codes_exact(void **state)
+{
+    (void)state;
+    if (!lrr__hemi_simd())
+        skip();
+    enum { W = 48, H = 12, D = 6 };
+    double sxt[W], syt[2][H];
+    for (int x = 0; x < W; x++)
+        sxt[x] = (x + 0.5) / (0.5 * W) - 1;
+    for (int y = 0; y < H; y++) {
+        syt[0][y] = (y + 0.5) / (0.5 * W) - 1;
+        syt[1][y] = (y + 0.5) / (0.5 * W);
+    }
+    uint16_t *cells[D + 1];
+    for (unsigned d = 1; d <= D; d++) { /* any table: the codes are its slots */
+        const size_t s = (size_t)1 << d;
+        cells[d] = calloc(2 * s * s, sizeof *cells[d]);
+        assert_non_null(cells[d]);
+    }
+    uint64_t rng = 4242;
+#define NEXT_U() (rng = rng * 6364136223846793005ull + 1442695040888963407ull, \
+                  (double)(rng >> 11) * 0x1p-53)
+    size_t won = 0, lost = 0, descended = 0;
+    for (int trial = 0; trial < 600; trial++) {
+        const unsigned d = 1 + trial % D;
+        const int level = 1 + (trial / D) % lrr__hemi_simd(), side = trial % 2;
+        lrr__hemi_codes lc;
+        for (int j = 0; j < 3; j++) {
+            const double slope = trial % 3 == 0 ? 1 : 0.1;
+            lc.b1[j] = j == 2 ? 0.1 + 0.4 * NEXT_U() : (NEXT_U() - 0.5) * slope;
+            lc.b2[j] = j == 2 ? 0.1 + 0.4 * NEXT_U() : (NEXT_U() - 0.5) * slope;
+            lc.den[j] = j == 2 ? 1 : trial % 4 == 2 ? 0.6 * (NEXT_U() - 0.5) : 0;
+        }
+        lc.sxt = sxt;
+        lc.syt = syt[side];
+        lc.depth = d;
+        uint32_t code[W * H];
+        lc.code = code;
+        double abc[9], iz[3];
+        for (int j = 0; j < 9; j++)
+            abc[j] = (NEXT_U() - 0.5) * 10;
+        for (int j = 0; j < 3; j++)
+            iz[j] = 0.2 + NEXT_U();
+        float depth[W * H];
+        int32_t item[W * H];
+        int32_t span[2 * H];
+        for (int j = 0; j < W * H; j++) {
+            depth[j] = (float)(NEXT_U() * 0.5);
+            item[j] = -1;
+            code[j] = 0xdeadbeef;
+        }
+        for (int y = 0; y < H; y++) {
+            span[2 * y] = (int)(NEXT_U() * 12);
+            span[2 * y + 1] = W - 1 - (int)(NEXT_U() * 12) - (y == 3 ? W : 0); /* an empty row */
+        }
+        lrr__hemi_depth_rows(abc, iz, 1.0, 0, H - 1, span, W, depth, item, 7, &lc, level);
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                const size_t j = (size_t)y * W + x;
+                if (item[j] != 7) {
+                    assert_int_equal(code[j], 0xdeadbeef);
+                    lost += x >= span[2 * y] && x <= span[2 * y + 1];
+                    continue;
+                }
+                uint32_t want;
+                uint64_t brk;
+                lrr__hemi_leaves_run(lc.b1, lc.b2, lc.den, sxt, syt[side][y], x, x, d, cells[d],
+                                     &want, &brk, level);
+                assert_int_equal(code[j], want);
+                descended += (want & LRR__LEAF_DESCENT) != 0;
+                won++;
+            }
+    }
+#undef NEXT_U
+    for (unsigned d = 1; d <= D; d++)
+        free(cells[d]);
+    print_message("depth codes: %zu pixels won as lrr__hemi_leaves_run codes them (%zu "
+                  "descended), %zu lost\n", won, descended, lost);
+    assert_true(won > 10000 && lost > 10000 && descended > 0);
+}
+
 /* lrr__hemi_breaks at every level against the definition: lengths across word boundaries,
  * changes at every position (random ids from a small set, so runs of all lengths). */
 static void test_breaks_exact(void **state)
@@ -531,7 +617,7 @@ static void test_depth_span_exact(void **state)
         memcpy(fd + y * W, depth, sizeof depth);
         memcpy(fi + y * W, item, sizeof item);
         const int32_t span[4] = {L, R, 1, 0};
-        lrr__hemi_depth_rows(abc, iz, inv_area, y, y + 1, span, W, fd, fi, 7, level);
+        lrr__hemi_depth_rows(abc, iz, inv_area, y, y + 1, span, W, fd, fi, 7, NULL, level);
         lrr__hemi_depth_span(abc, iz, inv_area, py, L, R, depth, item, 7, level);
         assert_memory_equal(depth, want_d, sizeof depth);
         assert_memory_equal(item, want_i, sizeof item);
@@ -556,6 +642,7 @@ int main(void)
         cmocka_unit_test(test_back_face_share),
         cmocka_unit_test(test_leaves_run_exact),
         cmocka_unit_test(test_depth_span_exact),
+        cmocka_unit_test(test_depth_codes_exact),
         cmocka_unit_test(test_breaks_exact),
         cmocka_unit_test(test_spans_exact),
     };

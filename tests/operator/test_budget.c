@@ -93,9 +93,11 @@ static void test_budget_parts(void **state)
     LRR_CHECK(ctx, lrr__operator_bytes(ctx, n_tri, n, k, LRR_STORAGE_F32, &bo, &one));
     bo.threads = 8;
     LRR_CHECK(ctx, lrr__operator_bytes(ctx, n_tri, n, k, LRR_STORAGE_F32, &bo, &eight));
-    /* per thread: depth and item buffers (3R² floats and int32) and one row of k doubles */
+    /* per thread: depth, item and leaf-code buffers (3R² floats, int32 and uint32) and one
+     * row of k doubles */
     assert_int_equal(eight.working - one.working,
-                     7 * (3 * 512 * 512 * (sizeof(float) + sizeof(int32_t)) + k * sizeof(double)));
+                     7 * (3 * 512 * 512 * (sizeof(float) + sizeof(int32_t) + sizeof(uint32_t)) +
+                          k * sizeof(double)));
     LRR_CHECK(ctx, lrr__operator_bytes(ctx, n_tri, n, k, LRR_STORAGE_F16, &bo, &f16));
     assert_int_equal(f16.fbar, n * k * 2 + n * sizeof(float));
     /* a bad resolution is refused here too, before anything is allocated */
