@@ -590,8 +590,8 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
     } while (0)
 
 /* Eight pixels x.. (up to R) of a row: the edge functions (B·py hoisted into BC), 1/z and the
- * float compare, as raster_tri's scalar loop lane by lane. */
-T512 static inline void depth8_step(__m512d A0, __m512d BC0, __m512d C0, __m512d A1,
+ * float compare, as raster_tri's scalar loop lane by lane. Returns the lanes it wrote. */
+T512 static inline __mmask8 depth8_step(__m512d A0, __m512d BC0, __m512d C0, __m512d A1,
                                     __m512d BC1, __m512d C1, __m512d A2, __m512d BC2,
                                     __m512d C2, __m512d Z0, __m512d Z1, __m512d Z2, __m512d ia,
                                     __m256i idv, __m512d px, int x, int R, float *depth,
@@ -605,10 +605,11 @@ T512 static inline void depth8_step(__m512d A0, __m512d BC0, __m512d C0, __m512d
     const __m256 old = _mm256_maskz_loadu_ps(lane, depth + x);
     /* ordered: NaN never wins, as in C */
     const __mmask8 gt = _mm256_mask_cmp_ps_mask(lane, zf, old, _CMP_GT_OQ);
-    if (!gt)
-        return;
-    _mm256_mask_storeu_ps(depth + x, gt, zf);
-    _mm256_mask_storeu_epi32(item + x, gt, idv);
+    if (gt) {
+        _mm256_mask_storeu_ps(depth + x, gt, zf);
+        _mm256_mask_storeu_epi32(item + x, gt, idv);
+    }
+    return gt;
 }
 
 T512 static void depth_span8(const double abc[9], const double iz[3], double inv_area, double py,
@@ -647,18 +648,12 @@ T512 static void depth_rows8(const double abc[9], const double iz[3], double inv
                       BC2 = _mm512_set1_pd(abc[7] * py);
         __m512d px = _mm512_add_pd(_mm512_set1_pd((double)L), offs);
         for (int x = L; x <= R; x += 8, px = _mm512_add_pd(px, step)) {
-            const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
-            const __m512d z = _mm512_add_pd(
-                _mm512_add_pd(_mm512_mul_pd(EDGE8(0), Z0), _mm512_mul_pd(EDGE8(1), Z1)),
-                _mm512_mul_pd(EDGE8(2), Z2));
-            const __m256 zf = _mm512_cvtpd_ps(_mm512_mul_pd(z, ia));
-            const __m256 old = _mm256_maskz_loadu_ps(lane, drow + x);
-            const __mmask8 gt = _mm256_mask_cmp_ps_mask(lane, zf, old, _CMP_GT_OQ);
+            const __mmask8 gt = depth8_step(A0, BC0, C0, A1, BC1, C1, A2, BC2, C2, Z0, Z1, Z2,
+                                            ia, idv, px, x, R, drow, irow);
             if (!gt)
                 continue;
-            _mm256_mask_storeu_ps(drow + x, gt, zf);
-            _mm256_mask_storeu_epi32(irow + x, gt, idv);
             /* the winners' codes; lanes past the span take its last pixel's column */
+            const __mmask8 lane = (__mmask8)(R - x + 1 >= 8 ? 0xFF : (1u << (R - x + 1)) - 1);
             const __m512d sx = _mm512_mask_loadu_pd(last, lane, lc->sxt + x);
             _mm256_mask_storeu_epi32(crow + x, gt, codes8(&k, d1, p1, q1, sx));
         }
