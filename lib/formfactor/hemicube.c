@@ -298,8 +298,9 @@ typedef lrr__hemi_ctx hemi_ctx;
  * triangle's plane, as ratios of linear functions of (sx, sy): with dir = sx·right + sy·up +
  * fwd, w0 = v0 − x, c = n·w0 and α_j the dual basis of (e1, e2) (Gram inverse), the ray
  * x + t·dir meets the plane at t = c / n·dir, so b_j = (c·dir·α_j − (w0·α_j)·n·dir) / n·dir.
- * Set up once per run of pixels showing the same triangle: 9 coefficients instead of a
- * ray-plane intersection per pixel (that was 36% of a Cornell R 64 profile). */
+ * Set up once per face and triangle (the SIMD depth test) or run of pixels showing it (the
+ * scalar path): 9 coefficients instead of a ray-plane intersection per pixel (that was 36%
+ * of a Cornell R 64 profile). */
 typedef struct {
     double b1[3], b2[3], den[3]; /* coefficients of sx, sy, 1 */
 } bary_plane;
@@ -337,7 +338,6 @@ static inline size_t leaf_target(const hemi_ctx *h, size_t t, size_t leaf)
         return g->patch0[t] + leaf;
     return lrr__patch_of_leaf(g, t, leaf);
 }
-
 
 static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t, int32_t id)
 {
