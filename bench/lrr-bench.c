@@ -71,6 +71,7 @@ static const char main_help[] =
 int main(int argc, char *argv[])
 {
     cli_fair_openblas(argv, 1);
+    cli_idle_openblas();
     static const struct {
         const char *name;
         int (*run)(int, char *[]);

@@ -62,8 +62,8 @@ double cli_now(void); /* monotonic seconds */
  * say: a line on stderr. */
 void cli_fair_openblas(char *argv[], int say);
 /* Ends OpenBLAS's thread pool (it starts again with the next BLAS call) so that its workers'
- * spin-wait does not take a core from the hemicubes' OpenMP threads; cli_fair_openblas calls
- * it when it does not run the program again. A no-op without that OpenBLAS symbol. */
+ * spin-wait does not take a core from the hemicubes' OpenMP threads; the tools' mains call
+ * it after cli_fair_openblas. A no-op without that OpenBLAS symbol. */
 void cli_idle_openblas(void);
 
 /* ------------------------------------------------------------------ progress bar */

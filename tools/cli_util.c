@@ -431,10 +431,8 @@ void cli_fair_openblas(char *argv[], int say)
     const char *(*corename)(void) = (const char *(*)(void))dlsym(RTLD_DEFAULT,
                                                                 "openblas_get_corename");
     const char *core = corename ? corename() : NULL;
-    if (getenv("OPENBLAS_CORETYPE") || !core || strcmp(core, "Prescott") != 0) {
-        cli_idle_openblas();
+    if (getenv("OPENBLAS_CORETYPE") || !core || strcmp(core, "Prescott") != 0)
         return;
-    }
     const char *want = __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")
                            ? "SkylakeX"
                        : __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")

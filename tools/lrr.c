@@ -123,6 +123,7 @@ int lrr_cli_main(int argc, char *argv[], int parse_only)
 int main(int argc, char *argv[])
 {
     cli_fair_openblas(argv, 0);
+    cli_idle_openblas();
     return lrr_cli_main(argc, argv, 0);
 }
 #endif

@@ -117,8 +117,8 @@ typedef struct {
  * span[2(y − y0) + 1] (none when the first is greater); depth and item point at the face
  * (W pixels a row). With lc, also code[pixel] for the pixels it wins: the code
  * lrr__hemi_leaves_run gives that pixel (with the cell table), so the integration needs no
- * per-run leaf pass (that pass's set-up per run of a triangle was most of its time: ~150
- * cycles a run against ~2.6 a pixel, Cornell R 64/128). */
+ * per-run leaf pass (a fit of its time at R 64 and 128, Cornell, put its set-up at ~150
+ * cycles a run of a triangle against ~2.6 a pixel). */
 void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
                           int y1, const int32_t *span, int W, float *depth, int32_t *item,
                           int32_t id, const lrr__hemi_codes *lc, int simd);

@@ -279,9 +279,10 @@ static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
     const lrr_operator *op = s->op;
     const size_t k = op->k, *first = op->geom.first;
     size_t bad = SIZE_MAX, me = 0, mc = 0;
-    /* ~1.8 ns an entry (validation, double sums): a frame of 3456 subpatches spent 19 µs here
-     * serially (13% of it, Intel Xeon, perf), so two threads pay from an eighth of the usual
-     * threshold: 80 → 59-70 µs a frame (n 3456, k 216, best of 5 × 5000, interleaved) */
+    /* ~1.8 ns an entry before segment_sum (validation, double sums): a frame of 3456
+     * subpatches spent 19 µs here serially (13% of it, Intel Xeon, perf), so two threads pay
+     * from an eighth of the usual threshold: 80 → 59-70 µs a frame (n 3456, k 216, best of
+     * 5 × 5000, interleaved) */
     #pragma omp parallel for schedule(static) reduction(min : bad) reduction(+ : me, mc) \
         if (3 * op->n >= LRR__PARALLEL_MIN / 8)
     for (size_t p = 0; p < k; p++) {
