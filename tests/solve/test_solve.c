@@ -292,6 +292,55 @@ static void test_tiny(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* Every entry of the emission checked where the sums read it (cpu.c's segment_sum: four
+ * subpatches a step and a scalar tail, so d = 1 and d = 16 between them cover both): a
+ * negative value however small, NaN of either sign and ±∞ are refused naming the subpatch
+ * and the channel, and B is left as it was; −0 is accepted and lights nothing. */
+static void test_emission_check(void **state)
+{
+    (void)state;
+    lrr_context *ctx;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    const float bad[] = {-1e-30f, -1.0f, NAN, -NAN, INFINITY, -INFINITY};
+    for (unsigned levels = 0; levels <= 2; levels += 2) {
+        lrr_operator *op = cornell_op(ctx, 36, levels);
+        const size_t n = op->n;
+        float *E = malloc(3 * n * sizeof *E), *B = malloc(3 * n * sizeof *B),
+              *ref = malloc(3 * n * sizeof *ref);
+        for (size_t j = 0; j < 3 * n; j++)
+            E[j] = op->emission[j] + 0.01f * (float)(j % 7);
+        lrr_solver *sv;
+        LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &sv));
+        LRR_CHECK(ctx, lrr_solver_set_path(sv, LRR_PATH_FULL));
+        for (size_t j = 0; j < 3 * n; j++) {
+            const float keep = E[j];
+            for (size_t v = 0; v < sizeof bad / sizeof bad[0]; v++) {
+                E[j] = bad[v];
+                for (size_t i = 0; i < 3 * n; i++)
+                    B[i] = -7.0f;
+                assert_int_equal(lrr_solve(sv, E, B), LRR_ERR_INVALID_ARG);
+                char msg[256], want[64];
+                lrr_context_last_error(ctx, msg, sizeof msg);
+                snprintf(want, sizeof want, "subpatch %zu, channel %zu =", j / 3, j % 3);
+                assert_non_null(strstr(msg, want));
+                for (size_t i = 0; i < 3 * n; i++)
+                    assert_true(B[i] == -7.0f);
+            }
+            E[j] = 0.0f;
+            LRR_CHECK(ctx, lrr_solve(sv, E, ref));
+            E[j] = -0.0f;
+            LRR_CHECK(ctx, lrr_solve(sv, E, B));
+            for (size_t i = 0; i < 3 * n; i++)
+                assert_true(B[i] == ref[i] || (i == j && B[i] == 0.0f));
+            E[j] = keep;
+        }
+        lrr_solver_destroy(sv);
+        free(E), free(B), free(ref);
+        lrr_operator_destroy(op);
+    }
+    lrr_context_destroy(ctx);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -300,6 +349,7 @@ int main(void)
         cmocka_unit_test(test_batch),
         cmocka_unit_test(test_black_rows),
         cmocka_unit_test(test_tiny),
+        cmocka_unit_test(test_emission_check),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
