@@ -526,10 +526,8 @@ static lrr_status batch_frames(lrr_solver *s, size_t count, const float *E, floa
     for (size_t p = 0; p < k; p++)
         for (size_t f = 0; f < count; f++) {
             const float *e = E + f * frame;
-            double acc[3] = {0, 0, 0};
-            for (size_t i = first[p]; i < first[p + 1]; i++)
-                for (int c = 0; c < 3; c++)
-                    acc[c] += op->weight[i] * e[3 * i + c];
+            double acc[3];
+            (void)segment_sum(op->weight, e, first[p], first[p + 1], acc); /* validated */
             for (int c = 0; c < 3; c++)
                 s->bw[((size_t)c * k + p) * count + f] = (float)acc[c];
         }
