@@ -746,6 +746,40 @@ T512 static void breaks16(const int32_t *v, int n, uint64_t *mask)
     }
 }
 
+/* breaks16 of two rows at once (an item row and its codes: one loop instead of two, ~2% of
+ * a Cornell R 64 hemicube) */
+T512 static void breaks16_pair(const int32_t *v, const int32_t *u, int n, uint64_t *mv,
+                               uint64_t *mu)
+{
+    for (int x = 1; x < n; x += 16) {
+        const __mmask16 k = (__mmask16)(n - x >= 16 ? 0xFFFF : (1u << (n - x)) - 1);
+        const uint64_t nv = _mm512_mask_cmpneq_epi32_mask(k, _mm512_maskz_loadu_epi32(k, v + x),
+                                                          _mm512_maskz_loadu_epi32(k, v + x - 1)),
+                       nu = _mm512_mask_cmpneq_epi32_mask(k, _mm512_maskz_loadu_epi32(k, u + x),
+                                                          _mm512_maskz_loadu_epi32(k, u + x - 1));
+        mv[x >> 6] |= nv << (x & 63);
+        mu[x >> 6] |= nu << (x & 63);
+        if ((x & 63) > 48 && ((x >> 6) + 1) * 64 < n) { /* lanes in the next word */
+            mv[(x >> 6) + 1] |= nv >> (64 - (x & 63));
+            mu[(x >> 6) + 1] |= nu >> (64 - (x & 63));
+        }
+    }
+}
+
+void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
+                       int simd)
+{
+    if (simd < 2 || n <= 0) {
+        lrr__hemi_breaks(v, n, mv, simd);
+        lrr__hemi_breaks(u, n, mu, simd);
+        return;
+    }
+    memset(mv, 0, (size_t)(n + 63) / 64 * sizeof *mv);
+    memset(mu, 0, (size_t)(n + 63) / 64 * sizeof *mu);
+    mv[0] = mu[0] = 1;
+    breaks16_pair(v, u, n, mv, mu);
+}
+
 void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
 {
     memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
@@ -802,6 +836,12 @@ void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
     memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
     for (int x = 0; x < n; x++)
         mask[x >> 6] |= (uint64_t)(x == 0 || v[x] != v[x - 1]) << (x & 63);
+}
+void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
+                       int simd)
+{
+    lrr__hemi_breaks(v, n, mv, simd);
+    lrr__hemi_breaks(u, n, mu, simd);
 }
 void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
                           int y1, const int32_t *span, int W, float *depth, int32_t *item,
