@@ -311,13 +311,25 @@ __attribute__((target("avx2"))) static void spans4(const lrr__hemi_edge *e, int 
             exact |= ~_mm256_movemask_pd(settled) & 15;
         }
         empty |= _mm256_movemask_pd(_mm256_cmp_pd(L, R, _CMP_GT_OQ));
-        int32_t l[4], r[4];
-        _mm_storeu_si128((__m128i *)l, _mm256_cvttpd_epi32(L));
-        _mm_storeu_si128((__m128i *)r, _mm256_cvttpd_epi32(R));
-        for (int j = 0; j < 4 && y + j <= y1; j++) {
-            const int i = 2 * (y + j - y0);
-            span[i] = exact >> j & 1 ? INT32_MIN : empty >> j & 1 ? 1 : l[j];
-            span[i + 1] = empty >> j & 1 ? 0 : r[j];
+        /* the rows' (L, R) pairs as spans8 stores them, by blends (the scalar loop over the
+         * masks: see spans8) */
+        const __m128i bit = _mm_setr_epi32(1, 2, 4, 8);
+        const __m128i ev = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32(empty), bit), bit),
+                      xv = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32(exact), bit), bit);
+        __m128i l = _mm_blendv_epi8(_mm256_cvttpd_epi32(L), _mm_set1_epi32(1), ev);
+        l = _mm_blendv_epi8(l, _mm_set1_epi32(INT32_MIN), xv);
+        const __m128i r = _mm_andnot_si128(ev, _mm256_cvttpd_epi32(R));
+        const __m128i lo01 = _mm_unpacklo_epi32(l, r), hi23 = _mm_unpackhi_epi32(l, r);
+        int32_t *out = span + 2 * (y - y0);
+        const int rows = y1 - y + 1;
+        if (rows >= 4) {
+            _mm_storeu_si128((__m128i *)out, lo01);
+            _mm_storeu_si128((__m128i *)(out + 4), hi23);
+        } else {
+            const __m128i lane = _mm_setr_epi32(0, 0, 1, 1);
+            _mm_maskstore_epi32(out, _mm_cmpgt_epi32(_mm_set1_epi32(rows), lane), lo01);
+            _mm_maskstore_epi32(out + 4,
+                                _mm_cmpgt_epi32(_mm_set1_epi32(rows - 2), lane), hi23);
         }
     }
 }
