@@ -254,8 +254,8 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
         int32_t span[2 * SPAN_ROWS];
         for (int y = y0; y <= y1; y += SPAN_ROWS) {
             const int ye = y1 - y < SPAN_ROWS ? y1 : y + SPAN_ROWS - 1;
-            lrr__hemi_spans(ee, x0, x1, y, ye, span, simd);
-            for (int yy = y; yy <= ye; yy++) {
+            const int left = lrr__hemi_spans(ee, x0, x1, y, ye, span, simd);
+            for (int yy = y; left && yy <= ye; yy++) {
                 if (span[2 * (yy - y)] != INT32_MIN)
                     continue; /* settled four or eight rows at a time */
                 const double py = yy + 0.5;

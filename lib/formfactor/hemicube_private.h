@@ -98,8 +98,10 @@ typedef struct {
 /* hemicube.c's edge_span of the three edges for rows y0..y1 (py = y + 0.5), starting from
  * x0..x1, four (simd 1, AVX2) or eight (simd 2, AVX-512) rows at a time: span[2(y − y0)],
  * span[2(y − y0) + 1] get the row's pixels (first > last: none) where edge_span's test-free
- * cases settle every edge, else span[2(y − y0)] = INT32_MIN (the caller runs edge_span). */
-void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
+ * cases settle every edge, else span[2(y − y0)] = INT32_MIN (the caller runs edge_span).
+ * Returns whether any row was left to the caller (a row loop per triangle saved: ~1 in 1500
+ * rows of a Cornell R 64 hemicube is). */
+int lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
                      int simd);
 /* The rasteriser's depth test for pixels L..R of the row at py of one triangle (raster_tri):
  * abc holds the edge functions A, B, C of the weights of the three vertices, iz their 1/depth;

@@ -269,12 +269,13 @@ __attribute__((target("avx2"))) static void depth_span4(const double abc[9], con
  * blends, lane by lane the same IEEE operations (no FMA in target "avx2"). Without it the
  * AVX2 path ran edge_span per row: Cornell LRR_SIMD=avx2, 1 thread, R 32 0.288 → 0.210 s,
  * R 64 0.654 → 0.613 s, R 128 1.690 → 1.463 s (best of 5). */
-__attribute__((target("avx2"))) static void spans4(const lrr__hemi_edge *e, int x0, int x1,
-                                                  int y0, int y1, int32_t *span)
+__attribute__((target("avx2"))) static int spans4(const lrr__hemi_edge *e, int x0, int x1,
+                                                 int y0, int y1, int32_t *span)
 {
     const __m256d offs = _mm256_setr_pd(0.5, 1.5, 2.5, 3.5), big = _mm256_set1_pd(0x1p30),
                   nbig = _mm256_set1_pd(-0x1p30), one = _mm256_set1_pd(1.0),
                   zero = _mm256_setzero_pd(), X0 = _mm256_set1_pd(x0), X1 = _mm256_set1_pd(x1);
+    int any = 0;
     for (int y = y0; y <= y1; y += 4) {
         const __m256d py = _mm256_add_pd(_mm256_set1_pd((double)y), offs);
         __m256d L = X0, R = X1;
@@ -322,6 +323,7 @@ __attribute__((target("avx2"))) static void spans4(const lrr__hemi_edge *e, int 
         const __m128i lo01 = _mm_unpacklo_epi32(l, r), hi23 = _mm_unpackhi_epi32(l, r);
         int32_t *out = span + 2 * (y - y0);
         const int rows = y1 - y + 1;
+        any |= exact & (rows >= 4 ? 15 : (1 << rows) - 1);
         if (rows >= 4) {
             _mm_storeu_si128((__m128i *)out, lo01);
             _mm_storeu_si128((__m128i *)(out + 4), hi23);
@@ -332,6 +334,7 @@ __attribute__((target("avx2"))) static void spans4(const lrr__hemi_edge *e, int 
                                 _mm_cmpgt_epi32(_mm_set1_epi32(rows - 2), lane), hi23);
         }
     }
+    return any != 0;
 }
 
 /* Bit x of mask: x == 0 or v[x] != v[x − 1] (lrr__hemi_breaks), eight at a time. */
@@ -681,11 +684,12 @@ T512 static void depth_rows8(const double abc[9], const double iz[3], double inv
  * (A > 0) or end (A < 0) lies beyond that tolerance keeps it (checked against x0, x1: the
  * narrower range edge_span would see only moves further inside). Per-row spans were 11% of
  * a Cornell R 64 profile. */
-T512 static void spans8(const lrr__hemi_edge *e, int x0, int x1, int y0, int y1, int32_t *span)
+T512 static int spans8(const lrr__hemi_edge *e, int x0, int x1, int y0, int y1, int32_t *span)
 {
     const __m512d offs = _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5),
                   big = _mm512_set1_pd(0x1p30), one = _mm512_set1_pd(1.0),
                   X0 = _mm512_set1_pd(x0), X1 = _mm512_set1_pd(x1);
+    int any = 0;
     for (int y = y0; y <= y1; y += 8) {
         const __m512d py = _mm512_add_pd(_mm512_set1_pd((double)y), offs);
         __m512d L = X0, R = X1;
@@ -734,14 +738,16 @@ T512 static void spans8(const lrr__hemi_edge *e, int x0, int x1, int y0, int y1,
             _mm512_setr_epi32(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23),
             _mm512_castsi256_si512(r));
         const int rows = y1 - y + 1 < 8 ? y1 - y + 1 : 8;
+        any |= exact & ((1 << rows) - 1);
         _mm512_mask_storeu_epi32(span + 2 * (y - y0), (__mmask16)((1u << (2 * rows)) - 1), pair);
     }
+    return any != 0;
 }
 
-void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
-                     int simd)
+int lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
+                    int simd)
 {
-    (simd >= 2 ? spans8 : spans4)(e, x0, x1, y0, y1, span);
+    return (simd >= 2 ? spans8 : spans4)(e, x0, x1, y0, y1, span);
 }
 
 /* breaks8 sixteen at a time, the last lanes masked */
@@ -837,10 +843,11 @@ void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_ar
 }
 #else
 int lrr__hemi_simd(void) { return 0; }
-void lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
-                     int simd)
+int lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
+                    int simd)
 {
     (void)e, (void)x0, (void)x1, (void)y0, (void)y1, (void)span, (void)simd;
+    return 0;
 }
 void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
 {

@@ -511,7 +511,7 @@ static void test_spans_exact(void **state)
         skip();
     enum { W = 64, H = 64 };
     uint64_t rng = 777;
-    size_t settled = 0, rows = 0, covered = 0;
+    size_t settled = 0, rows = 0, covered = 0, lefts = 0;
     for (int trial = 0; trial < 3000; trial++) {
         double v[3][2];
         for (int i = 0; i < 3; i++)
@@ -539,7 +539,12 @@ static void test_spans_exact(void **state)
         const int x0 = trial % 4, x1 = W - 1 - trial % 3, y0 = trial % 7, y1 = H - 1 - trial % 5;
         int32_t span[2 * H];
         /* every SIMD level: AVX2 four rows at a time, AVX-512 eight */
-        lrr__hemi_spans(e, x0, x1, y0, y1, span, 1 + trial % lrr__hemi_simd());
+        const int left = lrr__hemi_spans(e, x0, x1, y0, y1, span, 1 + trial % lrr__hemi_simd());
+        int any = 0; /* it says whether it left rows to the caller */
+        for (int y = y0; y <= y1; y++)
+            any |= span[2 * (y - y0)] == INT32_MIN;
+        assert_int_equal(left != 0, any);
+        lefts += any;
         for (int y = y0; y <= y1; y++) {
             rows++;
             const int32_t L = span[2 * (y - y0)], R = span[2 * (y - y0) + 1];
@@ -559,8 +564,9 @@ static void test_spans_exact(void **state)
             }
         }
     }
-    print_message("spans: %zu of %zu rows settled, %zu pixels covered\n", settled, rows, covered);
-    assert_true(settled > rows / 2 && covered > 0);
+    print_message("spans: %zu of %zu rows settled, %zu pixels covered, %zu calls left rows\n",
+                  settled, rows, covered, lefts);
+    assert_true(settled > rows / 2 && covered > 0 && lefts > 0 && lefts < 3000);
 }
 
 static void test_depth_span_exact(void **state)
