@@ -487,8 +487,9 @@ T512 static inline void put_codes8(__m256i code, __mmask8 lanes, int i, uint32_t
  * (a row's k1·sy go by value: setting all of these per row of a triangle put a Cornell R 64
  * hemicube's raster at 137k cycles, 129k without) */
 typedef struct {
-    __m512d d0, d2, p0, p2, q0, q2;
-    __m512d sv, need, up, down, m12, m12hi, ulo, uhi;
+    __m512d d0, d2, p0, p2, q0, q2; /* p and q times s = 2^depth (see codes8) */
+    __m512d sv, invs, need, up, down, m12, m12hi, ulo, uhi;
+    double s;
     unsigned depth;
     int table; /* 1: codes with the cell table (lrr__hemi_leaf_of), 0: leaves */
 } codes8_k;
@@ -496,10 +497,12 @@ typedef struct {
 T512 static inline void codes8_setup(codes8_k *k, const double b1k[3], const double b2k[3],
                                      const double denk[3], unsigned depth, int table)
 {
-    k->d0 = _mm512_set1_pd(denk[0]), k->d2 = _mm512_set1_pd(denk[2]),
-    k->p0 = _mm512_set1_pd(b1k[0]), k->p2 = _mm512_set1_pd(b1k[2]),
-    k->q0 = _mm512_set1_pd(b2k[0]), k->q2 = _mm512_set1_pd(b2k[2]);
     const double s = (double)((uint64_t)1 << depth);
+    k->d0 = _mm512_set1_pd(denk[0]), k->d2 = _mm512_set1_pd(denk[2]),
+    k->p0 = _mm512_set1_pd(b1k[0] * s), k->p2 = _mm512_set1_pd(b1k[2] * s),
+    k->q0 = _mm512_set1_pd(b2k[0] * s), k->q2 = _mm512_set1_pd(b2k[2] * s);
+    k->s = s;
+    k->invs = _mm512_set1_pd(1 / s);
     k->sv = _mm512_set1_pd(s), k->need = _mm512_set1_pd(0x1p-40 * s),
     k->up = _mm512_set1_pd(s - 1), k->down = _mm512_set1_pd(s - 2),
     k->m12 = _mm512_set1_pd(0x1p-12 * s), k->m12hi = _mm512_set1_pd(1 - 0x1p-12 * s),
@@ -514,22 +517,24 @@ T512 static inline void codes8_setup(codes8_k *k, const double b1k[3], const dou
 T512 static inline __m256i codes8(const codes8_k *k, __m512d d1, __m512d p1, __m512d q1,
                                  __m512d sx)
 {
-    /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy (d1, p1, q1) is the row's one product */
+    /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy (d1, p1, q1) is the row's one product.
+     * n1, n2 come scaled by s = 2^depth (the coefficients and p1, q1 are): a power of two
+     * commutes with every rounding, so s·n1 and (s·n1)·rc are exactly what n1 and
+     * (n1·rc)·s were, one multiply fewer each (and back by 1/s, exactly, where b is). */
     const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
     const __m512d nd = lin8(k->d0, d1, k->d2, sx), n1 = lin8(k->p0, p1, k->p2, sx),
                   n2 = lin8(k->q0, q1, k->q2, sx);
     __m512d cell;
     if (k->table) {
         const __m512d rc = _mm512_rcp14_pd(nd);
-        const __m512d t1 = _mm512_mul_pd(_mm512_mul_pd(n1, rc), k->sv),
-                      t2 = _mm512_mul_pd(_mm512_mul_pd(n2, rc), k->sv);
+        const __m512d t1 = _mm512_mul_pd(n1, rc), t2 = _mm512_mul_pd(n2, rc);
         __m256i code;
         if (fast_cells8(t1, t2, k->sv, k->up, k->m12, k->m12hi, k->ulo, k->uhi, &code) == 0xFF)
             return code;
     }
     const __m512d r = _mm512_div_pd(one, nd);
-    __m512d b1 = _mm512_mul_pd(n1, r);
-    __m512d b2 = _mm512_mul_pd(n2, r);
+    __m512d b1 = _mm512_mul_pd(_mm512_mul_pd(n1, r), k->invs);
+    __m512d b2 = _mm512_mul_pd(_mm512_mul_pd(n2, r), k->invs);
     /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
     b1 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b1, zero, _CMP_GT_OQ), b1);
     b2 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(b2, zero, _CMP_GT_OQ), b2);
@@ -565,8 +570,8 @@ T512 static void leaves_run8(const double b1k[3], const double b2k[3], const dou
     __m256i prev = _mm256_setzero_si256(); /* whatever it holds: bit 0 is set at the end */
     codes8_k k;
     codes8_setup(&k, b1k, b2k, denk, depth, cells != NULL);
-    const __m512d d1 = _mm512_set1_pd(denk[1] * sy), p1 = _mm512_set1_pd(b1k[1] * sy),
-                  q1 = _mm512_set1_pd(b2k[1] * sy);
+    const __m512d d1 = _mm512_set1_pd(denk[1] * sy), p1 = _mm512_set1_pd(b1k[1] * sy * k.s),
+                  q1 = _mm512_set1_pd(b2k[1] * sy * k.s);
     const __m512d last = _mm512_set1_pd(sxt[b]);
     for (int x = a; x <= b; x += 8) {
         const int n = b - x + 1 < 8 ? b - x + 1 : 8;
@@ -654,8 +659,9 @@ T512 static void depth_rows8(const double abc[9], const double iz[3], double inv
             continue;
         /* the row's sy as integrate_face has it */
         const double sy = lc->syt[y];
-        const __m512d d1 = _mm512_set1_pd(lc->den[1] * sy), p1 = _mm512_set1_pd(lc->b1[1] * sy),
-                      q1 = _mm512_set1_pd(lc->b2[1] * sy);
+        const __m512d d1 = _mm512_set1_pd(lc->den[1] * sy),
+                      p1 = _mm512_set1_pd(lc->b1[1] * sy * k.s),
+                      q1 = _mm512_set1_pd(lc->b2[1] * sy * k.s);
         uint32_t *crow = lc->code + (size_t)y * W;
         const __m512d last = _mm512_set1_pd(lc->sxt[R]);
         const double py = y + 0.5;
