@@ -525,24 +525,6 @@ static void coded_run(integ *in, size_t t, unsigned depth, const uint32_t *crow,
     }
 }
 
-/* coded_run's sums for a run a..e − 1 of at most CHUNK pixels of a triangle of a uniform
- * tree, whose leaf l is patch patch0[t] + l: the same differences added in the same order,
- * without put's layers (its cache test and leaf_target's cases were ~a tenth of a Cornell
- * R 64 profile together with coded_run's). */
-static inline void coded_run_uniform(integ *in, size_t t, unsigned depth, const uint32_t *crow,
-                                     const uint64_t *cbrk, int a, int e)
-{
-    const uint16_t *cells = in->h->cells + cell_offset(depth);
-    double *row = in->row + in->h->g->patch0[t];
-    const double *pre = in->pre;
-    for (int x = a; x < e;) {
-        int n = next_break(cbrk, x + 1, e);
-        n = n > e ? e : n; /* a break past the run */
-        row[lrr__hemi_leaf_of(crow[x], cells)] += pre[n] - pre[x];
-        x = n;
-    }
-}
-
 /* Pixels a..b of the face row (height sy) all show triangle t. */
 static void integrate_run(integ *in, const bary_plane *bp, size_t t, double sy, int a, int b)
 {
@@ -593,8 +575,9 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
         return back;
     }
     integ in = {h, f, row, NULL, 0, SIZE_MAX, 0, SIZE_MAX};
-    /* leaf_target is patch0[t] + leaf (and rows are summed, not resolved) */
-    const int uniform = row && !h->by_subpatch && !h->g->origin && !h->g->node;
+    /* leaf_target is patch0[t] + leaf (and rows are summed, not resolved), and no run is
+     * longer than coded_run's chunks */
+    const int flat = row && !h->by_subpatch && !h->g->origin && !h->g->node && f->W <= CHUNK;
     /* the face's bary_planes by triangle id mod BARY_CACHE: a row's runs alternate between a
      * few triangles (one set-up per run was 5% of a Cornell R 32 profile) */
     bary_plane bpc[BARY_CACHE];
@@ -614,13 +597,21 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
             lrr__hemi_breaks(item, f->W, brk, h->simd);
         for (int xx = 0; xx < f->W;) {
             const int32_t id = item[xx];
-            const int end = next_break(brk, xx + 1, f->W);
             const unsigned depth = id >= 0 ? leaf_depth(h, (size_t)id) : 0;
-            if (h->simd && depth >= 1 && depth <= LRR__LEAF_TABLE_DEPTH) {
-                if (uniform && end - xx <= CHUNK) /* coded_run's steps, inline */
-                    coded_run_uniform(&in, (size_t)id, depth, crow, cbrk, xx, end);
-                else
-                    coded_run(&in, (size_t)id, depth, crow, cbrk, xx, end - 1);
+            const int coded = h->simd && depth >= 1 && depth <= LRR__LEAF_TABLE_DEPTH;
+            if (coded && flat) {
+                /* one run of one code (cbrk also breaks where the item does): coded_run's sums
+                 * in the row's one loop, not a loop per run of the triangle (whose exits were
+                 * mispredicted) */
+                const int n = next_break(cbrk, xx + 1, f->W);
+                row[h->g->patch0[id] + lrr__hemi_leaf_of(crow[xx], h->cells + cell_offset(depth))] +=
+                    in.pre[n] - in.pre[xx];
+                xx = n;
+                continue;
+            }
+            const int end = next_break(brk, xx + 1, f->W);
+            if (coded) {
+                coded_run(&in, (size_t)id, depth, crow, cbrk, xx, end - 1);
             } else if (id >= 0) {
                 const int c = id % BARY_CACHE;
                 if (id != set_for[c]) {

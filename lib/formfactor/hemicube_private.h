@@ -82,7 +82,8 @@ void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double
  * v[x] != v[x − 1], for x < n; simd as for lrr__hemi_leaves_run, or 0 for the scalar loop.
  * (Finding runs pixel by pixel was a fifth of a Cornell R 64 profile.) */
 void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd);
-/* lrr__hemi_breaks of two rows of n (v into mv, u into mu) in one pass */
+/* lrr__hemi_breaks of two rows of n in one pass: v's into mv, and where v or u changes into
+ * mu (inside a run of one v, u's breaks) */
 void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
                        int simd);
 #define LRR__LEAF_TABLE_DEPTH 6 /* hemicube.c's cell table: leaf depths 0..6 */

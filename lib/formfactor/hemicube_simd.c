@@ -645,8 +645,11 @@ T512 static void depth_rows8(const double abc[9], const double iz[3], double inv
 {
     DEPTH8_SETUP();
     codes8_k k;
-    if (lc)
+    double b1s = 0, b2s = 0; /* the row terms' coefficients times 2^depth, as codes8 wants */
+    if (lc) {
         codes8_setup(&k, lc->b1, lc->b2, lc->den, lc->depth, 1);
+        b1s = lc->b1[1] * k.s, b2s = lc->b2[1] * k.s;
+    }
     for (int y = y0; y <= y1; y++) {
         const int L = span[2 * (y - y0)], R = span[2 * (y - y0) + 1];
         float *drow = depth + (size_t)y * W;
@@ -659,9 +662,8 @@ T512 static void depth_rows8(const double abc[9], const double iz[3], double inv
             continue;
         /* the row's sy as integrate_face has it */
         const double sy = lc->syt[y];
-        const __m512d d1 = _mm512_set1_pd(lc->den[1] * sy),
-                      p1 = _mm512_set1_pd(lc->b1[1] * sy * k.s),
-                      q1 = _mm512_set1_pd(lc->b2[1] * sy * k.s);
+        const __m512d d1 = _mm512_set1_pd(lc->den[1] * sy), p1 = _mm512_set1_pd(b1s * sy),
+                      q1 = _mm512_set1_pd(b2s * sy);
         uint32_t *crow = lc->code + (size_t)y * W;
         const __m512d last = _mm512_set1_pd(lc->sxt[R]);
         const double py = y + 0.5;
@@ -782,10 +784,10 @@ T512 static void breaks16_pair(const int32_t *v, const int32_t *u, int n, uint64
                        nu = _mm512_mask_cmpneq_epi32_mask(k, _mm512_maskz_loadu_epi32(k, u + x),
                                                           _mm512_maskz_loadu_epi32(k, u + x - 1));
         mv[x >> 6] |= nv << (x & 63);
-        mu[x >> 6] |= nu << (x & 63);
+        mu[x >> 6] |= (nv | nu) << (x & 63);
         if ((x & 63) > 48 && ((x >> 6) + 1) * 64 < n) { /* lanes in the next word */
             mv[(x >> 6) + 1] |= nv >> (64 - (x & 63));
-            mu[(x >> 6) + 1] |= nu >> (64 - (x & 63));
+            mu[(x >> 6) + 1] |= (nv | nu) >> (64 - (x & 63));
         }
     }
 }
@@ -796,6 +798,8 @@ void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, 
     if (simd < 2 || n <= 0) {
         lrr__hemi_breaks(v, n, mv, simd);
         lrr__hemi_breaks(u, n, mu, simd);
+        for (int w = 0; w < (n + 63) / 64; w++)
+            mu[w] |= mv[w];
         return;
     }
     memset(mv, 0, (size_t)(n + 63) / 64 * sizeof *mv);
@@ -867,6 +871,8 @@ void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, 
 {
     lrr__hemi_breaks(v, n, mv, simd);
     lrr__hemi_breaks(u, n, mu, simd);
+    for (int w = 0; w < (n + 63) / 64; w++)
+        mu[w] |= mv[w];
 }
 void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
                           int y1, const int32_t *span, int W, float *depth, int32_t *item,
