@@ -339,16 +339,12 @@ static inline size_t leaf_target(const hemi_ctx *h, size_t t, size_t leaf)
     return lrr__patch_of_leaf(g, t, leaf);
 }
 
-static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t, int32_t id)
+/* Triangle t, its vertices v in the face's camera coordinates (raster_faces), into face f. */
+static void render_face(const hemi_ctx *h, const double x[3], face *f, size_t t, int32_t id,
+                        const cvert v[3])
 {
-    const float *tv = h->g->vert + 9 * t;
     cvert poly[MAX_POLY], tmp[MAX_POLY];
-    for (int i = 0; i < 3; i++) {
-        double d[3] = {tv[3 * i] - x[0], tv[3 * i + 1] - x[1], tv[3 * i + 2] - x[2]};
-        poly[i].x = lrr__dot3(d, f->right);
-        poly[i].y = lrr__dot3(d, f->up);
-        poly[i].z = lrr__dot3(d, f->fwd);
-    }
+    memcpy(poly, v, 3 * sizeof *v);
     int n = 3;
     /* trivial rejects before clipping */
     int all_behind = 1, out_l = 1, out_r = 1, out_b = 1, out_t = 1;
@@ -646,15 +642,25 @@ static void raster_faces(const hemi_ctx *h, const double x[3], const double N[3]
     _Static_assert(LRR__ITEM_NONE == -1, "memset fills the item buffer with 0xff bytes");
     memset(sc->depth, 0, total * sizeof *sc->depth);
     memset(sc->item, 0xff, total * sizeof *sc->item);
+    /* The faces' axes are the frame's up to sign: top (U, V, N); sides up N, forward ±U or
+     * ±V, right N × forward = ±(N × U) or ±(N × V) (a sign commutes with every rounding of
+     * cross3 and dot3), so five dot products a vertex give all fifteen coordinates exactly as
+     * fifteen would (render_face made them per face). */
+    const double *U = faces[0].right, *V = faces[0].up, *RU = faces[1].right,
+                 *RV = faces[3].right;
     for (size_t t = 0; t < g->n_tri; t++) {
         const tri_info *ti = &h->tri[t];
         const float *tv = g->vert + 9 * t;
+        double du[3], dv[3], dn[3], dru[3], drv[3];
         /* wholly behind (or in) the tangent plane: cannot be seen */
         int any_above = 0;
         for (int c = 0; c < 3; c++) {
             double d[3] = {tv[3 * c] - x[0], tv[3 * c + 1] - x[1], tv[3 * c + 2] - x[2]};
-            if (lrr__dot3(d, N) > h->eps)
+            dn[c] = lrr__dot3(d, N);
+            if (dn[c] > h->eps)
                 any_above = 1;
+            du[c] = lrr__dot3(d, U), dv[c] = lrr__dot3(d, V);
+            dru[c] = lrr__dot3(d, RU), drv[c] = lrr__dot3(d, RV);
         }
         if (!any_above)
             continue;
@@ -663,8 +669,16 @@ static void raster_faces(const hemi_ctx *h, const double x[3], const double N[3]
         if (fabs(side) <= h->eps)
             continue; /* x lies in the triangle's plane: seen edge-on */
         int32_t id = side > 0 ? (int32_t)t : LRR__ITEM_BACK;
+        cvert v[5][3];
+        for (int c = 0; c < 3; c++) {
+            v[0][c] = (cvert){du[c], dv[c], dn[c]};
+            v[1][c] = (cvert){dru[c], dn[c], du[c]};
+            v[2][c] = (cvert){-dru[c], dn[c], -du[c]};
+            v[3][c] = (cvert){drv[c], dn[c], dv[c]};
+            v[4][c] = (cvert){-drv[c], dn[c], -dv[c]};
+        }
         for (int fi = 0; fi < 5; fi++)
-            render_face(h, x, &faces[fi], t, id);
+            render_face(h, x, &faces[fi], t, id, v[fi]);
     }
 }
 
