@@ -453,8 +453,9 @@ static void test_depth_codes_exact(void **state)
     assert_true(won > 10000 && lost > 10000 && descended > 0);
 }
 
-/* lrr__hemi_breaks at every level against the definition: lengths across word boundaries,
- * changes at every position (random ids from a small set, so runs of all lengths). */
+/* lrr__hemi_breaks and lrr__hemi_breaks2 at every level against the definition: lengths
+ * across word boundaries, changes at every position (random ids from a small set, so runs of
+ * all lengths; codes that change inside runs and across them). */
 static void test_breaks_exact(void **state)
 {
     (void)state;
@@ -476,6 +477,21 @@ static void test_breaks_exact(void **state)
                 for (int x = 0; x < words * 64; x++) {
                     const int want = x < n && (x == 0 || v[x] != v[x - 1]);
                     assert_int_equal((int)(mask[x >> 6] >> (x & 63) & 1), want);
+                }
+                /* lrr__hemi_breaks2: v's breaks, and where v or u (codes) change */
+                int32_t u[N];
+                for (int x = 0; x < n; x++)
+                    u[x] = (int32_t)((uint32_t)(v[x] * 7 + (x / 3) % 2) * 2654435761u);
+                uint64_t mv[(N + 63) / 64 + 1], mu[(N + 63) / 64 + 1];
+                mv[words] = mu[words] = 0x5a5a;
+                lrr__hemi_breaks2(v, u, n, mv, mu, level);
+                assert_int_equal(mv[words], 0x5a5a);
+                assert_int_equal(mu[words], 0x5a5a);
+                for (int x = 0; x < words * 64; x++) {
+                    const int bv = x < n && (x == 0 || v[x] != v[x - 1]);
+                    const int bu = x < n && (x == 0 || v[x] != v[x - 1] || u[x] != u[x - 1]);
+                    assert_int_equal((int)(mv[x >> 6] >> (x & 63) & 1), bv);
+                    assert_int_equal((int)(mu[x >> 6] >> (x & 63) & 1), bu);
                 }
             }
         }
