@@ -113,10 +113,15 @@ static inline double plane_d(const cvert *p, double a, double b, double c, doubl
 static int clip_plane(const cvert *in, int n, cvert *out, double a, double b, double c,
                       double off)
 {
+    /* each vertex's side once (twice, and a % per vertex, before) */
+    double d[MAX_POLY];
+    for (int i = 0; i < n; i++)
+        d[i] = plane_d(&in[i], a, b, c, off);
     int m = 0;
     for (int i = 0; i < n; i++) {
-        const cvert *p = &in[i], *q = &in[(i + 1) % n];
-        double dp = plane_d(p, a, b, c, off), dq = plane_d(q, a, b, c, off);
+        const int j = i + 1 == n ? 0 : i + 1;
+        const cvert *p = &in[i], *q = &in[j];
+        double dp = d[i], dq = d[j];
         if (dp >= 0)
             out[m++] = *p;
         if ((dp >= 0) != (dq >= 0)) {
