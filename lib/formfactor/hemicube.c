@@ -158,14 +158,22 @@ static void edge_setup(const svert *a, const svert *b, int W, int H, edge_fn *e)
      * (dy == 0 and dx < 0); the neighbour traverses the edge the other way and does not. */
     double dx = b->x - a->x, dy = b->y - a->y;
     e->owns_ties = dy > 0 || (dy == 0 && dx < 0);
-    e->k0 = A != 0 ? -C / A - 0.5 : 0;
-    e->k1 = A != 0 ? -B / A : 0;
     /* With px <= W, py <= H: the computed A·px + B·py + C is within 3.1u·S of the exact
      * value, S = |A|·W + |B|·H + |C| (u = 2^-53), so it keeps the exact sign beyond
-     * 3.1u·S/|A| pixels of the exact crossing; the estimate's three roundings and two
-     * divisions stay within 6u·S/|A| + u of it. 16u·S/|A| covers both. */
+     * 3.1u·S/|A| pixels of the exact crossing; the estimate k0 + k1·py, from one reciprocal
+     * r = 1/A (three divisions were 2.9% of a Cornell R 64 profile with edge_setup's rest),
+     * two products, a difference and a product and sum, stays within 4u·S/|A| + u of it.
+     * 16u·S/|A| covers both. */
     const double S = fabs(A) * W + fabs(B) * H + fabs(C);
-    e->tol = A != 0 ? 16 * 0x1p-53 * S / fabs(A) + 0x1p-30 : INFINITY;
+    if (A != 0) {
+        const double r = 1 / A;
+        e->k0 = -C * r - 0.5;
+        e->k1 = -B * r;
+        e->tol = 16 * 0x1p-53 * S * fabs(r) + 0x1p-30;
+    } else {
+        e->k0 = e->k1 = 0;
+        e->tol = INFINITY;
+    }
 }
 
 static inline int inside(const edge_fn *e, double v)

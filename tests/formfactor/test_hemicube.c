@@ -510,10 +510,10 @@ static void edge_of(const double a[2], const double b[2], int W, int H, lrr__hem
     e->A = A, e->B = B, e->C = C;
     const double dx = b[0] - a[0], dy = b[1] - a[1];
     e->owns_ties = dy > 0 || (dy == 0 && dx < 0);
-    e->k0 = A != 0 ? -C / A - 0.5 : 0;
-    e->k1 = A != 0 ? -B / A : 0;
-    const double S = fabs(A) * W + fabs(B) * H + fabs(C);
-    e->tol = A != 0 ? 16 * 0x1p-53 * S / fabs(A) + 0x1p-30 : INFINITY;
+    const double S = fabs(A) * W + fabs(B) * H + fabs(C), r = A != 0 ? 1 / A : 0;
+    e->k0 = A != 0 ? -C * r - 0.5 : 0;
+    e->k1 = A != 0 ? -B * r : 0;
+    e->tol = A != 0 ? 16 * 0x1p-53 * S * fabs(r) + 0x1p-30 : INFINITY;
 }
 
 /* lrr__hemi_spans against the per-pixel test (every edge function > 0, or 0 on an edge the
