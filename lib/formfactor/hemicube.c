@@ -237,6 +237,8 @@ static inline __attribute__((always_inline)) int edge_span(const edge_fn *e, dou
 }
 
 #define SPAN_ROWS 64 /* rows per lrr__hemi_depth_rows */
+#define MIN2(a, b) ((b) < (a) ? (b) : (a))
+#define MAX2(a, b) ((b) > (a) ? (b) : (a))
 
 static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, float *depth,
                        int32_t *item, const lrr__hemi_codes *lc, int simd)
@@ -248,10 +250,12 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
         svert t = b; b = c; c = t;
         area = -area;
     }
-    double minx = fmin(a.x, fmin(b.x, c.x)), maxx = fmax(a.x, fmax(b.x, c.x));
-    double miny = fmin(a.y, fmin(b.y, c.y)), maxy = fmax(a.y, fmax(b.y, c.y));
-    int x0 = (int)fmax(0.0, floor(minx - 0.5)), x1 = (int)fmin(W - 1.0, ceil(maxx - 0.5));
-    int y0 = (int)fmax(0.0, floor(miny - 0.5)), y1 = (int)fmin(H - 1.0, ceil(maxy - 0.5));
+    /* the coordinates are finite here (area is), so compares do what libm's fmin and fmax
+     * did, without twelve calls a triangle */
+    double minx = MIN2(a.x, MIN2(b.x, c.x)), maxx = MAX2(a.x, MAX2(b.x, c.x));
+    double miny = MIN2(a.y, MIN2(b.y, c.y)), maxy = MAX2(a.y, MAX2(b.y, c.y));
+    int x0 = (int)MAX2(0.0, floor(minx - 0.5)), x1 = (int)MIN2(W - 1.0, ceil(maxx - 0.5));
+    int y0 = (int)MAX2(0.0, floor(miny - 0.5)), y1 = (int)MIN2(H - 1.0, ceil(maxy - 0.5));
     if (x0 > x1 || y0 > y1)
         return;
     edge_fn ee[3];
