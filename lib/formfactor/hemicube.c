@@ -609,6 +609,11 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
             lrr__hemi_breaks2(item, (const int32_t *)crow, f->W, brk, cbrk, h->simd);
         else
             lrr__hemi_breaks(item, f->W, brk, h->simd);
+        /* cbrk's set bits after xx: the word cw, what is left of it in cbits (a cursor,
+         * not next_break from xx each time, whose chain through xx bound the loop) */
+        const int words = (f->W + 63) / 64;
+        int cw = 0;
+        uint64_t cbits = h->simd ? cbrk[0] & ~(uint64_t)1 : 0;
         for (int xx = 0; xx < f->W;) {
             const int32_t id = item[xx];
             const unsigned depth = id >= 0 ? leaf_depth(h, (size_t)id) : 0;
@@ -617,13 +622,22 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
                 /* one run of one code (cbrk also breaks where the item does): coded_run's sums
                  * in the row's one loop, not a loop per run of the triangle (whose exits were
                  * mispredicted) */
-                const int n = next_break(cbrk, xx + 1, f->W);
+                while (!cbits && ++cw < words)
+                    cbits = cbrk[cw];
+                const int n = cbits ? cw * 64 + __builtin_ctzll(cbits) : f->W;
+                cbits &= cbits - 1;
                 row[h->g->patch0[id] + lrr__hemi_leaf_of(crow[xx], h->cells + cell_offset(depth))] +=
                     in.pre[n] - in.pre[xx];
                 xx = n;
                 continue;
             }
             const int end = next_break(brk, xx + 1, f->W);
+            if (h->simd && end < f->W) { /* the cursor past end (a break of both masks) */
+                cw = end >> 6;
+                cbits = cbrk[cw] & ~((2ull << (end & 63)) - 1);
+            } else if (h->simd) {
+                cw = words, cbits = 0;
+            }
             if (coded) {
                 coded_run(&in, (size_t)id, depth, crow, cbrk, xx, end - 1);
             } else if (id >= 0) {
