@@ -50,13 +50,17 @@ enum {
     OPT_MAX_ITERATIONS,
     OPT_SUBPATCHES,
     OPT_BUDGETS,
-    OPT_SAMPLES
+    OPT_SAMPLES,
+    OPT_RATES,
+    OPT_BUILDS
 };
 
 /* ------------------------------------------------------------------ commands */
 int cmd_table(int argc, char *argv[]);
 int cmd_stress(int argc, char *argv[]);
 int cmd_hemicube(int argc, char *argv[]);
+/* lrr-bench hemicube --rates (hemicube_rates.c): builds per row, R 16 and 32 when quick */
+int hemicube_rates(const char *csv, unsigned builds, int quick);
 int cmd_realtime(int argc, char *argv[]);
 int cmd_probes(int argc, char *argv[]);
 int cmd_adaptive(int argc, char *argv[]);

@@ -30,6 +30,14 @@ static const char hemicube_help[] =
     "                       err_perpendicular_quadrature,cornell_rel_l2,n_cornell,k_cornell\n"
     "  --seeds N            seeds 1..N per resolution (1..10, default 3)\n"
     "  --quick              R in 16, 32 only, one seed, R = 128 as the reference (for tests)\n"
+    "  --rates              instead: hemicubes per second of 'lrr preprocess cornell\n"
+    "                       --patches 216 --levels 2 --hemicube R --threads T' (n = 3456),\n"
+    "                       R in 32, 64, 128 (16, 32 with --quick), T = 1 and all threads:\n"
+    "                       formfactor_seconds (the hemicubes alone) of --builds builds,\n"
+    "                       min, median and max, and n / seconds at the median and the\n"
+    "                       best. CSV: R,threads,n,builds,seconds_min,seconds_median,\n"
+    "                       seconds_max,hemicubes_per_s_median,hemicubes_per_s_best\n"
+    "  --builds N           --rates: builds per row (1..99, default 7)\n"
     "  -h, --help           show this help\n";
 
 
@@ -187,6 +195,8 @@ typedef struct hemicube_args {
     const char *csv;
     unsigned seeds; /* seeds 1..N per resolution */
     int quick;
+    int rates;       /* --rates: hemicube_rates.c instead */
+    unsigned builds; /* --rates: builds per row */
 } hemicube_args;
 
 /* The options into *a (--quick without --seeds: one seed). Returns BENCH_RUN, or the exit
@@ -197,9 +207,11 @@ static int hemicube_parse(int argc, char *argv[], hemicube_args *a)
     static const struct option longopts[] = {{"csv", required_argument, NULL, OPT_CSV},
                                              {"seeds", required_argument, NULL, OPT_SEEDS},
                                              {"quick", no_argument, NULL, OPT_QUICK},
+                                             {"rates", no_argument, NULL, OPT_RATES},
+                                             {"builds", required_argument, NULL, OPT_BUILDS},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
-    int have_seeds = 0;
+    int have_seeds = 0, have_builds = 0;
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
@@ -218,6 +230,14 @@ static int hemicube_parse(int argc, char *argv[], hemicube_args *a)
         case OPT_QUICK:
             a->quick = 1;
             break;
+        case OPT_RATES:
+            a->rates = 1;
+            break;
+        case OPT_BUILDS:
+            if (cli_parse_unsigned(prog, "--builds", optarg, 1, 99, &a->builds) != 0)
+                return CLI_EXIT_USAGE;
+            have_builds = 1;
+            break;
         default:
             return bad_option(prog, c, argv);
         }
@@ -230,6 +250,14 @@ static int hemicube_parse(int argc, char *argv[], hemicube_args *a)
     }
     if (a->quick && !have_seeds)
         a->seeds = 1;
+    if (have_builds && !a->rates) {
+        cli_usage_error(prog, "--builds goes with --rates");
+        return CLI_EXIT_USAGE;
+    }
+    if (have_seeds && a->rates) {
+        cli_usage_error(prog, "--seeds does not go with --rates");
+        return CLI_EXIT_USAGE;
+    }
     return BENCH_RUN;
 }
 
@@ -248,10 +276,12 @@ static double fbar_rel_l2(const lrr_operator *op, const lrr_operator *ref, size_
 
 int cmd_hemicube(int argc, char *argv[])
 {
-    hemicube_args ha = {NULL, 3, 0};
+    hemicube_args ha = {NULL, 3, 0, 0, 7};
     int prc = hemicube_parse(argc, argv, &ha);
     if (prc != BENCH_RUN)
         return prc;
+    if (ha.rates)
+        return hemicube_rates(ha.csv, ha.builds, ha.quick);
     const char *csv = ha.csv;
     const unsigned seeds = ha.seeds;
     const int quick = ha.quick;

@@ -57,7 +57,7 @@ help_mentions() {
 help_mentions table --scene --cells --hemicube --csv --plot --memory-budget --repeat 'MB = 10^6' \
     --backend opencl_ratio_to_ours
 help_mentions stress --csv --hemicube --quick
-help_mentions hemicube --csv --seeds rotation
+help_mentions hemicube --csv --seeds rotation --rates --builds
 
 # ---------------------------------------------------------------- command-line errors
 run frobnicate
@@ -176,6 +176,22 @@ else
     fail "hemicube --quick: exit $rc"
     show_err
 fi
+
+HRCSV="$T/hemicube_rates.csv"
+run hemicube --rates --quick --builds 2 --csv "$HRCSV"
+# rows R 16 and 32 at one and at all threads, the issue's scene (n = 3456), min <= median <=
+# max, and the rates n / seconds
+bad=$(awk -F, 'NR > 1 { rows++; if ($3 != 3456 || $4 != 2 || !($5 > 0 && $5 <= $6 && $6 <= $7)) print "row " NR ": " $0;
+                        r = $3 / $6; if (r / $8 > 1.0001 || r / $8 < 0.9999) print "rate row " NR }
+               END { if (rows != 2 && rows != 4) print "rows: " rows }' "$HRCSV" 2>&1)
+if [ "$rc" -eq 0 ] && [ -f "$HRCSV" ] && [ -z "$bad" ]; then
+    pass "hemicube --rates --quick: R 16 and 32, n 3456, min <= median <= max, rate = n / median"
+else
+    fail "hemicube --rates --quick: exit $rc $bad"
+    show_err
+fi
+run hemicube --builds 3
+if [ "$rc" -eq 2 ]; then pass "hemicube --builds without --rates: exit 2"; else fail "hemicube --builds without --rates: exit $rc"; fi
 
 # ---------------------------------------------------------------- realtime
 run --help
