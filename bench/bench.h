@@ -72,6 +72,9 @@ int cmd_lights(int argc, char *argv[]);
 int bench_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 /* "lrr-bench: <what>: <status>: <library message>"; returns CLI_EXIT_FAIL. */
 int lib_fail(lrr_context *ctx, lrr_status s, const char *what);
+/* Ends a CSV from cli_outfile_open: committed when rc is CLI_EXIT_OK ("csv: path" on stdout),
+ * else discarded. Returns rc, or the failure to write it. */
+int bench_csv_finish(cli_outfile *out, int rc, const char *path);
 /* A progress line on stderr. */
 void note(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 

@@ -40,6 +40,18 @@ int lib_fail(lrr_context *ctx, lrr_status s, const char *what)
     return bench_fail("%s: %s%s%s", what, lrr_strerror(s), msg[0] ? ": " : "", msg);
 }
 
+int bench_csv_finish(cli_outfile *out, int rc, const char *path)
+{
+    if (rc != CLI_EXIT_OK) {
+        cli_outfile_abort(out);
+        return rc;
+    }
+    if (cli_outfile_commit(out) != 0)
+        return bench_fail("cannot write '%s': %s", path, strerror(errno));
+    printf("csv: %s\n", path);
+    return rc;
+}
+
 void note(const char *fmt, ...)
 {
     va_list ap;

@@ -371,12 +371,7 @@ int cmd_hemicube(int argc, char *argv[])
     printf("\ntotal_seconds: %.1f\n", cli_now() - t_start);
     if (have_out) {
         have_out = 0;
-        if (rc == CLI_EXIT_OK && cli_outfile_commit(&out) != 0)
-            rc = bench_fail("cannot write '%s': %s", csv, strerror(errno));
-        else if (rc != CLI_EXIT_OK)
-            cli_outfile_abort(&out);
-        else
-            printf("csv: %s\n", csv);
+        rc = bench_csv_finish(&out, rc, csv);
     }
 done:
     if (have_out)
