@@ -3,7 +3,10 @@
  *     declares, makes it read past its buffer (a crash);
  *   - a list whose count is larger than the file makes it allocate that many items first
  *     (an 830-byte file: 14.6 GB resident and 43 s before "File corrupted"; found by the
- *     scene fuzzer), and so does an element count far beyond the body.
+ *     scene fuzzer), and so does an element count far beyond the body;
+ *   - a second element of one name ("vertex" twice) corrupts its heap (the scene fuzzer
+ *     under ASan: a CHECK in the allocator's quarantine at a later free), so names are
+ *     unique here.
  * lrr__ply_check reads the header strictly (the lines of the PLY specification, nothing
  * else, so assimp cannot read it differently) and then walks the body, element by element:
  * binary bodies by their byte sizes, ASCII bodies by their whitespace-separated tokens, and
@@ -32,7 +35,8 @@ typedef struct {
     size_t first, n; /* its properties: props[first .. first + n) */
     uint64_t row;    /* bytes of one instance when it has no list */
     int lists;
-    char name[32];
+    char name[32];  /* for messages (truncated) */
+    uint64_t hash;  /* of the whole name (FNV-1a), for repeated names */
 } ply_element;
 
 typedef struct {
@@ -163,8 +167,16 @@ static lrr_status read_header(lrr_context *ctx, const char *path, FILE *f, int *
                 return header_error(ctx, path, no, "expected 'element NAME COUNT'");
             if (*n_el == MAX_ELEMENTS)
                 return header_error(ctx, path, no, "more than 64 elements");
+            uint64_t h = 1469598103934665603u;
+            for (const char *c = w[1]; *c; c++)
+                h = (h ^ (unsigned char)*c) * 1099511628211u;
+            /* assimp 5.2 merges a repeated element into the first and corrupts its heap (a
+             * second "vertex" element; scene fuzzer, ASan): one element per name */
+            for (size_t k = 0; k < *n_el; k++)
+                if (el[k].hash == h && strncmp(el[k].name, w[1], sizeof el[k].name - 1) == 0)
+                    return header_error(ctx, path, no, "an element name declared twice");
             ply_element *e = &el[(*n_el)++];
-            *e = (ply_element){.count = count, .first = n_props};
+            *e = (ply_element){.count = count, .first = n_props, .hash = h};
             snprintf(e->name, sizeof e->name, "%s", w[1]);
         } else if (strcmp(w[0], "property") == 0) {
             if (*n_el == 0)

@@ -493,6 +493,36 @@ static void test_ply_checked(void **state)
     expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "without an end_header");
     write_ply(path, "ply\nformat ascii 1.0\nelement vertex 5\nend_header\n", "", 0);
     expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "no properties");
+    /* a second element of one name (assimp merged it into the first and corrupted its heap:
+     * the scene fuzzer under ASan); names that only share a prefix are fine */
+    const char *twice = "0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n";
+    write_ply(path,
+              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              "property float z\nelement vertex 1\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+              "end_header\n",
+              twice, strlen(twice));
+    expect_error(ctx, path, LRR_ERR_FORMAT, LRR_OK, "line 7: an element name declared twice");
+    /* two extra elements whose long names share their first 38 characters (the check keeps
+     * 31 of them and a hash of the whole) */
+    unsigned char extra[9 * 4 + 1 + 3 * 4 + 2 * 4] = {0};
+    const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0}, w[2] = {5, 6};
+    const int32_t tri_idx[3] = {0, 1, 2};
+    memcpy(extra, xyz, sizeof xyz);
+    extra[36] = 3;
+    memcpy(extra + 37, tri_idx, sizeof tri_idx);
+    memcpy(extra + 49, w, sizeof w);
+    write_ply(path,
+              "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n"
+              "property float y\nproperty float z\nelement face 1\n"
+              "property list uchar int vertex_indices\n"
+              "element extra_element_with_a_long_name_number_1 1\nproperty float w\n"
+              "element extra_element_with_a_long_name_number_2 1\nproperty float w\n"
+              "end_header\n",
+              (const char *)extra, sizeof extra);
+    load_path(ctx, path, &l);
+    assert_int_equal(l.n, 1);
+    lrr_scene_destroy(l.scene);
     unlink(path);
 }
 
