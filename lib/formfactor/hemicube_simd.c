@@ -800,19 +800,6 @@ T512 static void breaks16_pair(const int32_t *v, const int32_t *u, int n, uint64
     }
 }
 
-void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
-                       int simd)
-{
-    if (simd < 2 || n <= 0) {
-        lrr__hemi_breaks(v, n, mv, simd);
-        lrr__hemi_breaks(u, n, mu, simd);
-        for (int w = 0; w < (n + 63) / 64; w++)
-            mu[w] |= mv[w];
-        return;
-    }
-    breaks16_pair(v, u, n, mv, mu);
-}
-
 void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
 {
     memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
@@ -871,14 +858,6 @@ void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
     for (int x = 0; x < n; x++)
         mask[x >> 6] |= (uint64_t)(x == 0 || v[x] != v[x - 1]) << (x & 63);
 }
-void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
-                       int simd)
-{
-    lrr__hemi_breaks(v, n, mv, simd);
-    lrr__hemi_breaks(u, n, mu, simd);
-    for (int w = 0; w < (n + 63) / 64; w++)
-        mu[w] |= mv[w];
-}
 void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
                           int y1, const int32_t *span, int W, float *depth, int32_t *item,
                           int32_t id, const lrr__hemi_codes *lc, int simd)
@@ -900,3 +879,19 @@ void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double
         (void)cells, (void)leaf, (void)brk;
 }
 #endif
+
+/* One definition for every build: the AVX-512 pair where it runs, else two passes and an OR. */
+void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
+                       int simd)
+{
+#if defined(__x86_64__) || defined(__i386__)
+    if (simd >= 2 && n > 0) {
+        breaks16_pair(v, u, n, mv, mu);
+        return;
+    }
+#endif
+    lrr__hemi_breaks(v, n, mv, simd);
+    lrr__hemi_breaks(u, n, mu, simd);
+    for (int w = 0; w < (n + 63) / 64; w++)
+        mu[w] |= mv[w];
+}
