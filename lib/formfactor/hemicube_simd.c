@@ -17,6 +17,11 @@
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
 
+/* AVX2 without FMA: gcc contracts no multiply and add (the scalar path's two roundings) */
+#define T256 __attribute__((target("avx2")))
+/* round down, no exception: an integer constant expression, as the intrinsics need */
+#define FLOOR_NO_EXC (_MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC)
+
 int lrr__hemi_simd(void)
 {
     /* as for the solver: "c" the scalar path, "avx2" four lanes at most */
@@ -62,208 +67,343 @@ __attribute__((target("avx2"))) static inline __m256d descend4(__m256d b0, __m25
     return idx;
 }
 
-/* A triangle's leaf codes, four pixels at a time (leaves_run4, depth_rows4): its constants
- * (a row's k1·sy go by value, as in codes8_k) */
+/* A triangle's leaf codes, eight pixels at a time in two groups of four (leaves_run4,
+ * depth_rows4): codes8_k's constants (p and q times s = 2^depth; a row's k1·sy go by value),
+ * those of the fast path also in float */
 typedef struct {
-    __m256d d0, d2, p0, p2, q0, q2, sv, need, up, down;
+    __m256d d0, d2, p0, p2, q0, q2;
+    __m256d sv, invs, need, up, down;
+    __m256 fsv, fup, m12, m12hi, ulo, uhi;
+    double s;
     unsigned depth;
     int table; /* 1: codes with the cell table (lrr__hemi_leaf_of), 0: leaves */
 } codes4_k;
 
-__attribute__((target("avx2"))) static inline void codes4_setup(codes4_k *k, const double b1k[3],
-                                                               const double b2k[3],
-                                                               const double denk[3],
-                                                               unsigned depth, int table)
+T256 static inline void codes4_setup(codes4_k *k, const double b1k[3], const double b2k[3],
+                                     const double denk[3], unsigned depth, int table)
 {
-    k->d0 = _mm256_set1_pd(denk[0]), k->d2 = _mm256_set1_pd(denk[2]);
-    k->p0 = _mm256_set1_pd(b1k[0]), k->p2 = _mm256_set1_pd(b1k[2]);
-    k->q0 = _mm256_set1_pd(b2k[0]), k->q2 = _mm256_set1_pd(b2k[2]);
     const double s = (double)((uint64_t)1 << depth);
+    k->d0 = _mm256_set1_pd(denk[0]), k->d2 = _mm256_set1_pd(denk[2]),
+    k->p0 = _mm256_set1_pd(b1k[0] * s), k->p2 = _mm256_set1_pd(b1k[2] * s),
+    k->q0 = _mm256_set1_pd(b2k[0] * s), k->q2 = _mm256_set1_pd(b2k[2] * s);
+    k->s = s;
+    k->invs = _mm256_set1_pd(1 / s);
     k->sv = _mm256_set1_pd(s), k->need = _mm256_set1_pd(0x1p-40 * s),
     k->up = _mm256_set1_pd(s - 1), k->down = _mm256_set1_pd(s - 2);
+    /* exact in float for s <= 2^LRR__LEAF_TABLE_DEPTH */
+    const float fs = (float)s;
+    k->fsv = _mm256_set1_ps(fs), k->fup = _mm256_set1_ps(fs - 1),
+    k->m12 = _mm256_set1_ps(0x1p-12f * fs), k->m12hi = _mm256_set1_ps(1 - 0x1p-12f * fs),
+    k->ulo = _mm256_set1_ps(1 - 0x1p-11f * fs), k->uhi = _mm256_set1_ps(1 + 0x1p-11f * fs);
     k->depth = depth;
     k->table = table;
 }
 
-/* The codes of four pixels at columns sx, lane by lane as codes8 (a lane in a cell keeps its
- * code when another descends), into out[0..3]. */
-__attribute__((target("avx2"))) static inline void codes4(const codes4_k *k, __m256d d1,
-                                                         __m256d p1, __m256d q1, __m256d sx,
-                                                         uint32_t out[4])
+T256 static inline __m256d lin4(__m256d k0, __m256d k1sy, __m256d k2, __m256d sx)
 {
-    /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy (d1, p1, q1) is the row's one product */
+    return _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(k0, sx), k1sy), k2);
+}
+
+/* two groups of four doubles as eight floats */
+T256 static inline __m256 to_ps8(__m256d lo, __m256d hi)
+{
+    return _mm256_insertf128_ps(_mm256_castps128_ps256(_mm256_cvtpd_ps(lo)), _mm256_cvtpd_ps(hi), 1);
+}
+
+/* fast_cells8 (see there) for eight pixels in float, from n_j = s·b̃_j·nd and nd (the exact
+ * path's, in double) without a division: r̃ = rcpps(float(nd)) (within 1.5·2^-12) and one
+ * Newton step r̃·(2 − float(nd)·r̃) in float, then t̃_j = float(n_j)·r̃. Where nd is a
+ * normal float, t̃_j is within 2^-20·t_j + 2^-23 of the exact path's t_j = fl(n_j·fl(1/nd))
+ * (the square of rcpps's error, a few float roundings, and 2^-149/nd for an n_j that is
+ * denormal in float), inside the 2^-13·2^d that fast_cells8's margins allow for rcp14; f_j
+ * = t̃_j − floor(t̃_j) is exact in float, u = f1 + f2 off by an ulp (2^-23). Other lanes come
+ * out 0, ±inf or NaN (rcpps flushes a denormal input or result), which the compares reject:
+ * t = 0 fails f ≥ m12, ±inf and NaN fail every compare. *code gets the cells (0 where a lane
+ * does not qualify); returns the lanes that qualify, a movemask. Two 4-lane divides and the
+ * same steps in double per eight pixels (codes4 before) were twice the time: Cornell
+ * LRR_SIMD=avx2 R 128, 1 thread, codes4 half of the profile. */
+T256 static inline int fast_cells4x2(const codes4_k *k, __m256 nd, __m256 n1, __m256 n2,
+                                     __m256i *code)
+{
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+    const __m256 r0 = _mm256_rcp_ps(nd);
+    const __m256 r = _mm256_mul_ps(r0, _mm256_sub_ps(_mm256_set1_ps(2.0f), _mm256_mul_ps(nd, r0)));
+    const __m256 t1 = _mm256_mul_ps(n1, r), t2 = _mm256_mul_ps(n2, r);
+    const __m256 i1 = _mm256_round_ps(t1, FLOOR_NO_EXC), i2 = _mm256_round_ps(t2, FLOOR_NO_EXC);
+    const __m256 f1 = _mm256_sub_ps(t1, i1), f2 = _mm256_sub_ps(t2, i2);
+    const __m256 u = _mm256_add_ps(f1, f2);
+    const __m256 down = _mm256_cmp_ps(u, k->uhi, _CMP_GE_OQ), d = _mm256_and_ps(down, one);
+    __m256 ok = _mm256_and_ps(_mm256_cmp_ps(f1, k->m12, _CMP_GE_OQ),
+                              _mm256_cmp_ps(f1, k->m12hi, _CMP_LE_OQ));
+    ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(f2, k->m12, _CMP_GE_OQ),
+                                         _mm256_cmp_ps(f2, k->m12hi, _CMP_LE_OQ)));
+    ok = _mm256_and_ps(ok, _mm256_or_ps(_mm256_cmp_ps(u, k->ulo, _CMP_LE_OQ), down));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(_mm256_min_ps(i1, i2), zero, _CMP_GE_OQ));
+    ok = _mm256_and_ps(ok, _mm256_cmp_ps(_mm256_add_ps(_mm256_add_ps(i1, i2), d), k->fup,
+                                         _CMP_LE_OQ));
+    /* exact small integers (< 2^13): (i1·2^d + i2)·2 + down */
+    const __m256 cell = _mm256_add_ps(
+        _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(i1, k->fsv), i2), _mm256_set1_ps(2.0f)), d);
+    *code = _mm256_cvttps_epi32(_mm256_and_ps(ok, cell));
+    return _mm256_movemask_ps(ok);
+}
+
+/* The exact path's codes of four pixels from their nd, n1, n2 (scaled by s, see codes8),
+ * lane by lane as codes8: b from a division, the table's cell where its margin allows, else
+ * the leaf | LRR__LEAF_DESCENT (the leaf alone without a table). */
+T256 static inline __m128i exact_codes4(const codes4_k *k, __m256d nd, __m256d n1, __m256d n2)
+{
     const __m256d one = _mm256_set1_pd(1.0), zero = _mm256_setzero_pd();
-    __m256d r = _mm256_div_pd(one, _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(k->d0, sx), d1), k->d2));
-    __m256d b1 = _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(k->p0, sx), p1), k->p2), r);
-    __m256d b2 = _mm256_mul_pd(_mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(k->q0, sx), q1), k->q2), r);
+    const __m256d r = _mm256_div_pd(one, nd);
+    __m256d b1 = _mm256_mul_pd(_mm256_mul_pd(n1, r), k->invs);
+    __m256d b2 = _mm256_mul_pd(_mm256_mul_pd(n2, r), k->invs);
     /* lrr__clamp_bary: !(b > 0) → 0 (NaN too), b > 1 → 1, then b0 < 0 → renormalise */
     b1 = _mm256_and_pd(b1, _mm256_cmp_pd(b1, zero, _CMP_GT_OQ));
     b2 = _mm256_and_pd(b2, _mm256_cmp_pd(b2, zero, _CMP_GT_OQ));
     b1 = _mm256_blendv_pd(b1, one, _mm256_cmp_pd(b1, one, _CMP_GT_OQ));
     b2 = _mm256_blendv_pd(b2, one, _mm256_cmp_pd(b2, one, _CMP_GT_OQ));
     __m256d b0 = _mm256_sub_pd(_mm256_sub_pd(one, b1), b2);
-    __m256d neg = _mm256_cmp_pd(b0, zero, _CMP_LT_OQ);
+    const __m256d neg = _mm256_cmp_pd(b0, zero, _CMP_LT_OQ);
     if (_mm256_movemask_pd(neg)) {
-        __m256d sum = _mm256_add_pd(b1, b2);
+        const __m256d sum = _mm256_add_pd(b1, b2);
         b1 = _mm256_blendv_pd(b1, _mm256_div_pd(b1, sum), neg);
         b2 = _mm256_blendv_pd(b2, _mm256_div_pd(b2, sum), neg);
         b0 = _mm256_blendv_pd(b0, zero, neg);
     }
-    int okm = 0;
+    __m256d ok = zero;
+    __m128i code = _mm_setzero_si128();
     if (k->table) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
         const __m256d sv = k->sv;
-        __m256d t0 = _mm256_mul_pd(b0, sv), t1 = _mm256_mul_pd(b1, sv), t2 = _mm256_mul_pd(b2, sv);
-        __m256d i0 = _mm256_round_pd(t0, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
-                i1 = _mm256_round_pd(t1, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC),
-                i2 = _mm256_round_pd(t2, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-        __m256d f0 = _mm256_sub_pd(t0, i0), f1 = _mm256_sub_pd(t1, i1), f2 = _mm256_sub_pd(t2, i2);
-        __m256d m = _mm256_min_pd(_mm256_min_pd(_mm256_min_pd(f0, _mm256_sub_pd(one, f0)),
-                                                _mm256_min_pd(f1, _mm256_sub_pd(one, f1))),
-                                  _mm256_min_pd(f2, _mm256_sub_pd(one, f2)));
-        __m256d sum = _mm256_add_pd(_mm256_add_pd(i0, i1), i2);
-        __m256d isdown = _mm256_cmp_pd(sum, k->down, _CMP_EQ_OQ);
-        __m256d ok = _mm256_and_pd(
+        const __m256d t0 = _mm256_mul_pd(b0, sv), t1 = _mm256_mul_pd(b1, sv),
+                      t2 = _mm256_mul_pd(b2, sv);
+        const __m256d i0 = _mm256_round_pd(t0, FLOOR_NO_EXC), i1 = _mm256_round_pd(t1, FLOOR_NO_EXC),
+                      i2 = _mm256_round_pd(t2, FLOOR_NO_EXC);
+        const __m256d f0 = _mm256_sub_pd(t0, i0), f1 = _mm256_sub_pd(t1, i1),
+                      f2 = _mm256_sub_pd(t2, i2);
+        const __m256d m = _mm256_min_pd(
+            _mm256_min_pd(_mm256_min_pd(f0, _mm256_sub_pd(one, f0)),
+                          _mm256_min_pd(f1, _mm256_sub_pd(one, f1))),
+            _mm256_min_pd(f2, _mm256_sub_pd(one, f2)));
+        const __m256d sum = _mm256_add_pd(_mm256_add_pd(i0, i1), i2);
+        const __m256d isdown = _mm256_cmp_pd(sum, k->down, _CMP_EQ_OQ);
+        ok = _mm256_and_pd(
             _mm256_and_pd(_mm256_cmp_pd(m, k->need, _CMP_GE_OQ),
                           _mm256_or_pd(_mm256_cmp_pd(sum, k->up, _CMP_EQ_OQ), isdown)),
             _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(b0, zero, _CMP_GT_OQ),
                                         _mm256_cmp_pd(b1, zero, _CMP_GT_OQ)),
                           _mm256_cmp_pd(b2, zero, _CMP_GT_OQ)));
-        okm = _mm256_movemask_pd(ok);
-        if (okm) {
-            __m256d cell = _mm256_add_pd(
-                _mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(i1, sv), i2), _mm256_set1_pd(2.0)),
-                _mm256_and_pd(isdown, one));
-            _mm_storeu_si128((__m128i *)out, _mm256_cvttpd_epi32(cell)); /* the cells: codes */
-        }
+        const __m256d cell = _mm256_add_pd(
+            _mm256_mul_pd(_mm256_add_pd(_mm256_mul_pd(i1, sv), i2), _mm256_set1_pd(2.0)),
+            _mm256_and_pd(isdown, one));
+        code = _mm256_cvttpd_epi32(_mm256_and_pd(ok, cell)); /* the cells: codes */
     }
-    if (okm != 15) { /* leaves, marked when there is a table (lrr__hemi_leaf_of) */
-        double idx[4];
-        _mm256_storeu_pd(idx, descend4(b0, b1, b2, k->depth));
-        for (int j = 0; j < 4; j++)
-            if (!(okm >> j & 1))
-                out[j] = (uint32_t)idx[j] | (k->table ? LRR__LEAF_DESCENT : 0);
+    if (_mm256_movemask_pd(ok) != 15) { /* the others descend: their leaves */
+        /* leaves < 4^16 = 2^32: shifted by 2^31 into int32 range (exact) and back by the
+         * sign bit, as an unsigned conversion would */
+        const __m256d bias = _mm256_set1_pd(0x1p31);
+        __m128i idx = _mm_xor_si128(
+            _mm256_cvttpd_epi32(_mm256_sub_pd(descend4(b0, b1, b2, k->depth), bias)),
+            _mm_set1_epi32(INT32_MIN));
+        if (k->table)
+            idx = _mm_or_si128(idx, _mm_set1_epi32((int)LRR__LEAF_DESCENT));
+        const __m128i okd = _mm256_castsi256_si128(_mm256_permutevar8x32_epi32(
+            _mm256_castpd_si256(ok), _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6)));
+        code = _mm_blendv_epi8(idx, code, okd);
     }
+    return code;
 }
 
-__attribute__((target("avx2"))) static void leaves_run4(const double b1k[3], const double b2k[3],
-                                                       const double denk[3], const double *sxt,
-                                                       double sy, int a, int b, unsigned depth,
-                                                       const uint16_t *cells, uint32_t *leaf,
-                                                       uint64_t *brk)
+/* The codes of eight pixels at columns sx_lo (four), sx_hi (four), lane by lane as codes8
+ * (a lane's code does not depend on the others: the fast path gives the cell the exact
+ * path's table gives); a group of four that the fast path does not settle takes the exact
+ * path. */
+T256 __attribute__((always_inline)) static inline __m256i codes4x2(const codes4_k *k, __m256d d1,
+                                                                  __m256d p1, __m256d q1,
+                                                                  __m256d sx_lo, __m256d sx_hi)
+{
+    /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2, n1 and n2 scaled by s (see codes8) */
+    const __m256d nd_lo = lin4(k->d0, d1, k->d2, sx_lo), n1_lo = lin4(k->p0, p1, k->p2, sx_lo),
+                  n2_lo = lin4(k->q0, q1, k->q2, sx_lo), nd_hi = lin4(k->d0, d1, k->d2, sx_hi),
+                  n1_hi = lin4(k->p0, p1, k->p2, sx_hi), n2_hi = lin4(k->q0, q1, k->q2, sx_hi);
+    __m256i code = _mm256_setzero_si256();
+    int ok = 0;
+    if (k->table) {
+        ok = fast_cells4x2(k, to_ps8(nd_lo, nd_hi), to_ps8(n1_lo, n1_hi), to_ps8(n2_lo, n2_hi),
+                           &code);
+        if (ok == 0xFF)
+            return code;
+    }
+    __m128i lo = _mm256_castsi256_si128(code), hi = _mm256_extracti128_si256(code, 1);
+    if ((ok & 0x0F) != 0x0F)
+        lo = exact_codes4(k, nd_lo, n1_lo, n2_lo);
+    if ((ok & 0xF0) != 0xF0)
+        hi = exact_codes4(k, nd_hi, n1_hi, n2_hi);
+    return _mm256_inserti128_si256(_mm256_castsi128_si256(lo), hi, 1);
+}
+
+/* sx of pixels x..x+7, those past last repeating last's (whose codes are dropped) */
+T256 static inline void sx8(const double *sxt, int x, int last, __m256d *lo, __m256d *hi)
+{
+    if (x + 7 <= last) {
+        *lo = _mm256_loadu_pd(sxt + x), *hi = _mm256_loadu_pd(sxt + x + 4);
+        return;
+    }
+    /* masked loads (nothing read past last), the other lanes last's */
+    const __m256i n = _mm256_set1_epi64x(last - x + 1);
+    const __m256i mlo = _mm256_cmpgt_epi64(n, _mm256_setr_epi64x(0, 1, 2, 3)),
+                  mhi = _mm256_cmpgt_epi64(n, _mm256_setr_epi64x(4, 5, 6, 7));
+    const __m256d l = _mm256_broadcast_sd(sxt + last);
+    *lo = _mm256_blendv_pd(l, _mm256_maskload_pd(sxt + x, mlo), _mm256_castsi256_pd(mlo));
+    *hi = _mm256_blendv_pd(l, _mm256_maskload_pd(sxt + x + 4, mhi), _mm256_castsi256_pd(mhi));
+}
+
+T256 static void leaves_run4(const double b1k[3], const double b2k[3], const double denk[3],
+                             const double *sxt, double sy, int a, int b, unsigned depth,
+                             const uint16_t *cells, uint32_t *leaf, uint64_t *brk)
 {
     /* brk as it goes (put_codes8's way): a lrr__hemi_breaks pass over each run's codes was
      * 1.5% more instructions in a Cornell R 32 LRR_SIMD=avx2 run (callgrind 1.894G → 1.866G) */
     memset(brk, 0, (size_t)(b - a + 64) / 64 * sizeof *brk);
-    __m128i prev = _mm_setzero_si128(); /* whatever it holds: bit 0 is set at the end */
+    __m256i prev = _mm256_setzero_si256(); /* whatever it holds: bit 0 is set at the end */
     codes4_k k;
     codes4_setup(&k, b1k, b2k, denk, depth, cells != NULL);
-    const __m256d d1 = _mm256_set1_pd(denk[1] * sy), p1 = _mm256_set1_pd(b1k[1] * sy),
-                  q1 = _mm256_set1_pd(b2k[1] * sy);
-    for (int x = a; x <= b; x += 4) {
-        __m256d sx;
-        if (x + 3 <= b)
-            sx = _mm256_loadu_pd(sxt + x);
-        else /* past the run: repeat its last pixel, whose leaf is dropped */
-            sx = _mm256_setr_pd(sxt[x], sxt[x + 1 <= b ? x + 1 : b], sxt[x + 2 <= b ? x + 2 : b],
-                                sxt[b]);
-        uint32_t out[4];
-        codes4(&k, d1, p1, q1, sx, out);
-        for (int j = 0; j < 4 && x + j <= b; j++)
-            leaf[x - a + j] = out[j];
+    const __m256d d1 = _mm256_set1_pd(denk[1] * sy), p1 = _mm256_set1_pd(b1k[1] * sy * k.s),
+                  q1 = _mm256_set1_pd(b2k[1] * sy * k.s);
+    const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+                  rot = _mm256_setr_epi32(7, 0, 1, 2, 3, 4, 5, 6);
+    for (int x = a; x <= b; x += 8) {
+        const int n = b - x + 1 < 8 ? b - x + 1 : 8;
+        __m256d lo, hi;
+        sx8(sxt, x, b, &lo, &hi);
+        const __m256i code = codes4x2(&k, d1, p1, q1, lo, hi);
+        _mm256_maskstore_epi32((int *)(leaf + x - a), _mm256_cmpgt_epi32(_mm256_set1_epi32(n), iota),
+                               code);
         /* lane l against lane l − 1, lane 0 against the last of prev; x − a is a multiple of
-         * 4, so the four bits stay in one word */
-        const __m128i code = _mm_loadu_si128((const __m128i *)out),
-                      before = _mm_alignr_epi8(code, prev, 12);
-        const int n = b - x + 1 < 4 ? b - x + 1 : 4;
-        const uint64_t ne = (uint64_t)(~_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(code, before))) &
-                                       ((1 << n) - 1));
+         * 8, so the eight bits stay in one word */
+        const __m256i before = _mm256_blend_epi32(_mm256_permutevar8x32_epi32(code, rot),
+                                                  _mm256_permutevar8x32_epi32(prev, rot), 1);
+        const uint64_t ne = (uint64_t)(~(unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(
+                                           _mm256_cmpeq_epi32(code, before))) &
+                                       ((1u << n) - 1));
         brk[(x - a) >> 6] |= ne << ((x - a) & 63);
         prev = code;
     }
     brk[0] |= 1;
 }
 
-/* The rasteriser's depth test over rows py0 + j, j < rows, pixels span[2j]..span[2j + 1]
- * (none when the first is greater), four at a time: the scalar loop's operations lane by
- * lane (hemicube.c's raster_tri), so ties resolve the same. depth and item point at the first
- * row (W pixels a row). The set-up once for all rows, as depth_rows8 (one call per row:
- * 4.6% more instructions in a Cornell R 32 LRR_SIMD=avx2 run, callgrind 1.986G → 1.894G). */
-__attribute__((target("avx2"))) static void depth_rows4(const double abc[9], const double iz[3],
-                                                       double inv_area, double py0, int y0,
-                                                       int rows, const int32_t *span, int W,
-                                                       float *depth, int32_t *item, int32_t id,
-                                                       const lrr__hemi_codes *lc)
+/* The edge function k at four pixels: (A·px + B·py) + C, B·py hoisted into BC. */
+#define EDGE4(k) _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(A##k, px), BC##k), C##k)
+
+/* named registers, as DEPTH8_SETUP: with arrays and a loop over the three edges gcc kept
+ * them on the stack (a store and three loads per edge and vector in the hot loop) */
+#define DEPTH4_SETUP()                                                                        \
+    const __m256d A0 = _mm256_set1_pd(abc[0]), C0 = _mm256_set1_pd(abc[2]),                  \
+                  A1 = _mm256_set1_pd(abc[3]), C1 = _mm256_set1_pd(abc[5]),                  \
+                  A2 = _mm256_set1_pd(abc[6]), C2 = _mm256_set1_pd(abc[8]),                  \
+                  Z0 = _mm256_set1_pd(iz[0]), Z1 = _mm256_set1_pd(iz[1]),                    \
+                  Z2 = _mm256_set1_pd(iz[2]), ia = _mm256_set1_pd(inv_area),                 \
+                  step = _mm256_set1_pd(4.0), offs = _mm256_setr_pd(0.5, 1.5, 2.5, 3.5);     \
+    const __m128i idv = _mm_set1_epi32(id)
+
+/* Four pixels x.. (up to R) of a row: the edge functions, 1/z and the float compare, as
+ * raster_tri's scalar loop lane by lane (ties resolve the same); a row's last pixels load
+ * and store no further (masked). Returns the lanes it wrote, as a vector mask. */
+T256 static inline __m128i depth4_step(__m256d A0, __m256d BC0, __m256d C0, __m256d A1,
+                                       __m256d BC1, __m256d C1, __m256d A2, __m256d BC2,
+                                       __m256d C2, __m256d Z0, __m256d Z1, __m256d Z2,
+                                       __m256d ia, __m128i idv, __m256d px, int x, int R,
+                                       float *depth, int32_t *item)
 {
-    __m256d A[3], C[3], Z[3];
-    for (int k = 0; k < 3; k++) {
-        A[k] = _mm256_set1_pd(abc[3 * k]);
-        C[k] = _mm256_set1_pd(abc[3 * k + 2]);
-        Z[k] = _mm256_set1_pd(iz[k]);
+    const __m128i lane = _mm_cmpgt_epi32(_mm_set1_epi32(R - x + 1), _mm_setr_epi32(0, 1, 2, 3));
+    const __m256d z = _mm256_add_pd(
+        _mm256_add_pd(_mm256_mul_pd(EDGE4(0), Z0), _mm256_mul_pd(EDGE4(1), Z1)),
+        _mm256_mul_pd(EDGE4(2), Z2));
+    const __m128 zf = _mm256_cvtpd_ps(_mm256_mul_pd(z, ia));
+    const __m128 old = _mm_maskload_ps(depth + x, lane);
+    /* ordered: NaN never wins, as in C */
+    const __m128i gt = _mm_castps_si128(_mm_and_ps(_mm_cmpgt_ps(zf, old), _mm_castsi128_ps(lane)));
+    if (_mm_movemask_ps(_mm_castsi128_ps(gt))) {
+        _mm_maskstore_ps(depth + x, gt, zf);
+        _mm_maskstore_epi32(item + x, gt, idv);
     }
-    const __m256d ia = _mm256_set1_pd(inv_area), step = _mm256_set1_pd(4.0),
-                  offs = _mm256_setr_pd(0.5, 1.5, 2.5, 3.5);
-    const __m128i idv = _mm_set1_epi32(id), lanes = _mm_setr_epi32(0, 1, 2, 3);
-    uint32_t *crow = lc ? lc->code + (size_t)y0 * W : NULL;
-    codes4_k ck;
-    __m256d cd1 = _mm256_setzero_pd(), cp1 = cd1, cq1 = cd1;
-    if (lc)
-        codes4_setup(&ck, lc->b1, lc->b2, lc->den, lc->depth, 1);
-    for (int j = 0; j < rows; j++, depth += W, item += W, crow += lc ? W : 0) {
-        const int L = span[2 * j], R = span[2 * j + 1];
-        const double py = py0 + j; /* exact: y + 0.5 */
-        if (L > R)
-            continue;
-        if (lc) { /* the row's sy as integrate_face has it */
-            const double sy = lc->syt[y0 + j];
-            cd1 = _mm256_set1_pd(lc->den[1] * sy);
-            cp1 = _mm256_set1_pd(lc->b1[1] * sy);
-            cq1 = _mm256_set1_pd(lc->b2[1] * sy);
-        }
-        __m256d BC[3];
-        for (int k = 0; k < 3; k++)
-            BC[k] = _mm256_set1_pd(abc[3 * k + 1] * py);
-        __m256d px = _mm256_add_pd(_mm256_set1_pd((double)L), offs);
-        for (int x = L; x <= R; x += 4, px = _mm256_add_pd(px, step)) {
-            /* the lanes up to R: a row's last pixels load and store no further (masked) */
-            const __m128i lane = _mm_cmplt_epi32(lanes, _mm_set1_epi32(R - x + 1));
-            __m256d w[3];
-            for (int k = 0; k < 3; k++)
-                w[k] = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(A[k], px), BC[k]), C[k]);
-            __m256d z = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(w[0], Z[0]),
-                                                    _mm256_mul_pd(w[1], Z[1])),
-                                      _mm256_mul_pd(w[2], Z[2]));
-            __m128 zf = _mm256_cvtpd_ps(_mm256_mul_pd(z, ia));
-            __m128 old = _mm_maskload_ps(depth + x, lane);
-            /* ordered: NaN never wins, as in C */
-            __m128 gt = _mm_and_ps(_mm_cmpgt_ps(zf, old), _mm_castsi128_ps(lane));
-            if (_mm_movemask_ps(gt) == 0)
-                continue;
-            const __m128i gti = _mm_castps_si128(gt);
-            _mm_maskstore_ps(depth + x, gti, zf);
-            _mm_maskstore_ps((float *)(item + x), gti, _mm_castsi128_ps(idv));
-            if (lc) { /* the winners' codes; lanes past the span take its last column */
-                const double *sxt = lc->sxt;
-                const __m256d sx =
-                    x + 3 <= R ? _mm256_loadu_pd(sxt + x)
-                               : _mm256_setr_pd(sxt[x], sxt[x + 1 <= R ? x + 1 : R],
-                                                sxt[x + 2 <= R ? x + 2 : R], sxt[R]);
-                uint32_t out[4];
-                codes4(&ck, cd1, cp1, cq1, sx, out);
-                _mm_maskstore_ps((float *)(crow + x), gti,
-                                 _mm_castsi128_ps(_mm_loadu_si128((const __m128i *)out)));
-            }
-        }
-    }
+    return gt;
 }
 
+/* One row's span L..R at py of depth_span4 / depth_rows4 (DEPTH4_SETUP in scope). */
+#define DEPTH4_ROW(py, L, R, depth, item)                                                     \
+    do {                                                                                      \
+        const __m256d BC0 = _mm256_set1_pd(abc[1] * (py)), BC1 = _mm256_set1_pd(abc[4] * (py)), \
+                      BC2 = _mm256_set1_pd(abc[7] * (py));                                   \
+        __m256d px = _mm256_add_pd(_mm256_set1_pd((double)(L)), offs);                        \
+        for (int x = (L); x <= (R); x += 4, px = _mm256_add_pd(px, step))                     \
+            depth4_step(A0, BC0, C0, A1, BC1, C1, A2, BC2, C2, Z0, Z1, Z2, ia, idv, px, x, R, \
+                        depth, item);                                                         \
+    } while (0)
+
 /* One row's span L..R at py (lrr__hemi_depth_span). */
-__attribute__((target("avx2"))) static void depth_span4(const double abc[9], const double iz[3],
-                                                       double inv_area, double py, int L, int R,
-                                                       float *depth, int32_t *item, int32_t id)
+T256 static void depth_span4(const double abc[9], const double iz[3], double inv_area, double py,
+                             int L, int R, float *depth, int32_t *item, int32_t id)
 {
-    const int32_t span[2] = {L, R};
-    depth_rows4(abc, iz, inv_area, py, 0, 1, span, 0, depth, item, id, NULL);
+    DEPTH4_SETUP();
+    DEPTH4_ROW(py, L, R, depth, item);
 }
+
+/* depth_rows8 (lrr__hemi_depth_rows) four pixels at a time. The set-up once for all rows (one
+ * call per row: 4.6% more instructions in a Cornell R 32 LRR_SIMD=avx2 run, callgrind
+ * 1.986G → 1.894G). */
+T256 static void depth_rows4(const double abc[9], const double iz[3], double inv_area, int y0,
+                             int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                             int32_t id, const lrr__hemi_codes *lc)
+{
+    DEPTH4_SETUP();
+    codes4_k k;
+    k.depth = 0, k.table = 0; /* set up below where codes are made */
+    double b1s = 0, b2s = 0; /* the row terms' coefficients times 2^depth, as codes4x2 wants */
+    if (lc) {
+        codes4_setup(&k, lc->b1, lc->b2, lc->den, lc->depth, 1);
+        b1s = lc->b1[1] * k.s, b2s = lc->b2[1] * k.s;
+    }
+    for (int y = y0; y <= y1; y++) {
+        const int L = span[2 * (y - y0)], R = span[2 * (y - y0) + 1];
+        float *drow = depth + (size_t)y * W;
+        int32_t *irow = item + (size_t)y * W;
+        if (!lc) {
+            DEPTH4_ROW(y + 0.5, L, R, drow, irow);
+            continue;
+        }
+        if (L > R)
+            continue;
+        /* the row's sy as integrate_face has it */
+        const double sy = lc->syt[y], *sxt = lc->sxt;
+        const __m256d d1 = _mm256_set1_pd(lc->den[1] * sy), p1 = _mm256_set1_pd(b1s * sy),
+                      q1 = _mm256_set1_pd(b2s * sy);
+        uint32_t *crow = lc->code + (size_t)y * W;
+        const double py = y + 0.5;
+        const __m256d BC0 = _mm256_set1_pd(abc[1] * py), BC1 = _mm256_set1_pd(abc[4] * py),
+                      BC2 = _mm256_set1_pd(abc[7] * py);
+        __m256d px = _mm256_add_pd(_mm256_set1_pd((double)L), offs);
+        const __m256d step8 = _mm256_set1_pd(8.0);
+        for (int x = L; x <= R; x += 8, px = _mm256_add_pd(px, step8)) {
+            /* eight pixels, two depth steps: the codes of eight at once (codes4x2) */
+            const __m128i g0 = depth4_step(A0, BC0, C0, A1, BC1, C1, A2, BC2, C2, Z0, Z1, Z2,
+                                           ia, idv, px, x, R, drow, irow);
+            const __m128i g1 =
+                x + 4 <= R ? depth4_step(A0, BC0, C0, A1, BC1, C1, A2, BC2, C2, Z0, Z1, Z2, ia,
+                                         idv, _mm256_add_pd(px, step), x + 4, R, drow, irow)
+                           : _mm_setzero_si128();
+            const __m256i gt = _mm256_inserti128_si256(_mm256_castsi128_si256(g0), g1, 1);
+            if (_mm256_testz_si256(gt, gt))
+                continue;
+            /* the winners' codes; lanes past the span take its last pixel's column */
+            __m256d lo, hi;
+            sx8(sxt, x, R, &lo, &hi);
+            _mm256_maskstore_epi32((int *)(crow + x), gt, codes4x2(&k, d1, p1, q1, lo, hi));
+        }
+    }
+}
+#undef DEPTH4_ROW
+#undef DEPTH4_SETUP
+#undef EDGE4
 
 /* lrr__hemi_spans four rows at a time: spans8's steps (see there) with AVX2 compares and
  * blends, lane by lane the same IEEE operations (no FMA in target "avx2"). Without it the
@@ -354,6 +494,46 @@ __attribute__((target("avx2"))) static void breaks8(const int32_t *v, int n, uin
         mask[x >> 6] |= (uint64_t)(v[x] != v[x - 1]) << (x & 63);
 }
 
+/* breaks16_pair in eight lanes: an item row and its codes in one pass, a word of 64 pixels at
+ * a time in registers (two breaks8 passes and an OR were 7% of a Cornell R 64 LRR_SIMD=avx2
+ * profile, against 4% for breaks16_pair in the AVX-512 one) */
+T256 static void breaks8_pair(const int32_t *v, const int32_t *u, int n, uint64_t *mv,
+                              uint64_t *mu)
+{
+    const __m256i iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    for (int w = 0; w * 64 < n; w++) {
+        uint64_t wv = 0, wu = 0;
+        for (int c = 0; c < 8; c++) {
+            const int x = w * 64 + c * 8;
+            if (x >= n)
+                break;
+            __m256i a, b, p, q;
+            unsigned valid = 0xFF;
+            if (x > 0 && n - x >= 8) {
+                a = _mm256_loadu_si256((const __m256i *)(v + x));
+                b = _mm256_loadu_si256((const __m256i *)(v + x - 1));
+                p = _mm256_loadu_si256((const __m256i *)(u + x));
+                q = _mm256_loadu_si256((const __m256i *)(u + x - 1));
+            } else { /* lanes x.. below n, and not pixel 0 (no pixel before it): masked */
+                __m256i k = _mm256_cmpgt_epi32(_mm256_set1_epi32(n - x), iota);
+                if (x == 0)
+                    k = _mm256_blend_epi32(k, _mm256_setzero_si256(), 1);
+                valid = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(k));
+                a = _mm256_maskload_epi32(v + x, k), b = _mm256_maskload_epi32(v + x - 1, k);
+                p = _mm256_maskload_epi32(u + x, k), q = _mm256_maskload_epi32(u + x - 1, k);
+            }
+            const uint64_t nv = ~(unsigned)_mm256_movemask_ps(
+                                    _mm256_castsi256_ps(_mm256_cmpeq_epi32(a, b))) & valid,
+                           nu = ~(unsigned)_mm256_movemask_ps(
+                                    _mm256_castsi256_ps(_mm256_cmpeq_epi32(p, q))) & valid;
+            wv |= nv << (8 * c);
+            wu |= (nv | nu) << (8 * c);
+        }
+        mv[w] = wv | (w == 0);
+        mu[w] = wu | (w == 0);
+    }
+}
+
 /* ------------------------------------------------------------------ eight lanes (AVX-512)
  * The same steps as leaves_run4 and depth_span4, lane by lane, with masks for the selects and
  * a run's or span's last lanes. A lane the cell table's margin rejects descends alone (four
@@ -367,8 +547,6 @@ __attribute__((target("avx2"))) static void breaks8(const int32_t *v, int n, uin
 #else
 #define T512 __attribute__((target("avx512f,avx512vl"), optimize("fp-contract=off")))
 #endif
-/* round down, no exception: an integer constant expression, as the intrinsic needs */
-#define FLOOR_NO_EXC (_MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC)
 
 T512 static inline __m512d lin8(__m512d k0, __m512d k1sy, __m512d k2, __m512d sx)
 {
@@ -514,7 +692,7 @@ T512 static inline void codes8_setup(codes8_k *k, const double b1k[3], const dou
 /* The codes of eight pixels at columns sx. Lane by lane: a pixel's code does not depend on
  * the other lanes (the fast path gives the cell the exact path's table gives), so codes made
  * in the depth test (depth_rows8) equal leaves_run8's. */
-T512 static inline __m256i codes8(const codes8_k *k, __m512d d1, __m512d p1, __m512d q1,
+T512 __attribute__((always_inline)) static inline __m256i codes8(const codes8_k *k, __m512d d1, __m512d p1, __m512d q1,
                                  __m512d sx)
 {
     /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy (d1, p1, q1) is the row's one product.
@@ -645,6 +823,7 @@ T512 static void depth_rows8(const double abc[9], const double iz[3], double inv
 {
     DEPTH8_SETUP();
     codes8_k k;
+    k.depth = 0, k.table = 0; /* set up below where codes are made */
     double b1s = 0, b2s = 0; /* the row terms' coefficients times 2^depth, as codes8 wants */
     if (lc) {
         codes8_setup(&k, lc->b1, lc->b2, lc->den, lc->depth, 1);
@@ -840,8 +1019,7 @@ void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_ar
         depth_rows8(abc, iz, inv_area, y0, y1, span, W, depth, item, id, lc);
         return;
     }
-    depth_rows4(abc, iz, inv_area, y0 + 0.5, y0, y1 - y0 + 1, span, W, depth + (size_t)y0 * W,
-                item + (size_t)y0 * W, id, lc);
+    depth_rows4(abc, iz, inv_area, y0, y1, span, W, depth, item, id, lc);
 }
 #else
 int lrr__hemi_simd(void) { return 0; }
@@ -887,6 +1065,10 @@ void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, 
 #if defined(__x86_64__) || defined(__i386__)
     if (simd >= 2 && n > 0) {
         breaks16_pair(v, u, n, mv, mu);
+        return;
+    }
+    if (simd == 1 && n > 0) {
+        breaks8_pair(v, u, n, mv, mu);
         return;
     }
 #endif
