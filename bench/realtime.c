@@ -17,9 +17,12 @@
 #include "bench.h"
 
 #define RT_DEFAULT_HEMICUBE 64u
-#define RT_TARGET_FLOOR 1.15
+/* the real-time pass's goals (issue 16): f32 within 1.25× its floor, 16-bit within 1.3×
+ * theirs; 5× (f32) and 8× (f16) the paper's method on the 191 MB cells */
+#define RT_TARGET_FLOOR 1.25
+#define RT_TARGET_FLOOR16 1.3
 #define RT_TARGET_PAPER_F32 5.0
-#define RT_TARGET_PAPER_F16 10.0
+#define RT_TARGET_PAPER_F16 8.0
 
 static const char realtime_help[] =
     "Usage: lrr-bench realtime [--n N --k K | --cells paper|small|LIST] [--scene SCENE]\n"
@@ -66,9 +69,9 @@ static const char realtime_help[] =
     "F̄ and may go below it); ratio_to_paper = the paper's ms_median / ms_median (a\n"
     "speed-up). rel_l2_vs_f32 = the area-weighted relative L2 of B against fused f32's B\n"
     "(incremental: a frame with the x1 emission); nan for fused f32 itself and for sgemv3\n"
-    "and sgemm3, which compute no B. The target lines (fused f32 <= 1.15 × floor and\n"
-    ">= 5× paper; f16 <= 1.15 × the f16 floor and >= 10× paper) are reported, never\n"
-    "enforced.\n"
+    "and sgemm3, which compute no B. The target line (fused f32 <= 1.25 × floor and\n"
+    ">= 5× paper; f16 and bf16 <= 1.3 × the 16-bit floor; f16 >= 8× paper; the paper\n"
+    "ratios are the goal on the 191 MB cells) is reported, never enforced.\n"
     "\n"
     "Options:\n"
     "  --n N, --k K         one matrix of about N subpatches and K patches: target_patches K,\n"
@@ -259,11 +262,13 @@ static void print_rt_cell(const rt_args *a, const rt_cell *r)
                    bw_source_name(r->bw_source),
                    fmt_bytes(by, sizeof by, (size_t)w->bytes));
     }
+    const rt_row *b16 = &r->rows[RT_FUSED_BF16];
     printf("target: fused f32 ≤ %.2f × floor: %s; ≥ %g× paper: %s; f16 ≤ %.2f × f16 floor: %s; "
-           "≥ %g× paper: %s\n",
+           "bf16 ≤ %.2f × its floor: %s; f16 ≥ %g× paper: %s\n",
            RT_TARGET_FLOOR, yes_no(f32->ratio_to_floor <= RT_TARGET_FLOOR), RT_TARGET_PAPER_F32,
-           yes_no(f32->ratio_to_paper >= RT_TARGET_PAPER_F32), RT_TARGET_FLOOR,
-           yes_no(f16->ratio_to_floor <= RT_TARGET_FLOOR), RT_TARGET_PAPER_F16,
+           yes_no(f32->ratio_to_paper >= RT_TARGET_PAPER_F32), RT_TARGET_FLOOR16,
+           yes_no(f16->ratio_to_floor <= RT_TARGET_FLOOR16), RT_TARGET_FLOOR16,
+           yes_no(b16->ratio_to_floor <= RT_TARGET_FLOOR16), RT_TARGET_PAPER_F16,
            yes_no(f16->ratio_to_paper >= RT_TARGET_PAPER_F16));
     fflush(stdout);
 }
