@@ -608,7 +608,7 @@ static double integrate_face(const hemi_ctx *h, const double x[3], const face *f
         if (h->simd) /* and where the depth test's codes change (render_face) */
             lrr__hemi_breaks2(item, (const int32_t *)crow, f->W, brk, cbrk, h->simd);
         else
-            lrr__hemi_breaks(item, f->W, brk, h->simd);
+            lrr__hemi_breaks(item, f->W, brk);
         /* cbrk's set bits after xx: the word cw, what is left of it in cbits (a cursor,
          * not next_break from xx each time, whose chain through xx bound the loop) */
         const int words = (f->W + 63) / 64;

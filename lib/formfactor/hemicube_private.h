@@ -79,11 +79,12 @@ void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double
                           const double *sxt, double sy, int a, int b, unsigned depth,
                           const uint16_t *cells, uint32_t *leaf, uint64_t *brk, int simd);
 /* Where a row changes: bit x of mask ((n + 63)/64 words, all written) is set when x == 0 or
- * v[x] != v[x − 1], for x < n; simd as for lrr__hemi_leaves_run, or 0 for the scalar loop.
- * (Finding runs pixel by pixel was a fifth of a Cornell R 64 profile.) */
-void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd);
+ * v[x] != v[x − 1], for x < n; the scalar loop (finding runs pixel by pixel was a fifth of a
+ * Cornell R 64 profile). */
+void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask);
 /* lrr__hemi_breaks of two rows of n in one pass: v's into mv, and where v or u changes into
- * mu (inside a run of one v, u's breaks) */
+ * mu (inside a run of one v, u's breaks); simd as for lrr__hemi_leaves_run (16 or 8 lanes a
+ * step, a 64-pixel word in registers), or 0 for the scalar loop */
 void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
                        int simd);
 #define LRR__LEAF_TABLE_DEPTH 6 /* hemicube.c's cell table: leaf depths 0..6 */

@@ -484,26 +484,9 @@ __attribute__((target("avx2"))) static int spans4(const lrr__hemi_edge *e, int x
     return any != 0;
 }
 
-/* Bit x of mask: x == 0 or v[x] != v[x − 1] (lrr__hemi_breaks), eight at a time. */
-__attribute__((target("avx2"))) static void breaks8(const int32_t *v, int n, uint64_t *mask)
-{
-    int x = 1;
-    for (; x + 8 <= n; x += 8) {
-        const __m256i a = _mm256_loadu_si256((const __m256i *)(v + x)),
-                      b = _mm256_loadu_si256((const __m256i *)(v + x - 1));
-        const uint64_t ne =
-            (uint64_t)(~_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(a, b))) & 0xFF);
-        mask[x >> 6] |= ne << (x & 63);
-        if ((x & 63) > 56)
-            mask[(x >> 6) + 1] |= ne >> (64 - (x & 63));
-    }
-    for (; x < n; x++)
-        mask[x >> 6] |= (uint64_t)(v[x] != v[x - 1]) << (x & 63);
-}
-
 /* breaks16_pair in eight lanes: an item row and its codes in one pass, a word of 64 pixels at
- * a time in registers (two breaks8 passes and an OR were 7% of a Cornell R 64 LRR_SIMD=avx2
- * profile, against 4% for breaks16_pair in the AVX-512 one) */
+ * a time in registers (two eight-lane passes and an OR were 7% of a Cornell R 64
+ * LRR_SIMD=avx2 profile, against 4% for breaks16_pair in the AVX-512 one) */
 T256 static void breaks8_pair(const int32_t *v, const int32_t *u, int n, uint64_t *mv,
                               uint64_t *mu)
 {
@@ -699,8 +682,9 @@ T512 static inline void codes8_setup(codes8_k *k, const double b1k[3], const dou
 /* The codes of eight pixels at columns sx. Lane by lane: a pixel's code does not depend on
  * the other lanes (the fast path gives the cell the exact path's table gives), so codes made
  * in the depth test (depth_rows8) equal leaves_run8's. */
-T512 __attribute__((always_inline)) static inline __m256i codes8(const codes8_k *k, __m512d d1, __m512d p1, __m512d q1,
-                                 __m512d sx)
+T512 __attribute__((always_inline)) static inline __m256i codes8(const codes8_k *k, __m512d d1,
+                                                                 __m512d p1, __m512d q1,
+                                                                 __m512d sx)
 {
     /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy (d1, p1, q1) is the row's one product.
      * n1, n2 come scaled by s = 2^depth (the coefficients and p1, q1 are): a power of two
@@ -944,22 +928,8 @@ int lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, i
     return (simd >= 2 ? spans8 : spans4)(e, x0, x1, y0, y1, span);
 }
 
-/* breaks8 sixteen at a time, the last lanes masked */
-T512 static void breaks16(const int32_t *v, int n, uint64_t *mask)
-{
-    for (int x = 1; x < n; x += 16) {
-        const __mmask16 k = (__mmask16)(n - x >= 16 ? 0xFFFF : (1u << (n - x)) - 1);
-        const __m512i a = _mm512_maskz_loadu_epi32(k, v + x),
-                      b = _mm512_maskz_loadu_epi32(k, v + x - 1);
-        const uint64_t ne = _mm512_mask_cmpneq_epi32_mask(k, a, b);
-        mask[x >> 6] |= ne << (x & 63);
-        if ((x & 63) > 48 && ((x >> 6) + 1) * 64 < n) /* lanes in the next word */
-            mask[(x >> 6) + 1] |= ne >> (64 - (x & 63));
-    }
-}
-
-/* breaks16 of two rows at once (an item row and its codes: one loop instead of two, ~2% of
- * a Cornell R 64 hemicube), a word of 64 pixels at a time in registers (|= into the masks
+/* lrr__hemi_breaks of two rows at once, sixteen lanes a step (an item row and its codes: one
+ * loop instead of two, ~2% of a Cornell R 64 hemicube), a word of 64 pixels at a time in registers (|= into the masks
  * per sixteen was a chain of loads and stores through each word: 4.6% of a Cornell R 64
  * profile) */
 T512 static void breaks16_pair(const int32_t *v, const int32_t *u, int n, uint64_t *mv,
@@ -984,21 +954,6 @@ T512 static void breaks16_pair(const int32_t *v, const int32_t *u, int n, uint64
         mv[w] = wv | (w == 0);
         mu[w] = wu | (w == 0);
     }
-}
-
-void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
-{
-    memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
-    if (n <= 0)
-        return;
-    mask[0] = 1;
-    if (simd >= 2)
-        breaks16(v, n, mask);
-    else if (simd)
-        breaks8(v, n, mask);
-    else
-        for (int x = 1; x < n; x++)
-            mask[x >> 6] |= (uint64_t)(v[x] != v[x - 1]) << (x & 63);
 }
 
 void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
@@ -1036,13 +991,6 @@ int lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, i
     (void)e, (void)x0, (void)x1, (void)y0, (void)y1, (void)span, (void)simd;
     return 0;
 }
-void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask, int simd)
-{
-    (void)simd;
-    memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
-    for (int x = 0; x < n; x++)
-        mask[x >> 6] |= (uint64_t)(x == 0 || v[x] != v[x - 1]) << (x & 63);
-}
 void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
                           int y1, const int32_t *span, int W, float *depth, int32_t *item,
                           int32_t id, const lrr__hemi_codes *lc, int simd)
@@ -1065,7 +1013,16 @@ void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double
 }
 #endif
 
-/* One definition for every build: the AVX-512 pair where it runs, else two passes and an OR. */
+/* The scalar loop: what runs without SIMD (with it, lrr__hemi_breaks2's pairs do) */
+void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask)
+{
+    memset(mask, 0, (size_t)(n + 63) / 64 * sizeof *mask);
+    for (int x = 0; x < n; x++)
+        mask[x >> 6] |= (uint64_t)(x == 0 || v[x] != v[x - 1]) << (x & 63);
+}
+
+/* One definition for every build: the AVX-512 or AVX2 pair where it runs, else two passes
+ * and an OR. */
 void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
                        int simd)
 {
@@ -1079,8 +1036,9 @@ void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, 
         return;
     }
 #endif
-    lrr__hemi_breaks(v, n, mv, simd);
-    lrr__hemi_breaks(u, n, mu, simd);
+    (void)simd;
+    lrr__hemi_breaks(v, n, mv);
+    lrr__hemi_breaks(u, n, mu);
     for (int w = 0; w < (n + 63) / 64; w++)
         mu[w] |= mv[w];
 }

@@ -338,9 +338,9 @@ static void test_leaves_run_exact(void **state)
             lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, cells, leaf, brk, level);
             lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, NULL, leaf_nt, brk_nt, level);
             /* the change masks: those of the codes as made */
-            lrr__hemi_breaks((const int32_t *)leaf, b - a + 1, want_brk, 0);
+            lrr__hemi_breaks((const int32_t *)leaf, b - a + 1, want_brk);
             assert_memory_equal(brk, want_brk, (size_t)(b - a + 64) / 64 * sizeof *brk);
-            lrr__hemi_breaks((const int32_t *)leaf_nt, b - a + 1, want_brk, 0);
+            lrr__hemi_breaks((const int32_t *)leaf_nt, b - a + 1, want_brk);
             assert_memory_equal(brk_nt, want_brk, (size_t)(b - a + 64) / 64 * sizeof *brk);
             for (int x = a; x <= b; x++) {
                 const double sx = sxt[x];
@@ -454,7 +454,7 @@ static void test_depth_codes_exact(void **state)
     assert_true(won > 10000 && lost > 10000 && descended > 0);
 }
 
-/* lrr__hemi_breaks and lrr__hemi_breaks2 at every level against the definition: lengths
+/* lrr__hemi_breaks, and lrr__hemi_breaks2 at every level, against the definition: lengths
  * across word boundaries, changes at every position (random ids from a small set, so runs of
  * all lengths; codes that change inside runs and across them). */
 static void test_breaks_exact(void **state)
@@ -473,7 +473,7 @@ static void test_breaks_exact(void **state)
                 uint64_t mask[(N + 63) / 64 + 1];
                 const int words = (n + 63) / 64;
                 mask[words] = 0x5a5a; /* must stay: the function writes (n + 63)/64 words */
-                lrr__hemi_breaks(v, n, mask, level);
+                lrr__hemi_breaks(v, n, mask);
                 assert_int_equal(mask[words], 0x5a5a);
                 for (int x = 0; x < words * 64; x++) {
                     const int want = x < n && (x == 0 || v[x] != v[x - 1]);
