@@ -314,6 +314,17 @@ typedef struct lrr_build_options {
                                      renumbered cluster by cluster (patch-major):
                                      lrr_operator_scene_order maps per-subpatch values back
                                      to the scene's order. Other values LRR_ERR_INVALID_ARG */
+    int receiver_sampling;        /* where on a receiver its hemicube looks from:
+                                     LRR_RECEIVER_AUTO (0): over its area where rays are cast
+                                     (formfactor_method resolves to _RAYCAST), its centre for
+                                     the rasteriser; LRR_RECEIVER_CENTRE: the centre (one eye
+                                     point, the classic hemicube); LRR_RECEIVER_AREA: each
+                                     pixel's ray from its own uniform random point of the
+                                     receiver, so a row estimates the area-averaged form
+                                     factors of the radiosity equation rather than those of
+                                     one point (docs/METHOD.md "Form factors"); it needs rays
+                                     (with _AUTO they are cast, with _RASTER it is
+                                     LRR_ERR_INVALID_ARG). Other values LRR_ERR_INVALID_ARG */
 } lrr_build_options;
 static inline lrr_build_options lrr_build_options_defaults(void)
 {
@@ -333,6 +344,10 @@ enum { LRR_SPLIT_VARIANCE = 0, LRR_SPLIT_AREA = 1 };
 /* lrr_build_options.formfactor_method: the same five faces, pixel centres, multiplier map
  * and per-receiver rotation either way; rows agree to the pixels on triangle edges. */
 enum { LRR_FORMFACTOR_AUTO = 0, LRR_FORMFACTOR_RASTER = 1, LRR_FORMFACTOR_RAYCAST = 2 };
+
+/* lrr_build_options.receiver_sampling, lrr_operator_info.receiver_sampling (CENTRE or AREA:
+ * what the build used). */
+enum { LRR_RECEIVER_AUTO = 0, LRR_RECEIVER_CENTRE = 1, LRR_RECEIVER_AREA = 2 };
 
 /* lrr_build_options.hierarchy, lrr_operator_info.hierarchy. */
 enum { LRR_HIERARCHY_QUADTREE = 0, LRR_HIERARCHY_CLUSTER = 1 };
@@ -440,6 +455,18 @@ typedef struct lrr_operator_info {
     double formfactor_seconds;  /* the hemicubes' share of build_seconds (0 after a load) */
     double smw_seconds;         /* the factorisation's share of build_seconds (0 after a load) */
     int layout;                 /* lrr_layout of F̄ in memory */
+    int receiver_sampling;      /* LRR_RECEIVER_CENTRE or _AREA: where the build's hemicubes
+                                   looked from (kept in .lrr files) */
+    /* The error bar of lrr_operator_verify (kept in .lrr files); verify_subpatches = 0 when
+     * the operator was never verified, and then the others are 0 too. */
+    double verify_rel_l2;       /* area-weighted relative L2 of the reflected light B − E
+                                   against the path tracer, over regions (a fraction) */
+    double verify_noise;        /* the path tracer's own error in the same measure */
+    size_t verify_subpatches;   /* distinct subpatches path traced */
+    size_t verify_samples;      /* paths per subpatch */
+    double verify_seconds;      /* the verification's wall time */
+    int verify_uniform;         /* 1: verified for E = 1 everywhere (the scene emits
+                                   nothing); 0: for the scene's emission */
 } lrr_operator_info;
 /* info_size = sizeof *info (see Conventions). */
 LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *info,
@@ -546,6 +573,39 @@ LRR_API lrr_path lrr_solver_last_path(const lrr_solver *solver) LRR_NONNULL(1);
  * the sparse and incremental paths). Empties the cache. No effect on an OpenCL solver. */
 LRR_API LRR_NODISCARD lrr_status lrr_solver_set_cache(lrr_solver *solver, size_t max_bytes)
     LRR_NONNULL(1);
+
+/* ---------------------------------------------------------------- verification */
+/* The operator's error bar (docs/METHOD.md "Verification"): its radiosity for the scene's
+ * emission against the path tracer on a sample of its own subpatches. */
+typedef struct lrr_verify_options {
+    size_t size;              /* sizeof(lrr_verify_options) (its _defaults) or 0 */
+    size_t subpatches;        /* draws ∝ area among the non-emitting subpatches that
+                                 reflect; 0 = automatic: as many as a fifth of the build's
+                                 time (lrr_operator_info.build_seconds) allows at the speed of
+                                 a timed pilot of 64, at least 1000 (or n) */
+    size_t samples;           /* paths per drawn subpatch, >= 2; 0 = 1024 */
+    uint64_t seed;            /* the draw and the paths */
+    int threads;              /* OpenMP threads of the path tracer; 0 = OpenMP's default */
+    lrr_progress_fn progress; /* may be NULL; done/total drawn subpatches */
+    void *progress_user;
+} lrr_verify_options;
+static inline lrr_verify_options lrr_verify_options_defaults(void)
+{
+    lrr_verify_options o;
+    memset(&o, 0, sizeof o);
+    o.size = sizeof o;
+    return o;
+}
+
+/* Path traces the drawn subpatches of scene (the scene, subdivided, the operator was built
+ * from: LRR_ERR_INVALID_ARG otherwise), solves with op for the same emission (the scene's;
+ * E = 1 on every triangle where it emits nothing) and compares the reflected light in
+ * regions (grid cells × facing): the result goes into op (lrr_operator_info.verify_*,
+ * lrr_operator_save). opts may be NULL (defaults). Thread safety: one thread per object, and
+ * no solver of op may run meanwhile. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_verify(lrr_operator *op, const lrr_scene *scene,
+                                                     const lrr_verify_options *opts)
+    LRR_NONNULL(1, 2);
 
 /* ---------------------------------------------------------------- reference solvers */
 /* The full n×n form-factor matrix F (subpatch to subpatch) and classic solvers of

@@ -15,7 +15,8 @@ allowed() {
         operator) echo "core scene hierarchy formfactor operator" ;;
         solve) echo "core scene operator solve" ;;
         file) echo "core scene operator file" ;;
-        reference) echo "core scene formfactor" ;;
+        reference) echo "core scene formfactor reference" ;;
+        verify) echo "core scene operator reference verify" ;;
         light) echo "core scene operator light" ;;
         probe) echo "core scene operator light probe" ;;
         output) echo "core scene operator output" ;;

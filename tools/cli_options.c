@@ -278,6 +278,7 @@ void build_init(build_args *b)
     b->force_progress = 0;
     b->no_rotation = 0;
     b->formfactor = LRR_FORMFACTOR_AUTO;
+    b->receiver = LRR_RECEIVER_AUTO;
 }
 
 int build_option(build_args *b, const char *prog, int c, const char *arg)
@@ -314,6 +315,18 @@ int build_option(build_args *b, const char *prog, int c, const char *arg)
             return -1;
         }
         return 1;
+    case OPT_RECEIVER:
+        if (strcmp(arg, "auto") == 0)
+            b->receiver = LRR_RECEIVER_AUTO;
+        else if (strcmp(arg, "centre") == 0 || strcmp(arg, "center") == 0)
+            b->receiver = LRR_RECEIVER_CENTRE;
+        else if (strcmp(arg, "area") == 0)
+            b->receiver = LRR_RECEIVER_AREA;
+        else {
+            cli_usage_error(prog, "--receiver: '%s' is not auto, centre or area", arg);
+            return -1;
+        }
+        return 1;
     default:
         return 0;
     }
@@ -330,6 +343,7 @@ lrr_build_options build_start(const build_args *b, cli_progress *bar)
                             .progress_user = bar,
                             .no_rotation = b->no_rotation};
     bo.formfactor_method = b->formfactor;
+    bo.receiver_sampling = b->receiver;
     return bo;
 }
 

@@ -35,8 +35,12 @@ int open_subdivided_scene(lrr_context *ctx, const char *name, const subdiv_args 
                           lrr_scene **scene)
 {
     int rc = open_scene(ctx, name, scene);
-    if (rc != CLI_EXIT_OK)
-        return rc;
+    return rc != CLI_EXIT_OK ? rc : subdivide_scene(ctx, sa, scene);
+}
+
+int subdivide_scene(lrr_context *ctx, const subdiv_args *sa, lrr_scene **scene)
+{
+    int rc;
     lrr_subdivision sub = sa->sub;
     if (sa->clusters && !sa->have_area && !sa->have_patches) {
         /* one subpatch per small triangle, and about 16 per cluster on the large ones */
@@ -76,10 +80,17 @@ void print_scene_info(const char *name, const lrr_scene *scene)
 }
 
 /* ------------------------------------------------------------------ operator builds */
-void budget_hint(const char *prog, size_t budget)
+void budget_hint(const char *prog, size_t budget, size_t clusters)
 {
-    fprintf(stderr, "%s: --memory-budget is %zu MiB (default: physical memory): raise it, "
-                    "or use fewer patches, levels or threads\n", prog, budget >> 20);
+    if (clusters)
+        fprintf(stderr, "%s: --memory-budget is %zu MiB (default: physical memory): raise it, "
+                        "or give a smaller --clusters K (F̄ holds n×K, n = T + 16·K)\n",
+                prog, budget >> 20);
+    else
+        fprintf(stderr, "%s: --memory-budget is %zu MiB (default: physical memory): raise it, "
+                        "or use --clusters K (K clusters of subpatches across triangles, so F̄ "
+                        "has K columns whatever the triangle count; e.g. --clusters 2000), or "
+                        "fewer --patches or --levels\n", prog, budget >> 20);
 }
 
 void print_operator_info(const lrr_operator *op)
@@ -97,6 +108,7 @@ void print_operator_info(const lrr_operator *op)
         printf("selection_seconds: %.3f\n", oi.selection_seconds);
     }
     printf("hemicube: %u\n", oi.hemicube_resolution);
+    printf("receiver: %s\n", oi.receiver_sampling == LRR_RECEIVER_AREA ? "area" : "centre");
     printf("seed: %llu\n", (unsigned long long)oi.seed);
     printf("build_seconds: %.3f\n", oi.build_seconds);
     printf("formfactor_seconds: %.3f\n", oi.formfactor_seconds);
@@ -107,6 +119,14 @@ void print_operator_info(const lrr_operator *op)
     printf("storage: %s\n", lrr_storage_name(oi.storage));
     printf("layout: %s\n", oi.layout == LRR_LAYOUT_ROWS ? "rows" : "panels");
     printf("memory_mb: %.3f\n", (double)oi.bytes / (1024.0 * 1024.0));
+    if (oi.verify_subpatches) {
+        printf("verify_rel_l2: %.6g\n", oi.verify_rel_l2);
+        printf("verify_noise: %.6g\n", oi.verify_noise);
+        printf("verify_subpatches: %zu\n", oi.verify_subpatches);
+        printf("verify_samples: %zu\n", oi.verify_samples);
+        printf("verify_seconds: %.3f\n", oi.verify_seconds);
+        printf("verify_emission: %s\n", oi.verify_uniform ? "uniform" : "scene");
+    }
 }
 
 int check_writable_dir(const char *path)

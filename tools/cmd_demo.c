@@ -183,7 +183,7 @@ static int demo_preprocess(demo_run *d)
     if (s != LRR_OK) {
         int rc = cli_lib_error(d->ctx, s);
         if (s == LRR_ERR_BUDGET)
-            budget_hint(prog, d->budget);
+            budget_hint(prog, d->budget, 0);
         return rc;
     }
     print_operator_info(d->op);

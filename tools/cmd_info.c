@@ -1,14 +1,36 @@
-/* lrr info: scene statistics after subdivision. */
+/* lrr info: scene statistics after subdivision, or what an operator file holds. */
 #include <getopt.h>
 #include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
 
 #include "commands.h"
 
 static const char info_help[] =
     "Usage: lrr info SCENE [OPTIONS]\n"
+    "       lrr info FILE.lrr\n"
     "Prints scene statistics as 'key: value' lines (scene, triangles, skipped, patches,\n"
-    "subpatches, d, area, emitters, max_patch_area, bounds_min, bounds_max).\n"
+    "subpatches, d, area, emitters, max_patch_area, bounds_min, bounds_max), or for an\n"
+    "operator file (a .lrr of 'lrr preprocess') what 'lrr preprocess' printed of it: n, k,\n"
+    "d, hierarchy, hemicube, receiver, seed, build_seconds, the condition estimates,\n"
+    "storage, memory_mb and, when it was verified (--verify), verify_rel_l2,\n"
+    "verify_noise, verify_subpatches, verify_samples, verify_seconds, verify_emission.\n"
     "\n" SCENE_HELP "\n" SUBDIV_HELP "  -h, --help           show this help\n";
+
+/* 1 when the file starts with the .lrr magic ("LRROPER\0"). */
+static int is_operator_file(const char *path)
+{
+    char magic[8] = {0};
+    struct stat sb;
+    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode))
+        return 0; /* (a FIFO would block the open) */
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return 0;
+    size_t got = fread(magic, 1, sizeof magic, f);
+    fclose(f);
+    return got == sizeof magic && memcmp(magic, "LRROPER", 8) == 0;
+}
 
 int cmd_info(int argc, char *argv[])
 {
@@ -45,6 +67,17 @@ int cmd_info(int argc, char *argv[])
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
         return cli_lib_error(NULL, s);
+    if (is_operator_file(name)) {
+        lrr_operator *op = NULL;
+        rc = load_operator(ctx, name, &op);
+        if (rc == CLI_EXIT_OK) {
+            printf("file: %s\n", name);
+            print_operator_info(op);
+        }
+        lrr_operator_destroy(op);
+        lrr_context_destroy(ctx);
+        return rc;
+    }
     lrr_scene *scene = NULL;
     rc = open_subdivided_scene(ctx, name, &sa, &scene);
     if (rc == CLI_EXIT_OK)

@@ -4,6 +4,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "commands.h"
 
@@ -53,9 +54,21 @@ static const char preprocess_help[] =
     "  --adaptive-samples S receivers sampled to estimate the variance (default 2048,\n"
     "                       rendered at a quarter of the hemicube resolution)\n"
     "  --adaptive-split X   variance (default) or area: area splits the largest patch first,\n"
-    "                       i.e. uniform subdivision at the same K (the baseline)\n" BUILD_HELP
+    "                       i.e. uniform subdivision at the same K (the baseline)\n"
+    "  --verify [N]         the operator's error bar: path-trace N subpatches drawn by area\n"
+    "                       (default: what a fifth of the build's time allows, at least\n"
+    "                       1000) for the scene's\n"
+    "                       emission (E = 1 everywhere if it has none), 1024 paths each,\n"
+    "                       and compare the reflected light B − E in regions (grid cells ×\n"
+    "                       facing). Prints verify_rel_l2 (a fraction), verify_noise (the\n"
+    "                       path tracer's own), verify_subpatches, verify_samples,\n"
+    "                       verify_seconds; stored in FILE.lrr ('lrr info FILE.lrr')\n" BUILD_HELP
     OPERATOR_BUDGET_HELP
-    "  -h, --help           show this help\n" SUBDIV_HELP;
+    "  -h, --help           show this help\n" SUBDIV_HELP
+    "With none of --adaptive, --clusters, --patches, --max-patch-area and --levels, a scene\n"
+    "of more than 2000 triangles gets --clusters K: K = 2000, or the largest K whose build\n"
+    "fits --memory-budget (a note on stderr says which and why); smaller scenes get\n"
+    "--patches 216 --levels 2.\n";
 
 typedef struct preprocess_args {
     const char *scene, *output;
@@ -66,6 +79,9 @@ typedef struct preprocess_args {
     size_t adaptive, adaptive_samples, clusters;
     int adaptive_split, adaptive_only;
     size_t budget;
+    int auto_hierarchy;    /* no hierarchy or subdivision option: chosen by the scene */
+    int verify;            /* --verify given */
+    size_t verify_n;       /* its N; 0 = automatic */
 } preprocess_args;
 
 /* ------------------------------------------------------------------ parsing */
@@ -107,9 +123,23 @@ static int preprocess_option(preprocess_args *a, int c, const char *arg)
         return 1;
     case OPT_MEMORY_BUDGET:
         return parse_operator_budget(prog, arg, &a->budget) != 0 ? -1 : 1;
+    case OPT_VERIFY:
+        a->verify = 1;
+        return !arg || cli_parse_size(prog, "--verify", arg, 1, SIZE_MAX, &a->verify_n) == 0
+                   ? 1 : -1;
     default:
         return 0;
     }
+}
+
+/* --verify's optional N may follow as the next word ("--verify 4000"): getopt takes an
+ * optional argument only as "--verify=4000". */
+static const char *verify_count(int argc, char *argv[])
+{
+    if (optind < argc && argv[optind][0] &&
+        strspn(argv[optind], "0123456789") == strlen(argv[optind]))
+        return argv[optind++];
+    return NULL;
 }
 
 /* The checks after getopt: the scene, -o, and how the options combine. */
@@ -127,6 +157,8 @@ static int preprocess_finish(preprocess_args *a, int argc, char *argv[])
         cli_usage_error(prog, "--adaptive and --clusters exclude each other");
         return CLI_EXIT_USAGE;
     }
+    a->auto_hierarchy = !a->adaptive && !a->clusters && !a->sa.have_area &&
+                        !a->sa.have_patches && !a->sa.have_levels;
     a->sa.clusters = a->clusters;
     int rc = subdiv_finish(&a->sa, prog);
     if (rc)
@@ -161,6 +193,7 @@ static int parse_preprocess(preprocess_args *a, int argc, char *argv[])
         {"adaptive-samples", required_argument, NULL, OPT_ADAPTIVE_SAMPLES},
         {"adaptive-split", required_argument, NULL, OPT_ADAPTIVE_SPLIT},
         {"memory-budget", required_argument, NULL, OPT_MEMORY_BUDGET},
+        {"verify", optional_argument, NULL, OPT_VERIFY},
         SUBDIV_LONGOPTS,
         BUILD_LONGOPTS,
         {"help", no_argument, NULL, 'h'},
@@ -173,7 +206,8 @@ static int parse_preprocess(preprocess_args *a, int argc, char *argv[])
     start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":ho:", longopts, NULL)) != -1) {
-        int r = preprocess_option(a, c, optarg);
+        int r = preprocess_option(a, c, c == OPT_VERIFY && !optarg ? verify_count(argc, argv)
+                                                                   : optarg);
         if (r == 0)
             r = subdiv_option(&a->sa, prog, c, optarg);
         if (r == 0)
@@ -228,6 +262,22 @@ static void note_skipped(const preprocess_args *a, const lrr_scene *scene)
                 si.clamped_texels);
 }
 
+/* --verify: the operator's error bar, from the path tracer (lrr_operator_verify). */
+static lrr_status verify(lrr_operator *op, const preprocess_args *a, const lrr_scene *scene)
+{
+    cli_progress bar;
+    cli_progress_init(&bar, "verify", a->ba.force_progress || isatty(STDERR_FILENO));
+    lrr_verify_options vo = lrr_verify_options_defaults();
+    vo.subpatches = a->verify_n;
+    vo.seed = a->ba.seed;
+    vo.threads = (int)a->ba.threads;
+    vo.progress = cli_progress_cb;
+    vo.progress_user = &bar;
+    lrr_status s = lrr_operator_verify(op, scene, &vo);
+    cli_progress_finish(&bar);
+    return s;
+}
+
 /* Builds the operator (*op, also on some failures: the caller destroys it), stores F̄ as
  * asked and saves it. Returns CLI_EXIT_OK or the failure (reported). */
 static int build_and_save(lrr_context *ctx, const preprocess_args *a, const lrr_scene *scene,
@@ -246,14 +296,17 @@ static int build_and_save(lrr_context *ctx, const preprocess_args *a, const lrr_
     cli_progress_finish(&bar);
     if (s == LRR_ERR_BUDGET) {
         rc = cli_lib_error(ctx, s);
-        budget_hint(prog, a->budget);
+        budget_hint(prog, a->budget, a->clusters);
         s = LRR_OK;
     }
     if (s == LRR_OK && *op)
         s = lrr_operator_set_storage(*op, a->storage);
     if (s == LRR_OK && *op) {
         warn_condition(*op);
-        s = lrr_operator_save(*op, a->output);
+        if (a->verify)
+            s = verify(*op, a, scene);
+        if (s == LRR_OK)
+            s = lrr_operator_save(*op, a->output);
     }
     if (s != LRR_OK)
         rc = cli_lib_error(ctx, s);
@@ -276,7 +329,56 @@ static void print_preprocess(const preprocess_args *a, const lrr_operator *op)
     printf("output: %s\n", a->output);
 }
 
-static int run_preprocess(const preprocess_args *a)
+/* The bytes a cluster build of T triangles and K clusters holds, about (lib/operator/
+ * budget.c counts them exactly and refuses a build beyond the budget): F̄ (4·n·K), M and
+ * the factorisation's G (12 + 8 bytes per K²), the cluster selection's sampled rows (at most
+ * 512 MiB) and ~72 bytes per subpatch, n = T + 16·K. */
+static double cluster_build_bytes(size_t T, size_t K)
+{
+    const double n = (double)T + 16.0 * (double)K;
+    return 4.0 * n * (double)K + 20.0 * (double)K * (double)K + 72.0 * n + (512.0 * 1048576);
+}
+
+/* With no hierarchy option: clusters for a scene of more than AUTO_TRIANGLES triangles (the
+ * default --patches 216 --levels 2 would give every triangle a patch, k >= T, and F̄ grows
+ * as 16·k²), K = AUTO_CLUSTERS or the largest that fits the memory budget. */
+#define AUTO_TRIANGLES 2000
+#define AUTO_CLUSTERS 2000
+static void choose_hierarchy(preprocess_args *a, const lrr_scene *scene)
+{
+    lrr_scene_info si;
+    lrr_scene_get_info(scene, &si, sizeof si);
+    if (si.triangles <= AUTO_TRIANGLES)
+        return;
+    size_t K = AUTO_CLUSTERS;
+    while (K > 1 && a->budget && cluster_build_bytes(si.triangles, K) > (double)a->budget)
+        K = K * 9 / 10;
+    a->clusters = a->adaptive = a->sa.clusters = K;
+    a->sa.sub.levels = 0;
+    a->sa.sub.target_patches = 0;
+    if (K == AUTO_CLUSTERS)
+        fprintf(stderr, "lrr preprocess: note: %zu triangles: --clusters %zu (the default for "
+                        "scenes of more than %d triangles; --patches/--levels give the "
+                        "quadtree, --clusters another K)\n", si.triangles, K, AUTO_TRIANGLES);
+    else
+        fprintf(stderr, "lrr preprocess: note: %zu triangles: --clusters %zu, the most that "
+                        "fits --memory-budget %zu MiB (%d otherwise)\n",
+                si.triangles, K, a->budget >> 20, AUTO_CLUSTERS);
+}
+
+static int open_and_subdivide(lrr_context *ctx, preprocess_args *a, lrr_scene **scene)
+{
+    if (!a->auto_hierarchy)
+        return open_subdivided_scene(ctx, a->scene, &a->sa, scene);
+    int rc = open_scene(ctx, a->scene, scene);
+    if (rc == CLI_EXIT_OK) {
+        choose_hierarchy(a, *scene);
+        rc = subdivide_scene(ctx, &a->sa, scene);
+    }
+    return rc;
+}
+
+static int run_preprocess(preprocess_args *a)
 {
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
@@ -286,7 +388,7 @@ static int run_preprocess(const preprocess_args *a)
     lrr_operator *op = NULL;
     int rc = check_writable_dir(a->output);
     if (rc == CLI_EXIT_OK)
-        rc = open_subdivided_scene(ctx, a->scene, &a->sa, &scene);
+        rc = open_and_subdivide(ctx, a, &scene);
     if (rc == CLI_EXIT_OK) {
         note_skipped(a, scene);
         rc = build_and_save(ctx, a, scene, &op);

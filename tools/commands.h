@@ -87,7 +87,9 @@ enum {
     OPT_ADAPTIVE_SAMPLES,
     OPT_ADAPTIVE_SPLIT,
     OPT_SAMPLES,
-    OPT_FORMFACTOR
+    OPT_FORMFACTOR,
+    OPT_RECEIVER,
+    OPT_VERIFY
 };
 
 /* ------------------------------------------------------------------ help fragments */
@@ -111,6 +113,13 @@ enum {
     "                       what it sees (z-buffer, cost per hemicube grows with the\n"       \
     "                       triangles; or Embree rays, grows with their log); auto casts\n"  \
     "                       rays above a measured triangle count\n"                         \
+    "  --receiver S         auto (default), centre or area: where each hemicube looks\n"     \
+    "                       from. area: every ray from its own random point of the\n"       \
+    "                       subpatch, so F̄ holds the area-averaged form factors of the\n"   \
+    "                       radiosity equation (the centre's differ most on large\n"        \
+    "                       subpatches near a light); needs rays (casts them with\n"        \
+    "                       --formfactor auto). auto: area where rays are cast, else\n"     \
+    "                       centre\n"                                                       \
     "  --threads T          OpenMP threads, 0 = OpenMP's default (default 0)\n"                \
     "  --progress           draw a progress bar on stderr even when it is not a terminal\n"
 
@@ -195,7 +204,8 @@ int bad_option(const char *prog, int c, char *const argv[]);
     {"threads", required_argument, NULL, OPT_THREADS},                                        \
     {"progress", no_argument, NULL, OPT_PROGRESS},                                            \
     {"no-rotation", no_argument, NULL, OPT_NO_ROTATION},                                      \
-    {"formfactor", required_argument, NULL, OPT_FORMFACTOR}
+    {"formfactor", required_argument, NULL, OPT_FORMFACTOR},                                  \
+    {"receiver", required_argument, NULL, OPT_RECEIVER}
 void start_getopt(void);
 
 /* Takes exactly one positional argument; returns it or NULL after a usage message. */
@@ -221,6 +231,7 @@ typedef struct build_args {
     int force_progress;
     int no_rotation;
     int formfactor;   /* LRR_FORMFACTOR_* */
+    int receiver;     /* LRR_RECEIVER_* */
 } build_args;
 
 void build_init(build_args *b);
@@ -297,10 +308,13 @@ int is_builtin(const char *name);
 int open_scene(lrr_context *ctx, const char *name, lrr_scene **scene);
 int open_subdivided_scene(lrr_context *ctx, const char *name, const subdiv_args *sa,
                           lrr_scene **scene);
+/* lrr_scene_subdivide of an opened scene as sa asks (T + 16·K subpatches for --clusters
+ * without --patches or --max-patch-area); destroys the scene (*scene = NULL) on failure. */
+int subdivide_scene(lrr_context *ctx, const subdiv_args *sa, lrr_scene **scene);
 void print_scene_info(const char *name, const lrr_scene *scene);
 
 /* After lrr_operator_build refused with LRR_ERR_BUDGET: how to get past it. */
-void budget_hint(const char *prog, size_t budget);
+void budget_hint(const char *prog, size_t budget, size_t clusters);
 void print_operator_info(const lrr_operator *op);
 /* Fails early when the directory of an output file cannot be written, so a long build is
  * not thrown away at the save. */

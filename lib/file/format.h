@@ -18,6 +18,7 @@
 #define FILE_VERSION 1u          /* uniform hierarchy */
 #define FILE_VERSION_ADAPTIVE 2u /* adds PATCHES */
 #define FILE_VERSION_CLUSTER 3u  /* adds CLUSTERS */
+#define FILE_VERSION_VISIBILITY 4u /* clusters whose Vᵀ weights follow F̄'s row sums */
 #define ENDIAN_MARK 0x01020304u
 #define HEADER_SIZE 64u
 #define ENTRY_SIZE 32u
@@ -33,10 +34,11 @@ static const char MAGIC[8] = {'L', 'R', 'R', 'O', 'P', 'E', 'R', '\0'};
 
 enum {
     SEC_GEOMETRY = 1, SEC_RHO, SEC_EMISSION, SEC_FBAR, SEC_M, SEC_INFO, SEC_ROWSCALE,
-    SEC_PATCHES, SEC_CLUSTERS,
+    SEC_PATCHES, SEC_CLUSTERS, SEC_VERIFY,
     SEC_COUNT = 6,     /* sections every file has */
-    SEC_KNOWN = 9      /* sections this reader knows */
+    SEC_KNOWN = 10     /* sections this reader knows */
 };
+#define VERIFY_SIZE 48u
 #define PATCHES_PREFIX 8u
 #define CLUSTERS_PREFIX 8u
 

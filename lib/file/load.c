@@ -19,7 +19,7 @@ static const char *section_name(uint32_t id)
 {
     static const char *const names[] = {"?",    "GEOMETRY", "RHO",      "EMISSION", "FBAR",
                                         "M",    "INFO",     "ROWSCALE", "PATCHES",
-                                        "CLUSTERS"};
+                                        "CLUSTERS", "VERIFY"};
     return id >= 1 && id <= SEC_KNOWN ? names[id] : "unknown";
 }
 
@@ -95,7 +95,8 @@ struct header {
     uint32_t version, count, dtype;
     uint64_t n, k, d;
     bool adaptive;  /* d = 0: version 2 (PATCHES) or 3 (CLUSTERS) */
-    bool clusters;  /* version 3 */
+    bool clusters;  /* version 3 or 4 */
+    bool visibility; /* version 4: Vᵀ's weights from F̄'s row sums */
 };
 
 /* Reads the header into h and checks that it is one this library reads: magic, version and
@@ -115,12 +116,11 @@ static lrr_status read_header(struct reader *r, unsigned char h[HEADER_SIZE])
                           "file %s: truncated: the header needs bytes 0..%u, file has %" PRIu64,
                           r->path, HEADER_SIZE, r->file_size);
     uint32_t version = get32(h + 8), mark = get32(h + 12);
-    if (version != FILE_VERSION && version != FILE_VERSION_ADAPTIVE &&
-        version != FILE_VERSION_CLUSTER)
+    if (version < FILE_VERSION || version > FILE_VERSION_VISIBILITY)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
                           "file %s: format version %" PRIu32 ", this library reads versions "
                           "%u to %u",
-                          r->path, version, FILE_VERSION, FILE_VERSION_CLUSTER);
+                          r->path, version, FILE_VERSION, FILE_VERSION_VISIBILITY);
     if (mark == 0x04030201u)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
                           "file %s: written with the other byte order (big-endian)", r->path);
@@ -158,14 +158,15 @@ static lrr_status check_header(struct reader *r, const unsigned char h[HEADER_SI
                           "file %s: element type %" PRIu32 " (this library reads 0 = float32, "
                           "1 = binary16, 2 = bfloat16)",
                           r->path, hd->dtype);
-    /* versions 2 and 3: adaptive or cluster hierarchy, d = 0, patch sizes from PATCHES or
+    /* versions 2 to 4: adaptive or cluster hierarchy, d = 0, patch sizes from PATCHES or
      * CLUSTERS */
     hd->adaptive = hd->version != FILE_VERSION;
-    hd->clusters = hd->version == FILE_VERSION_CLUSTER;
+    hd->clusters = hd->version >= FILE_VERSION_CLUSTER;
+    hd->visibility = hd->version == FILE_VERSION_VISIBILITY;
     if (hd->adaptive != (hd->d == 0))
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: version %" PRIu32 " with d = %" PRIu64 " (version 1 has "
-                          "d > 0, versions 2 and 3 d = 0)", r->path, hd->version, hd->d);
+                          "d > 0, versions 2 to 4 d = 0)", r->path, hd->version, hd->d);
     if (hd->count < SEC_COUNT || hd->count > MAX_SECTIONS)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: %" PRIu32 " sections (expected %d..%u)", r->path, hd->count,
@@ -177,7 +178,7 @@ static lrr_status check_header(struct reader *r, const unsigned char h[HEADER_SI
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: implausible sizes n = %" PRIu64 ", k = %" PRIu64
                           ", d = %" PRIu64 " (need n = k·d > 0, or 0 < k <= n with d = 0 in "
-                          "versions 2 and 3)",
+                          "versions 2 to 4)",
                           r->path, hd->n, hd->k, hd->d);
     return LRR_OK;
 }
@@ -271,7 +272,9 @@ static lrr_status check_section_sizes(struct reader *r, const struct header *hd,
         (hd->adaptive && !hd->clusters &&
          (st = expect_size(r, &sec[SEC_PATCHES - 1], k + PATCHES_PREFIX, 1, "8 + k bytes"))) ||
         (hd->clusters && (st = expect_size(r, &sec[SEC_CLUSTERS - 1], k + n + 2, 8,
-                                           "8 + 8·(k + 1 + n) bytes"))))
+                                           "8 + 8·(k + 1 + n) bytes"))) ||
+        (sec[SEC_VERIFY - 1].id &&
+         (st = expect_size(r, &sec[SEC_VERIFY - 1], 1, VERIFY_SIZE, "the VERIFY record"))))
         return st;
     if (sec[SEC_GEOMETRY - 1].size < GEOM_PREFIX)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
@@ -282,7 +285,7 @@ static lrr_status check_section_sizes(struct reader *r, const struct header *hd,
 
 /* Reads and validates header and section table into sec[SEC_KNOWN] (indexed by id-1). */
 static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64_t *d,
-                              uint32_t *dtype_out, bool *clusters,
+                              uint32_t *dtype_out, bool *clusters, bool *visibility,
                               struct section sec[SEC_KNOWN])
 {
     unsigned char h[HEADER_SIZE];
@@ -300,6 +303,7 @@ static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64
     *d = hd.d;
     *dtype_out = hd.dtype;
     *clusters = hd.clusters;
+    *visibility = hd.visibility;
     return LRR_OK;
 }
 
@@ -493,6 +497,35 @@ static lrr_status check_values(struct reader *r, const lrr_operator *op)
     return LRR_OK;
 }
 
+/* The optional VERIFY record (lrr_file.c) into op->verify, its values checked. */
+static lrr_status read_verify(struct reader *r, const struct section *s, lrr_operator *op)
+{
+    unsigned char v[VERIFY_SIZE];
+    lrr_status st = read_section(r, s, v);
+    if (st)
+        return st;
+    double rel, noise, seconds;
+    memcpy(&rel, v, 8);
+    memcpy(&noise, v + 8, 8);
+    memcpy(&seconds, v + 16, 8);
+    const uint64_t subpatches = get64(v + 24), samples = get64(v + 32);
+    const uint32_t flags = get32(v + 40);
+    if (!(rel >= 0) || !isfinite(rel) || !(noise >= 0) || !isfinite(noise) ||
+        !(seconds >= 0) || !isfinite(seconds) || subpatches == 0 || subpatches > op->n ||
+        samples < 2 || samples > SIZE_MAX || (flags & ~1u) != 0)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section VERIFY holds implausible values (rel_l2 %g, noise "
+                          "%g, %" PRIu64 " subpatches of %zu, %" PRIu64 " samples, flags %"
+                          PRIu32 ")", r->path, rel, noise, subpatches, op->n, samples, flags);
+    op->verify.rel_l2 = rel;
+    op->verify.noise = noise;
+    op->verify.seconds = seconds;
+    op->verify.subpatches = (size_t)subpatches;
+    op->verify.samples = (size_t)samples;
+    op->verify.uniform = (int)(flags & 1u);
+    return LRR_OK;
+}
+
 lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **out)
 {
     *out = NULL;
@@ -523,9 +556,9 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     r.file_size = (uint64_t)sb.st_size;
 
     uint64_t n = 0, k = 0, d = 0;
-    struct section sec[SEC_KNOWN];
+    struct section sec[SEC_KNOWN] = {{0}};
     uint32_t dtype = 0;
-    bool clusters = false;
+    bool clusters = false, visibility = false;
     unsigned char *geom_buf = NULL;
     lrr__geometry g;
     memset(&g, 0, sizeof g);
@@ -534,7 +567,7 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     int builtin = 0;
     double selection_seconds = 0;
 
-    lrr_status st = read_layout(&r, &n, &k, &d, &dtype, &clusters, sec);
+    lrr_status st = read_layout(&r, &n, &k, &d, &dtype, &clusters, &visibility, sec);
     if (st)
         goto done;
     const struct section *gs = &sec[SEC_GEOMETRY - 1];
@@ -555,6 +588,8 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
                            dtype == DTYPE_F32 ? (void *)op->fbar : (void *)op->fbar16)) ||
         (dtype != DTYPE_F32 && (st = read_section(&r, &sec[SEC_ROWSCALE - 1], op->row_scale))) ||
         (st = read_section(&r, &sec[SEC_M - 1], op->m)) || (st = check_values(&r, op)) ||
+        (op->weighting = visibility ? LRR__WEIGHTS_VISIBILITY : LRR__WEIGHTS_AREA,
+         st = lrr__visibility_weights(op)) || /* the weights M was factorised with */
         (st = lrr__fbar_set_panels(op, 1))) /* files hold rows; the kernels read panels */
         goto done;
     for (int c = 0; c < 3; c++)
@@ -562,9 +597,12 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     memcpy(&op->build_seconds, info + 24, 8);
     op->hemicube_resolution = get32(info + 32);
     op->no_rotation = (get32(info + 36) & 1u) != 0;
+    op->receiver_sampling = get32(info + 36) & 2u ? LRR_RECEIVER_AREA : LRR_RECEIVER_CENTRE;
     op->seed = get64(info + 40);
     op->builtin = builtin;
     op->selection_seconds = selection_seconds;
+    if (sec[SEC_VERIFY - 1].id)
+        st = read_verify(&r, &sec[SEC_VERIFY - 1], op);
 
 done:
     close(r.fd);

@@ -1,15 +1,18 @@
 /* The versioned binary operator file (.lrr): lrr_operator_save here, lrr_operator_load in
  * load.c; the constants and helpers both share are in format.h.
  *
- * Format, versions 1 to 3. All integers and floats are little-endian (IEEE 754); offsets and
+ * Format, versions 1 to 4. All integers and floats are little-endian (IEEE 754); offsets and
  * sizes are in bytes from the start of the file. Version 2 adds the adaptive hierarchy
  * (d = 0 and a PATCHES section), version 3 the cluster hierarchy (d = 0 and a CLUSTERS
- * section); uniform operators are still written as version 1 and adaptive ones as version
- * 2, so readers that know only those keep reading them.
+ * section), version 4 the same sections as 3 for clusters whose Vᵀ weights follow F̄'s row
+ * sums (lib/operator/weights.c; M was factorised with them, so a reader that knows only
+ * version 3's area weights must refuse the file); uniform operators are still written as
+ * version 1, adaptive ones as version 2 and area-weighted clusters (loaded from version 3)
+ * as version 3, so readers that know only those keep reading them.
  *
  *   Header, 64 bytes at offset 0
  *      0  magic        8 bytes  "LRROPER\0"
- *      8  version      u32      1 (uniform), 2 (adaptive) or 3 (clusters)
+ *      8  version      u32      1 (uniform), 2 (adaptive), 3 or 4 (clusters)
  *     12  endianness   u32      0x01020304 (reads 0x04030201 on a byte-swapped file)
  *     16  header_size  u32      64
  *     20  sections     u32      number of entries in the section table (6, plus ROWSCALE
@@ -17,7 +20,7 @@
  *     24  n            u64      subpatches
  *     32  k            u64      patches
  *     40  d            u64      subpatches per patch (n = k·d, d = 4^levels); 0 in
- *                               versions 2 and 3: patch sizes vary, given by PATCHES
+ *                               versions 2 to 4: patch sizes vary, given by PATCHES
  *                               or CLUSTERS
  *     48  dtype        u32      storage of FBAR: 0 = float32, 1 = binary16, 2 = bfloat16
  *                               (RHO, EMISSION, M and ROWSCALE are float32 always)
@@ -43,19 +46,24 @@
  *                 mapped); for dtype 1 and 2 row i holds F̄_i / ROWSCALE_i
  *     5 M         3×k×k float, row-major, channel-major
  *     6 INFO      cond[3] f64, build_seconds f64, hemicube_resolution u32, flags u32
- *                 (bit 0: built without the random rotation; other bits 0), seed u64:
+ *                 (bit 0: built without the random rotation; bit 1: hemicubes sampled
+ *                 over the receivers' areas, LRR_RECEIVER_AREA; other bits 0), seed u64:
  *                 size 48
  *     7 ROWSCALE  n float, positive powers of two; present exactly when dtype is 1 or 2
  *     8 PATCHES   (version 2, adaptive hierarchy only) selection_seconds f64, then k u8:
  *                 the quadtree depth of each patch within its triangle, in patch order;
  *                 GEOMETRY then has levels 0 and its depths are the subpatch depths, and
  *                 the nodes must tile every triangle (size 8 + k)
- *     9 CLUSTERS  (version 3, cluster hierarchy only) selection_seconds f64, then k+1 u64
+ *     9 CLUSTERS  (versions 3 and 4, cluster hierarchy only) selection_seconds f64, then k+1 u64
  *                 (first: patch p holds the patch-major subpatches first[p] ..
  *                 first[p+1]-1; 0, ascending, n), then n u64 (origin: the triangle-order
  *                 subpatch at each patch-major position, a permutation of 0..n-1); RHO,
  *                 EMISSION and the rows of FBAR are in patch-major order; GEOMETRY has
  *                 levels 0 and its depths are the subpatch depths (size 16 + 8·(k + n))
+ *    10 VERIFY    (optional, any version; lrr_operator_verify) rel_l2 f64, noise f64,
+ *                 seconds f64, subpatches u64 (1..n), samples u64 (>= 2), flags u32 (bit 0:
+ *                 verified for the uniform emission), reserved u32: size 48. Readers that do
+ *                 not know it skip it.
  *   Centres, normals and areas are not stored: they are recomputed from the geometry.
  *   (dtype 1 and 2 came after the first files: a reader that knows only float32 refuses them
  *   by their dtype, so the version stayed 1.)
@@ -216,7 +224,8 @@ static lrr_status build_payloads(const lrr_operator *op, uint64_t geom_size, int
         memcpy(info + 8 * c, &op->cond[c], 8);
     memcpy(info + 24, &op->build_seconds, 8);
     put32(info + 32, op->hemicube_resolution);
-    put32(info + 36, op->no_rotation ? 1u : 0u);
+    put32(info + 36, (op->no_rotation ? 1u : 0u) |
+                         (op->receiver_sampling == LRR_RECEIVER_AREA ? 2u : 0u));
     put64(info + 40, op->seed);
     *geom_out = geom;
     *patches_out = patches;
@@ -245,7 +254,8 @@ static size_t lay_out(const lrr_operator *op, int adaptive, struct section *sec,
           lrr__file_checksum(table, (size_t)count * ENTRY_SIZE));
 
     memcpy(header, MAGIC, 8);
-    put32(header + 8, adaptive == 2 ? FILE_VERSION_CLUSTER
+    put32(header + 8, adaptive == 2 ? (op->weighting == LRR__WEIGHTS_VISIBILITY
+                                           ? FILE_VERSION_VISIBILITY : FILE_VERSION_CLUSTER)
                       : adaptive  ? FILE_VERSION_ADAPTIVE : FILE_VERSION);
     put32(header + 12, ENDIAN_MARK);
     put32(header + 16, HEADER_SIZE);
@@ -316,8 +326,14 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "file %s: section sizes overflow 64 bits",
                           path);
     unsigned char *geom = NULL, *patches = NULL;
-    unsigned char info[INFO_SIZE] = {0};
+    unsigned char info[INFO_SIZE] = {0}, verify[VERIFY_SIZE] = {0};
     lrr_status st = build_payloads(op, geom_size, adaptive, &geom, &patches, info);
+    memcpy(verify, &op->verify.rel_l2, 8);
+    memcpy(verify + 8, &op->verify.noise, 8);
+    memcpy(verify + 16, &op->verify.seconds, 8);
+    put64(verify + 24, op->verify.subpatches);
+    put64(verify + 32, op->verify.samples);
+    put32(verify + 40, op->verify.uniform ? 1u : 0u);
     if (st)
         return st;
 
@@ -339,12 +355,15 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0, NULL},
         {SEC_PATCHES, patches, (uint64_t)op->k + PATCHES_PREFIX, 0, 0, NULL},
         {SEC_CLUSTERS, patches, clusters_size, 0, 0, NULL},
+        {SEC_VERIFY, verify, VERIFY_SIZE, 0, 0, NULL},
     };
     int count = SEC_COUNT;
     if (half)
         count++;
     if (adaptive)
         sec[count++] = sec[adaptive == 2 ? SEC_CLUSTERS - 1 : SEC_PATCHES - 1];
+    if (op->verify.subpatches)
+        sec[count++] = sec[SEC_VERIFY - 1];
     unsigned char table[SEC_KNOWN * ENTRY_SIZE + 8] = {0};
     unsigned char header[HEADER_SIZE] = {0};
     const size_t tsize = lay_out(op, adaptive, sec, count, table, header);

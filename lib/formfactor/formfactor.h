@@ -15,6 +15,9 @@ lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_op
  * LRR_ERR_INVALID_ARG for an unknown value. */
 lrr_status lrr__formfactor_method(lrr_context *ctx, const lrr__geometry *g,
                                   const lrr_build_options *opts, int *method);
+/* Where the hemicubes of a build with opts look from, given the method it uses:
+ * LRR_RECEIVER_AREA for opts->receiver_sampling AREA, or AUTO with rays; else CENTRE. */
+int lrr__receiver_sampling(const lrr_build_options *opts, int method);
 /* Bytes of hemicube.c's per-triangle table entry (16 doubles; checked there), for the
  * memory budget of a build (operator/budget.c). */
 #define LRR__HEMICUBE_TRI_BYTES ((size_t)16 * sizeof(double))

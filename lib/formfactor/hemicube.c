@@ -794,8 +794,16 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         }
     }
     if (h->rc) {
+        /* area sampling: the points are drawn from (seed, the scene-order id, face, pixel),
+         * so a row does not depend on the threads or a cluster renumbering */
+        double corners[9];
+        if (h->area_origins)
+            lrr__subpatch_vertices(g, i, corners);
+        const uint64_t key = lrr__splitmix64(seed ^ lrr__splitmix64(
+                                 0x5bd1e995u + (g->origin ? g->origin[i] : i)));
         for (int fi = 0; fi < 5; fi++)
-            lrr__raycast_face(h, x, N, &faces[fi]);
+            lrr__raycast_face(h, x, N, h->area_origins ? corners : NULL,
+                              lrr__splitmix64(key + (uint64_t)fi), &faces[fi]);
     } else {
         raster_faces(h, x, N, faces, sc);
     }
@@ -1112,7 +1120,8 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
     }
     hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc, lrr__hemi_simd(),
                   cells, sx, sx ? sx + R : NULL, sx ? sx + 2 * (size_t)R : NULL, pre,
-                  pre ? pre + (size_t)R * (R + 1) : NULL};
+                  pre ? pre + (size_t)R * (R + 1) : NULL,
+                  lrr__receiver_sampling(opts, method) == LRR_RECEIVER_AREA};
     /* pixel column x looks along sx = (x + 0.5)/(R/2) − 1 (every face is R wide), row y
      * along sy = that on the top face, (y + 0.5)/(R/2) on a side (a division per row of each
      * triangle in the depth test, else) */

@@ -54,6 +54,8 @@ typedef struct lrr__hemi_ctx {
     const double *sy_top, *sy_side; /* per pixel row y: sy of the top face and of the sides */
     const double *pre_top, *pre_side; /* the multiplier maps' prefix sums per row (R + 1
                                          per row, from 0): a run's weight in O(1) */
+    int area_origins;      /* LRR_RECEIVER_AREA (rays only): each pixel's ray from its own
+                              random point of the receiver (raycast.c) */
 } lrr__hemi_ctx;
 
 /* What lrr__hemi_leaves_run and lrr__hemi_depth_span may use here: 0 none (or the
@@ -140,10 +142,12 @@ lrr_status lrr__raycaster_status(lrr_context *ctx, const lrr__raycaster *rc);
 void lrr__raycaster_destroy(lrr__raycaster *rc);
 /* Fills f->item for the receiver at x with unit normal N: the patch (subpatch when
  * h->by_subpatch) each pixel's ray hits first, LRR__ITEM_NONE for a miss (or a triangle whose
- * plane holds x), LRR__ITEM_BACK for a hit on a triangle's back (which occludes and carries
- * nothing, as in the rasteriser). Thread-safe. */
+ * plane holds the ray's origin), LRR__ITEM_BACK for a hit on a triangle's back (which
+ * occludes and carries nothing, as in the rasteriser). The rays start at x, or with area (the
+ * receiver's corners, 9 doubles) each at its own uniform point of the receiver, drawn from
+ * key and the pixel. Thread-safe. */
 void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N[3],
-                       lrr__hemi_face *f);
+                       const double *area, uint64_t key, lrr__hemi_face *f);
 
 /* LRR_FORMFACTOR_AUTO casts rays when triangles T > R² / LRR__RAYCAST_PIXELS_PER_TRIANGLE:
  * a raster hemicube costs ~ R² + c·T (every triangle is set up and clipped), a ray-cast one

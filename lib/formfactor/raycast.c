@@ -63,11 +63,21 @@ void lrr__raycaster_destroy(lrr__raycaster *rc)
 lrr_status lrr__formfactor_method(lrr_context *ctx, const lrr__geometry *g,
                                   const lrr_build_options *opts, int *method)
 {
-    int m = opts->formfactor_method;
+    int m = opts->formfactor_method, rs = opts->receiver_sampling;
     if (m != LRR_FORMFACTOR_AUTO && m != LRR_FORMFACTOR_RASTER && m != LRR_FORMFACTOR_RAYCAST)
         return lrr__error(ctx, LRR_ERR_INVALID_ARG,
                           "formfactor_method %d: must be LRR_FORMFACTOR_AUTO (0), "
                           "LRR_FORMFACTOR_RASTER or LRR_FORMFACTOR_RAYCAST", m);
+    if (rs != LRR_RECEIVER_AUTO && rs != LRR_RECEIVER_CENTRE && rs != LRR_RECEIVER_AREA)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "receiver_sampling %d: must be LRR_RECEIVER_AUTO (0), "
+                          "LRR_RECEIVER_CENTRE or LRR_RECEIVER_AREA", rs);
+    if (rs == LRR_RECEIVER_AREA && m == LRR_FORMFACTOR_RASTER)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
+                          "receiver_sampling LRR_RECEIVER_AREA needs rays: the rasteriser "
+                          "looks from one point (use LRR_FORMFACTOR_RAYCAST or _AUTO)");
+    if (rs == LRR_RECEIVER_AREA && m == LRR_FORMFACTOR_AUTO)
+        m = LRR_FORMFACTOR_RAYCAST;
     if (m == LRR_FORMFACTOR_AUTO) {
         size_t R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
         m = g->n_tri > R * R / LRR__RAYCAST_PIXELS_PER_TRIANGLE ? LRR_FORMFACTOR_RAYCAST
@@ -77,6 +87,28 @@ lrr_status lrr__formfactor_method(lrr_context *ctx, const lrr__geometry *g,
     return LRR_OK;
 }
 
+int lrr__receiver_sampling(const lrr_build_options *opts, int method)
+{
+    return opts->receiver_sampling == LRR_RECEIVER_AREA ||
+                   (opts->receiver_sampling == LRR_RECEIVER_AUTO &&
+                    method == LRR_FORMFACTOR_RAYCAST)
+               ? LRR_RECEIVER_AREA
+               : LRR_RECEIVER_CENTRE;
+}
+
+/* A uniform random point of triangle v (9 doubles) from the 64 random bits r: two 24-bit
+ * uniforms, folded into the triangle where they sum past 1 (an area-preserving map). */
+static void point_in(const double v[9], uint64_t r, double out[3])
+{
+    double a = (double)(r >> 40) * 0x1.0p-24, b = (double)((r >> 16) & 0xffffff) * 0x1.0p-24;
+    if (a + b > 1) {
+        a = 1 - a;
+        b = 1 - b;
+    }
+    for (int j = 0; j < 3; j++)
+        out[j] = v[j] + a * (v[3 + j] - v[j]) + b * (v[6 + j] - v[j]);
+}
+
 /* Rays of 4×4 pixel tiles go as one 16-wide packet: neighbouring pixels traverse nearly
  * the same BVH nodes. Embree's hit coordinates (u, v) are the barycentrics of v1 and v2, as
  * lrr__patch_at takes them: the item buffer gets the patch (subpatch) directly, sparing the
@@ -84,7 +116,7 @@ lrr_status lrr__formfactor_method(lrr_context *ctx, const lrr__geometry *g,
 enum { TILE = 4, PACKET = TILE * TILE };
 
 void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N[3],
-                       lrr__hemi_face *f)
+                       const double *area, uint64_t key, lrr__hemi_face *f)
 {
     const lrr__raycaster *rc = h->rc;
     const float inv_half = 2.0f / (float)f->W, y_off = f->side ? 0.0f : -1.0f;
@@ -102,6 +134,7 @@ void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N
         for (int x0 = 0; x0 < f->W; x0 += TILE) {
             struct RTCRayHit16 rh;
             int valid[PACKET] __attribute__((aligned(64)));
+            double px[PACKET][3]; /* the rays' points on the receiver (area sampling) */
             for (int l = 0; l < PACKET; l++) {
                 int xx = x0 + l % TILE, y = y0 + l / TILE;
                 valid[l] = xx < f->W && y < f->H ? -1 : 0;
@@ -110,6 +143,12 @@ void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N
                 rh.ray.org_x[l] = org[0];
                 rh.ray.org_y[l] = org[1];
                 rh.ray.org_z[l] = org[2];
+                if (area) { /* this pixel's own point of the receiver */
+                    point_in(area, lrr__splitmix64(key ^ (uint64_t)(y * f->W + xx)), px[l]);
+                    rh.ray.org_x[l] = (float)(px[l][0] + rc->lift * N[0]);
+                    rh.ray.org_y[l] = (float)(px[l][1] + rc->lift * N[1]);
+                    rh.ray.org_z[l] = (float)(px[l][2] + rc->lift * N[2]);
+                }
                 rh.ray.dir_x[l] = sx * right[0] + sy * up[0] + fwd[0];
                 rh.ray.dir_y[l] = sx * right[1] + sy * up[1] + fwd[1];
                 rh.ray.dir_z[l] = sx * right[2] + sy * up[2] + fwd[2];
@@ -131,9 +170,11 @@ void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N
                 if (rh.hit.geomID[l] != RTC_INVALID_GEOMETRY_ID) {
                     size_t t = rh.hit.primID[l];
                     const lrr__tri_info *ti = &h->tri[t];
-                    double w0[3] = {x[0] - ti->v0[0], x[1] - ti->v0[1], x[2] - ti->v0[2]};
-                    /* the rasteriser's test: x strictly in front of the triangle's plane
-                     * (within eps of it the triangle is edge-on: nothing, not a back) */
+                    const double *o = area ? px[l] : x;
+                    double w0[3] = {o[0] - ti->v0[0], o[1] - ti->v0[1], o[2] - ti->v0[2]};
+                    /* the rasteriser's test: the ray's point strictly in front of the
+                     * triangle's plane (within eps of it the triangle is edge-on: nothing,
+                     * not a back) */
                     double side = lrr__dot3(w0, ti->n);
                     double tol = h->eps * sqrt(lrr__dot3(ti->n, ti->n));
                     if (side > tol)

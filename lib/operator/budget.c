@@ -134,7 +134,12 @@ lrr_status lrr__operator_budget_check(lrr_context *ctx, size_t n_tri, size_t n, 
     return lrr__error(ctx, LRR_ERR_BUDGET,
                       "an operator of n = %zu subpatches and k = %zu patches needs %.1f MiB "
                       "(F̄ %.1f MiB, M %.1f MiB, per-subpatch data %.1f MiB, build buffers "
-                      "%.1f MiB for %d threads), more than the memory budget of %.1f MiB",
+                      "%.1f MiB for %d threads), more than the memory budget of %.1f MiB%s",
                       n, k, b.total / MiB, b.fbar / MiB, b.m / MiB, b.per_subpatch / MiB,
-                      b.working / MiB, b.threads, o->memory_budget / MiB);
+                      b.working / MiB, b.threads, o->memory_budget / MiB,
+                      o->hierarchy == LRR_HIERARCHY_CLUSTER
+                          ? " (fewer clusters, adaptive_patches, shrink F̄ and M)"
+                          : " (quadtree patches give k >= the triangle count; the cluster "
+                            "hierarchy, LRR_HIERARCHY_CLUSTER with adaptive_patches = K, "
+                            "gives k = K whatever the triangle count)");
 }

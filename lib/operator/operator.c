@@ -172,6 +172,8 @@ static lrr_status new_for_hierarchy(const lrr_scene *scene, const lrr_build_opti
     }
     st = lrr__operator_new(ctx, &hg, LRR_STORAGE_F32, out);
     lrr__geometry_free(&hg);
+    if (!st && cluster)
+        (*out)->weighting = LRR__WEIGHTS_VISIBILITY;
     return st;
 }
 
@@ -203,7 +205,8 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
     op->no_rotation = o.no_rotation != 0;
     double *back = NULL, t1 = 0;
     if ((st = lrr__formfactor_method(ctx, &op->geom, &o, &op->formfactor_method)) ||
-        (st = scene_materials(scene, op)) ||
+        (op->receiver_sampling = lrr__receiver_sampling(&o, op->formfactor_method),
+         st = scene_materials(scene, op)) ||
         (st = lrr__calloc(ctx, &back, op->n, sizeof(double), "back-face shares")) ||
         (t1 = lrr__now(), st = lrr__hemicube_fbar(ctx, &op->geom, &o, op->fbar, back)) ||
         (op->formfactor_seconds = lrr__now() - t1, t1 = lrr__now(), st = lrr__smw_factor(op))) {
@@ -230,6 +233,7 @@ lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown storage %d", (int)storage);
     if (storage == op->storage)
         return LRR_OK;
+    memset(&op->verify, 0, sizeof op->verify); /* the error bar was for the other F̄ */
     const int panels = op->panels;
     lrr_status st = lrr__fbar_convert(op, storage);
     /* M must invert I − Vᵀ R F̄ for the F̄ the kernels now read */
@@ -251,6 +255,7 @@ lrr_status lrr_operator_set_reflectance(lrr_operator *op, const float *rho)
         return st;
     memcpy(old, op->rho, op->n * 3 * sizeof(float));
     memcpy(op->rho, rho, op->n * 3 * sizeof(float));
+    memset(&op->verify, 0, sizeof op->verify); /* the error bar was for the other ρ */
     double cond[3];
     memcpy(cond, op->cond, sizeof cond);
     if ((st = lrr__smw_factor(op))) {
@@ -289,6 +294,13 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_
     info->seed = op->seed;
     info->no_rotation = op->no_rotation;
     info->formfactor_method = op->formfactor_method;
+    info->receiver_sampling = op->receiver_sampling;
+    info->verify_rel_l2 = op->verify.rel_l2;
+    info->verify_noise = op->verify.noise;
+    info->verify_subpatches = op->verify.subpatches;
+    info->verify_samples = op->verify.samples;
+    info->verify_seconds = op->verify.seconds;
+    info->verify_uniform = op->verify.uniform;
     info->back_face_share = op->back_face_share;
     memcpy(info->worst_back_face_triangle, op->worst_tri, sizeof op->worst_tri);
     memcpy(info->worst_back_face_share, op->worst_share, sizeof op->worst_share);

@@ -13,8 +13,8 @@ struct lrr_operator {
     float *rho;                /* n×3 */
     float *emission;           /* n×3, the scene's own emission */
     float *area;               /* n */
-    float *weight;             /* n: Vᵀ's weights w_j = d_p A_j / A_p (1 unless clusters),
-                                  derived from geom (lrr__patch_weights) */
+    float *weight;             /* n: Vᵀ's weights, 1 unless clusters (weights.c) */
+    int weighting;             /* LRR__WEIGHTS_*: how a cluster's weights are derived */
     float *centre, *normal;    /* n×3, derived from geom (not stored in files) */
     lrr_storage storage;       /* which of fbar / fbar16 holds F̄ */
     int panels;                /* F̄ in panels (layout.c, lrr__fbar_index) rather than rows */
@@ -30,10 +30,23 @@ struct lrr_operator {
     uint64_t seed;
     int no_rotation;           /* built with lrr_build_options.no_rotation */
     int formfactor_method;     /* LRR_FORMFACTOR_RASTER or _RAYCAST; 0 after a load */
+    int receiver_sampling;     /* LRR_RECEIVER_CENTRE or _AREA (INFO flags bit 1 in files) */
+    struct {                   /* lrr_operator_verify's result (VERIFY section in files) */
+        double rel_l2, noise, seconds;
+        size_t subpatches, samples; /* subpatches = 0: not verified */
+        int uniform;
+    } verify;
     double back_face_share;    /* lrr_operator_info's leak indicator; 0 after a load */
     size_t worst_tri[LRR_BACK_FACE_WORST];   /* SIZE_MAX where unused */
     double worst_share[LRR_BACK_FACE_WORST];
 };
+
+/* Clusters' Vᵀ weights: from areas alone (w_j = d_p A_j / A_p, lrr__patch_weights; files of
+ * version 3) or from areas and F̄'s row sums (lrr__visibility_weights, what builds use). */
+enum { LRR__WEIGHTS_AREA = 0, LRR__WEIGHTS_VISIBILITY = 1 };
+/* weights.c: with LRR__WEIGHTS_VISIBILITY, w_j = d_p A_j R_j / Σ_{i∈p} A_i R_i from the stored
+ * F̄ (R_j = Σ_q F̄_jq d_q); otherwise nothing to do (the area weights stay). */
+lrr_status lrr__visibility_weights(lrr_operator *op);
 
 /* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, m and
  * F̄ in the given storage (fbar, or fbar16 + row_scale) are allocated (zeroed);

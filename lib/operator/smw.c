@@ -3,7 +3,8 @@
  *
  *     G_c = I_k - Vᵀ diag(rho_c) F̄        G_pq = δ_pq - Σ_{i∈p} w_i rho_ic F̄_iq
  *
- * (w_i = d_p A_i / A_p: Vᵀ's area weights, 1 for quadtree patches; docs/METHOD.md "Clusters")
+ * (w_i: Vᵀ's weights, 1 for quadtree patches, from areas and F̄'s row sums for clusters:
+ * weights.c, docs/METHOD.md "Clusters"; recomputed here, since they follow the stored F̄)
  *     M_c = G_c^{-1}
  *
  * so that B_c = E_c + rho_c ∘ (F̄ · (M_c · (Vᵀ E_c))) solves (I - diag(rho_c) F̄ Vᵀ) B_c = E_c.
@@ -26,6 +27,8 @@ lrr_status lrr__smw_factor(lrr_operator *op)
     size_t kk = k * k; /* checked in lrr__operator_new */
     if (k > (size_t)INT32_MAX)
         return lrr__error(op->ctx, LRR_ERR_OVERFLOW, "k = %zu exceeds LAPACK's int range", k);
+    if ((st = lrr__visibility_weights(op)))
+        return st;
     if ((st = lrr__calloc(op->ctx, &G, kk, sizeof(double), "G (k×k doubles)")))
         return st;
     if ((st = lrr__calloc(op->ctx, &ipiv, k, sizeof(lapack_int), "pivots"))) {

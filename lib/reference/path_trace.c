@@ -7,6 +7,7 @@
  * include another's code, so the few lines are repeated).
  */
 #include "config.h"
+#include "reference/reference.h"
 #include "scene/bvh.h"
 
 #include <math.h>
@@ -216,15 +217,16 @@ static void tracer_free(tracer *tr)
     lrr_aligned_free(tr->emitter);
 }
 
-/* Front normals and the emitter table of the scene's triangles. */
-static lrr_status tracer_init(const lrr_scene *scene, tracer *tr)
+/* Front normals and the emitter table of the scene's triangles, emitting `emission` (n_tri×3;
+ * the scene's own when NULL). */
+static lrr_status tracer_init(const lrr_scene *scene, const float *emission, tracer *tr)
 {
     const lrr__geometry *g = &scene->geom;
     lrr_context *ctx = scene->ctx;
     memset(tr, 0, sizeof *tr);
     tr->g = g;
     tr->rho = scene->rho;
-    tr->emission = scene->emission;
+    tr->emission = emission ? emission : scene->emission;
     lrr_status st;
     if ((st = lrr__calloc(ctx, &tr->normal, g->n_tri, 3 * sizeof(double), "triangle normals")) ||
         (st = lrr__calloc(ctx, &tr->cdf, g->n_tri, sizeof(double), "emitter table")) ||
@@ -240,7 +242,7 @@ static lrr_status tracer_init(const lrr_scene *scene, tracer *tr)
         }
         lrr__cross3(e1, e2, tr->normal + 3 * t);
         lrr__normalize3(tr->normal + 3 * t);
-        const float *E = scene->emission + 3 * t;
+        const float *E = tr->emission + 3 * t;
         double w = lrr__tri_area(v) * ((double)E[0] + E[1] + E[2]);
         if (w > 0) {
             total += w;
@@ -305,11 +307,12 @@ static void subpatch_estimate(const tracer *tr, const lrr_path_trace_options *o,
     }
 }
 
-/* All subpatches in parallel; progress from thread 0 (as lib/formfactor/hemicube.c). */
+/* Subpatches rows[0..n) (all n of the scene when rows is NULL) in parallel into B and se
+ * (n×3); progress from thread 0 (as lib/formfactor/hemicube.c). */
 static lrr_status estimate_all(lrr_context *ctx, const tracer *tr,
-                               const lrr_path_trace_options *o, float *B, float *se)
+                               const lrr_path_trace_options *o, const size_t *rows, size_t n,
+                               float *B, float *se)
 {
-    const size_t n = tr->g->n;
     int nthreads = o->threads > 0 ? o->threads : omp_get_max_threads();
     volatile int cancelled = 0;
     size_t done = 0;
@@ -318,7 +321,7 @@ static lrr_status estimate_all(lrr_context *ctx, const tracer *tr,
     for (size_t i = 0; i < n; i++) {
         if (cancelled)
             continue;
-        subpatch_estimate(tr, o, i, B + 3 * i, se ? se + 3 * i : NULL);
+        subpatch_estimate(tr, o, rows ? rows[i] : i, B + 3 * i, se ? se + 3 * i : NULL);
         size_t now_done;
         #pragma omp atomic capture
         now_done = ++done;
@@ -341,16 +344,21 @@ static lrr_status estimate_all(lrr_context *ctx, const tracer *tr,
     return LRR_OK;
 }
 
-lrr_status lrr_reference_path_trace(const lrr_scene *scene, const lrr_path_trace_options *opts,
-                                    float *radiosity, float *std_error)
+lrr_status lrr__path_trace_rows(const lrr_scene *scene, const lrr_path_trace_options *opts,
+                                const size_t *rows, size_t count, const float *emission,
+                                float *radiosity, float *std_error)
 {
     lrr_context *ctx = scene->ctx;
     lrr_path_trace_options o;
     lrr_status st = read_options(scene, opts, &o);
     if (st)
         return st;
+    for (size_t r = 0; rows && r < count; r++)
+        if (rows[r] >= scene->geom.n)
+            return lrr__error(ctx, LRR_ERR_INVALID_ARG, "path tracing: subpatch %zu of a scene "
+                              "of %zu", rows[r], scene->geom.n);
     tracer tr;
-    if ((st = tracer_init(scene, &tr))) {
+    if ((st = tracer_init(scene, emission, &tr))) {
         tracer_free(&tr);
         return st;
     }
@@ -359,13 +367,20 @@ lrr_status lrr_reference_path_trace(const lrr_scene *scene, const lrr_path_trace
                         "lrr_reference_path_trace", &bvh);
     if (st == LRR_OK) {
         tr.scene = bvh.scene;
-        st = estimate_all(ctx, &tr, &o, radiosity, std_error);
+        st = estimate_all(ctx, &tr, &o, rows, rows ? count : scene->geom.n, radiosity,
+                          std_error);
         if (st == LRR_OK)
             st = lrr__bvh_status(ctx, &bvh, "ray query");
         lrr__bvh_release(&bvh);
     }
     tracer_free(&tr);
     return st;
+}
+
+lrr_status lrr_reference_path_trace(const lrr_scene *scene, const lrr_path_trace_options *opts,
+                                    float *radiosity, float *std_error)
+{
+    return lrr__path_trace_rows(scene, opts, NULL, 0, NULL, radiosity, std_error);
 }
 
 lrr_status lrr_reference_triangle_means(const lrr_scene *scene, const float *radiosity,
