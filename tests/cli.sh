@@ -116,7 +116,9 @@ help_mentions() {
 }
 help_mentions info --max-patch-area --patches --levels cornell
 help_mentions preprocess -o --hemicube --seed --threads --progress --patches --levels --storage --no-rotation \
-    --memory-budget "physical memory" --formfactor raycast
+    --memory-budget "physical memory" --formfactor raycast --receiver --verify verify_rel_l2 \
+    "more than 2000"
+help_mentions info FILE.lrr verify_noise
 help_mentions solve --csv --emission-scale --repeat --path --backend LRR_OPENCL_DEVICE --probe --sources \
     --probe-method --probe-scale --no-scene-emission direct_light_seconds
 help_mentions render -o --width --height --exposure --emission-scale --probe --sources --probe-method \
@@ -255,6 +257,81 @@ if [ "$rc" -eq 0 ] && awk -v s="$share" 'BEGIN { exit !(s > 0 && s < 0.05) }' &&
     pass "preprocess cornell-closed: back_face_share $share, only floor/ceiling triangles named"
 else
     fail "back_face_share of cornell-closed (exit $rc): $(grep back_face "$T/out" | tr '\n' ' ')"; show_err
+fi
+
+# --receiver: where the hemicubes look from (auto: the areas where rays are cast); area with
+# the rasteriser is refused by the library, naming both.
+for rv in auto:raster:centre auto:raycast:area centre:raycast:centre area:auto:area; do
+    rv_opt=${rv%%:*} rv_ff=${rv#*:} rv_want=${rv##*:}
+    rv_ff=${rv_ff%%:*}
+    run preprocess cornell --patches 24 --levels 1 --hemicube 16 --receiver "$rv_opt" \
+        --formfactor "$rv_ff" -o "$T/rv.lrr"
+    if [ "$rc" -eq 0 ] && [ "$(value receiver)" = "$rv_want" ]; then
+        pass "preprocess --receiver $rv_opt --formfactor $rv_ff prints receiver: $rv_want"
+    else
+        fail "preprocess --receiver $rv_opt --formfactor $rv_ff (exit $rc, receiver: $(value receiver))"
+        show_err
+    fi
+done
+run preprocess cornell --patches 24 --levels 1 --receiver area --formfactor raster -o "$T/rv.lrr"
+if [ "$rc" -eq 1 ] && grep -q 'LRR_RECEIVER_AREA needs rays' "$T/err"; then
+    pass "preprocess --receiver area --formfactor raster: refused, naming why"
+else
+    fail "preprocess --receiver area --formfactor raster: exit $rc"; show_err
+fi
+run preprocess cornell --receiver middle -o "$T/rv.lrr"
+expect_rc 2 "preprocess --receiver middle is a usage error"
+
+# --verify [N]: the error bar, printed and kept in the file (lrr info FILE.lrr); N as the
+# next word or after '='; a coarse operator from the centres is ~10% off the path tracer.
+for form in "--verify 300" "--verify=300"; do
+    # shellcheck disable=SC2086 # form is two words or one
+    run preprocess cornell --patches 54 --levels 1 --hemicube 32 --receiver centre $form \
+        -o "$T/verify.lrr"
+    e=$(value verify_rel_l2) noise=$(value verify_noise)
+    if [ "$rc" -eq 0 ] && [ "$(value verify_subpatches)" -gt 0 ] &&
+        [ "$(value verify_samples)" = 1024 ] && [ "$(value verify_emission)" = scene ] &&
+        awk -v e="$e" -v s="$noise" 'BEGIN { exit !(e > 0.03 && e < 0.3 && s > 0 && s < e) }'
+    then
+        pass "preprocess $form: verify_rel_l2 $e, verify_noise $noise"
+    else
+        fail "preprocess $form: exit $rc, verify_rel_l2 '$e', verify_noise '$noise'"; show_err
+    fi
+done
+run info "$T/verify.lrr"
+if [ "$rc" -eq 0 ] && [ "$(value verify_rel_l2)" = "$e" ] && [ "$(value k)" = 54 ] &&
+    [ "$(value receiver)" = centre ]; then
+    pass "lrr info FILE.lrr prints the stored error bar (verify_rel_l2 $e)"
+else
+    fail "lrr info FILE.lrr: exit $rc, verify_rel_l2 '$(value verify_rel_l2)'"; show_err
+fi
+run preprocess cornell --patches 54 --levels 1 --verify 0 -o "$T/verify.lrr"
+expect_rc 2 "preprocess --verify 0 is a usage error"
+
+# No hierarchy option on a scene of more than 2000 triangles: clusters, K = 2000 or what the
+# memory budget allows (here ~70), said on stderr; the refusal of a build that does not fit
+# names --clusters.
+awk 'BEGIN { print "mtllib none.mtl"; for (i = 0; i <= 41; i++) for (j = 0; j <= 25; j++)
+             printf "v %d 0 %d\n", i, j;
+             for (i = 0; i < 41; i++) for (j = 0; j < 25; j++) { a = i * 26 + j + 1;
+               printf "f %d %d %d\nf %d %d %d\n", a, a + 1, a + 27, a, a + 27, a + 26 } }' \
+    > "$T/grid.obj"
+run preprocess "$T/grid.obj" -o "$T/grid.lrr" --hemicube 8 --memory-budget 513
+if [ "$rc" -eq 0 ] && [ "$(value hierarchy)" = clusters ] &&
+    grep -q '2050 triangles: --clusters [0-9]*, the most that fits --memory-budget 513' "$T/err"
+then
+    pass "preprocess of 2050 triangles, no options: $(grep -o -- '--clusters [0-9]*' "$T/err"), k = $(value k)"
+else
+    fail "preprocess of 2050 triangles with no options: exit $rc, hierarchy $(value hierarchy)"
+    show_err
+fi
+run preprocess "$T/grid.obj" -o "$T/grid.lrr" --patches 2050 --levels 2 --hemicube 8 \
+    --memory-budget 64
+if [ "$rc" -eq 1 ] && grep -q 'use --clusters K' "$T/err" &&
+    grep -q 'LRR_HIERARCHY_CLUSTER' "$T/err"; then
+    pass "a quadtree build over the budget is refused naming --clusters"
+else
+    fail "quadtree build over the budget: exit $rc"; show_err
 fi
 
 # --memory-budget: a build that does not fit is refused before it starts, naming the MiB it
@@ -458,7 +535,7 @@ expect_rc 2 "preprocess --storage f8 is a usage error"
 # usage error.
 for ff in auto:raster raster:raster raycast:raycast; do
     run preprocess cornell --patches 24 --levels 1 --hemicube 32 --formfactor "${ff%%:*}" \
-        -o "$T/ff-${ff%%:*}.lrr"
+        --receiver centre -o "$T/ff-${ff%%:*}.lrr"
     if [ "$rc" -eq 0 ] && [ "$(value formfactor)" = "${ff#*:}" ]; then
         pass "preprocess --formfactor ${ff%%:*} prints formfactor: ${ff#*:}"
     else

@@ -96,6 +96,29 @@ int lrr__receiver_sampling(const lrr_build_options *opts, int method)
                : LRR_RECEIVER_CENTRE;
 }
 
+/* The receiver v (9 doubles) shrunk about its centroid until every point is at least
+ * 2·lift from its edges (at most by 30%): a point within the float rounding of an edge could
+ * round across the plane of a wall meeting it there, and its rays would leave a closed room. */
+static void inset(const double v[9], double lift, double out[9])
+{
+    double c[3], e[3][3], a2 = 0, longest = 0;
+    for (int j = 0; j < 3; j++) {
+        c[j] = (v[j] + v[3 + j] + v[6 + j]) / 3;
+        for (int k = 0; k < 3; k++)
+            e[k][j] = v[3 * ((k + 1) % 3) + j] - v[3 * k + j];
+    }
+    double cr[3];
+    lrr__cross3(e[0], e[1], cr);
+    a2 = sqrt(lrr__dot3(cr, cr)); /* twice the area */
+    for (int k = 0; k < 3; k++)
+        longest = fmax(longest, sqrt(lrr__dot3(e[k], e[k])));
+    const double h = longest > 0 ? a2 / longest : 0; /* the smallest altitude */
+    const double eps = h > 0 ? fmin(0.1, 2 * lift / h) : 0.1;
+    for (int k = 0; k < 3; k++)
+        for (int j = 0; j < 3; j++)
+            out[3 * k + j] = c[j] + (1 - 3 * eps) * (v[3 * k + j] - c[j]);
+}
+
 /* A uniform random point of triangle v (9 doubles) from the 64 random bits r: two 24-bit
  * uniforms, folded into the triangle where they sum past 1 (an area-preserving map). */
 static void point_in(const double v[9], uint64_t r, double out[3])
@@ -120,6 +143,11 @@ void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N
 {
     const lrr__raycaster *rc = h->rc;
     const float inv_half = 2.0f / (float)f->W, y_off = f->side ? 0.0f : -1.0f;
+    double inner[9];
+    if (area) {
+        inset(area, rc->lift, inner);
+        area = inner;
+    }
     float org[3], right[3], up[3], fwd[3];
     for (int j = 0; j < 3; j++) {
         org[j] = (float)(x[j] + rc->lift * N[j]);

@@ -344,43 +344,79 @@ static lrr_status estimate_all(lrr_context *ctx, const tracer *tr,
     return LRR_OK;
 }
 
-lrr_status lrr__path_trace_rows(const lrr_scene *scene, const lrr_path_trace_options *opts,
-                                const size_t *rows, size_t count, const float *emission,
-                                float *radiosity, float *std_error)
+struct lrr__tracer {
+    const lrr_scene *scene;
+    tracer tr;
+    lrr__bvh bvh;
+    int have_bvh;
+};
+
+void lrr__tracer_destroy(lrr__tracer *t)
+{
+    if (!t)
+        return;
+    if (t->have_bvh)
+        lrr__bvh_release(&t->bvh);
+    tracer_free(&t->tr);
+    lrr_aligned_free(t);
+}
+
+lrr_status lrr__tracer_create(const lrr_scene *scene, const float *emission, lrr__tracer **out)
 {
     lrr_context *ctx = scene->ctx;
+    *out = NULL;
+    if (!scene->geom.depth)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "path tracing: the scene is not "
+                          "subdivided: call lrr_scene_subdivide first");
+    if (scene->geom.n_tri > UINT32_MAX / 3)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW, "path tracing: %zu triangles exceed Embree's "
+                          "32-bit indices", scene->geom.n_tri);
+    lrr__tracer *t;
+    lrr_status st = lrr__calloc(ctx, &t, 1, sizeof *t, "path tracer");
+    if (st)
+        return st;
+    t->scene = scene;
+    if ((st = tracer_init(scene, emission, &t->tr)) ||
+        (st = lrr__bvh_build(ctx, &scene->geom, RTC_BUILD_QUALITY_HIGH /* many rays */, 0,
+                             "lrr_reference_path_trace", &t->bvh))) {
+        lrr__tracer_destroy(t);
+        return st;
+    }
+    t->have_bvh = 1;
+    t->tr.scene = t->bvh.scene;
+    *out = t;
+    return LRR_OK;
+}
+
+lrr_status lrr__tracer_rows(const lrr__tracer *t, const lrr_path_trace_options *opts,
+                            const size_t *rows, size_t count, float *radiosity,
+                            float *std_error)
+{
+    const lrr_scene *scene = t->scene;
     lrr_path_trace_options o;
     lrr_status st = read_options(scene, opts, &o);
     if (st)
         return st;
     for (size_t r = 0; rows && r < count; r++)
         if (rows[r] >= scene->geom.n)
-            return lrr__error(ctx, LRR_ERR_INVALID_ARG, "path tracing: subpatch %zu of a scene "
-                              "of %zu", rows[r], scene->geom.n);
-    tracer tr;
-    if ((st = tracer_init(scene, emission, &tr))) {
-        tracer_free(&tr);
-        return st;
-    }
-    lrr__bvh bvh;
-    st = lrr__bvh_build(ctx, &scene->geom, RTC_BUILD_QUALITY_HIGH /* many rays per build */, 0,
-                        "lrr_reference_path_trace", &bvh);
-    if (st == LRR_OK) {
-        tr.scene = bvh.scene;
-        st = estimate_all(ctx, &tr, &o, rows, rows ? count : scene->geom.n, radiosity,
-                          std_error);
-        if (st == LRR_OK)
-            st = lrr__bvh_status(ctx, &bvh, "ray query");
-        lrr__bvh_release(&bvh);
-    }
-    tracer_free(&tr);
-    return st;
+            return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG, "path tracing: subpatch %zu of "
+                              "a scene of %zu", rows[r], scene->geom.n);
+    st = estimate_all(scene->ctx, &t->tr, &o, rows, rows ? count : scene->geom.n, radiosity,
+                      std_error);
+    return st ? st : lrr__bvh_status(scene->ctx, &t->bvh, "ray query");
 }
 
 lrr_status lrr_reference_path_trace(const lrr_scene *scene, const lrr_path_trace_options *opts,
                                     float *radiosity, float *std_error)
 {
-    return lrr__path_trace_rows(scene, opts, NULL, 0, NULL, radiosity, std_error);
+    lrr_path_trace_options o;
+    lrr_status st = read_options(scene, opts, &o); /* before the BVH is built */
+    lrr__tracer *t;
+    if (st || (st = lrr__tracer_create(scene, NULL, &t)))
+        return st;
+    st = lrr__tracer_rows(t, &o, NULL, 0, radiosity, std_error);
+    lrr__tracer_destroy(t);
+    return st;
 }
 
 lrr_status lrr_reference_triangle_means(const lrr_scene *scene, const float *radiosity,

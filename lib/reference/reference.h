@@ -5,12 +5,17 @@
 
 #include "scene/scene.h"
 
-/* lrr_reference_path_trace for the subpatches rows[0..count) of the scene (its order) only,
- * into radiosity and std_error (count×3; std_error may be NULL); rows NULL: all n, as
- * lrr_reference_path_trace. The triangles emit `emission` (n_tri×3, finite, >= 0) instead
- * of the scene's own when it is not NULL. */
-lrr_status lrr__path_trace_rows(const lrr_scene *scene, const lrr_path_trace_options *opts,
-                                const size_t *rows, size_t count, const float *emission,
-                                float *radiosity, float *std_error);
+/* The path tracer of lrr_reference_path_trace (path_trace.c) as an object, so that several
+ * batches of subpatches share one BVH: the scene's triangles emitting `emission` (n_tri×3,
+ * finite, >= 0, kept by pointer for the tracer's life) instead of the scene's own when it
+ * is not NULL. lrr__tracer_rows traces the subpatches rows[0..count) of the scene (its
+ * order; rows NULL: all n) into radiosity and std_error (count×3; std_error may be NULL),
+ * as lrr_reference_path_trace does with opts. */
+typedef struct lrr__tracer lrr__tracer;
+lrr_status lrr__tracer_create(const lrr_scene *scene, const float *emission, lrr__tracer **out);
+lrr_status lrr__tracer_rows(const lrr__tracer *t, const lrr_path_trace_options *opts,
+                            const size_t *rows, size_t count, float *radiosity,
+                            float *std_error);
+void lrr__tracer_destroy(lrr__tracer *t);
 
 #endif

@@ -2,22 +2,25 @@
  * the scene's emission against the path tracer on a sample of its own subpatches, compared
  * in regions so that neither side's per-subpatch noise passes for error.
  *
- *   1. N receivers drawn with probability ∝ area (systematic sampling of the cumulative area,
- *      a random start), among the subpatches that reflect (ρ ≠ 0) and do not emit;
- *   2. each path traced with S paths (lib/reference/path_trace.c), the operator's B from one
- *      solve for the same emission;
- *   3. regions: cells of a g×g×g grid over the scene's box (g = ∛(N/48) between 1 and 8,
- *      about eight draws a region) × the six axis directions nearest the normal; per region
- *      the mean over its draws of the reflected light B − E of both sides, d̄_r their mean
- *      difference, s_r² its spread, and the draws' count w_r as its weight (draws ∝ area, so
- *      counts are area weights);
+ *   1. N draws ∝ area (systematic sampling of the cumulative area, a random start) among the
+ *      subpatches that reflect (ρ ≠ 0) and do not emit; a subpatch drawn m times is path
+ *      traced with min(m, 16)·S paths (lib/reference/path_trace.c), and the operator's B
+ *      comes from one solve for the same emission;
+ *   2. regions: the cells of an 8×8×8 grid over the scene's box × the six axis directions
+ *      nearest the normal (the judges of lrr-bench scenes use the same cells × materials);
+ *      in region r, w_r the draws, d̄_r the draws' mean difference of the reflected light
+ *      B − E, p̄_r the path tracer's mean, V̂_r an unbiased estimate of the variance of d̄_r
+ *      (the draws' spread; where a region holds one subpatch, the spread pooled over the
+ *      others relative to |p̄|²);
  *
- *      verify_rel_l2 = √(Σ_r w_r (|d̄_r|² − s_r²/w_r) / Σ_r w_r |p̄_r|²)   (RGB vectors)
- *      verify_noise  = √(Σ_r w_r σ̄_r² / Σ_r w_r |p̄_r|²),   σ̄_r² = Σ_{s∈r} σ_s² / w_r²
+ *      verify_rel_l2 = √(Σ_r w_r (|d̄_r|² − V̂_r) / Σ_r w_r |p̄_r|²)      (RGB vectors)
+ *      verify_noise  = √(Σ_r w_r σ̄_r² / Σ_r w_r |p̄_r|²),   σ̄_r² the path tracer's
+ *                                                             variance of p̄_r
  *
- * The judges of bench/ (lrr-bench scenes) use the same regions with materials in place of
- * the axis directions, over every subpatch. A scene that emits nothing is verified for a
- * uniform emission E = 1 of every triangle (all subpatches then take part). */
+ *      |d̄_r|² − V̂_r is unbiased for the square of the mean difference over all of r, so
+ *      neither a sparse draw nor the noise passes for error.
+ * A scene that emits nothing is verified for E = 1 on every triangle (all subpatches then
+ * take part). */
 #include "config.h"
 #include "operator/operator.h"
 #include "reference/reference.h"
@@ -28,10 +31,11 @@
 
 #define GRID 8               /* cells per axis of the regions' grid */
 #define DEFAULT_SAMPLES 1024 /* paths per drawn subpatch */
-/* The automatic count: a pilot of PILOT draws is timed, then as many draws as a fifth of the
- * build's time (lrr_operator_info.build_seconds) allows at that speed, at least MIN_DRAWS
- * (below ~1000 the regions are few and coarse: on the Cornell box, 216 patches of 16, 90
- * draws gave 0 ± 0.8%, 2000 and 3216 1.25% and 1.36%). */
+#define MAX_REPEAT 16        /* a subpatch drawn m times: min(m, MAX_REPEAT)·S paths */
+/* The automatic count: the pilot's PILOT draws are traced and timed (the BVH built before),
+ * then as many draws as a fifth of the build's time (lrr_operator_info.build_seconds)
+ * allows at that speed, at least MIN_DRAWS: with fewer the regions hold one draw or none,
+ * and the pooled spread stands in for most of them. */
 #define PILOT 64
 #define MIN_DRAWS 1000
 #define BUILD_SHARE 0.2
@@ -123,23 +127,17 @@ static size_t draw(const lrr_operator *op, int uniform, uint64_t seed, size_t co
 
 /* The grid's cells per axis for `draws` draws: about 8 draws a region (cells³ × 6 facings),
  * between 1 and GRID: a region needs two draws or more for its spread (compare). */
-static size_t grid_for(size_t draws)
-{
-    size_t g = (size_t)cbrt((double)draws / 48.0);
-    return g < 1 ? 1 : g > GRID ? GRID : g;
-}
 
-/* The region of operator subpatch i: cell of a grid × grid × grid over the box × the axis
- * direction nearest its normal. */
-static size_t region_of(const lrr_operator *op, size_t i, size_t grid, const double lo[3],
+/* The region of operator subpatch i: grid cell × the axis direction nearest its normal. */
+static size_t region_of(const lrr_operator *op, size_t i, const double lo[3],
                         const double span[3])
 {
     size_t cell = 0;
     for (int a = 0; a < 3; a++) {
         double u = span[a] > 0 ? (op->centre[3 * i + a] - lo[a]) / span[a] : 0;
-        long c = (long)floor(u * (double)grid);
-        c = c < 0 ? 0 : c >= (long)grid ? (long)grid - 1 : c;
-        cell = cell * grid + (size_t)c;
+        long c = (long)floor(u * GRID);
+        c = c < 0 ? 0 : c >= GRID ? GRID - 1 : c;
+        cell = cell * GRID + (size_t)c;
     }
     const float *nv = op->normal + 3 * i;
     int axis = 0;
@@ -149,25 +147,64 @@ static size_t region_of(const lrr_operator *op, size_t i, size_t grid, const dou
     return cell * 6 + (size_t)(2 * axis + (nv[axis] < 0));
 }
 
-/* Per region: w = Σ m (m a draw's multiplicity), Σ m d, Σ m |d|², Σ m p, Σ m² σ² (d = b − p,
- * RGB); 11 doubles. */
-enum { R_W, R_D, R_D2 = 4, R_P, R_VAR = 8, R_SIZE = 11 };
+/* Per region: its distinct subpatches, w = Σ m, Σ m², Σ m d (RGB), Σ m |d|², Σ m p (RGB) and
+ * Σ m² σ² (m a subpatch's draws, d = b − p, σ² the path tracer's variance summed over RGB). */
+enum { R_N, R_W, R_M2, R_D, R_D2 = 6, R_P, R_VAR = 10, R_SIZE };
 
-/* verify_rel_l2 and verify_noise (see the top) from the draws: rows and times as draw gives
+/* Σ_{r with two subpatches or more} of the spread S_r = Σ m |d − d̄|² and of
+ * (w − Σm²/w) |p̄|²: their ratio is the pooled per-draw variance relative to |p̄|². */
+static double pooled_spread(const double *acc, size_t regions)
+{
+    double num = 0, den = 0;
+    for (size_t g = 0; g < regions; g++) {
+        const double *r = acc + R_SIZE * g, w = r[R_W];
+        if (r[R_N] < 2)
+            continue;
+        double d2 = 0, p2 = 0;
+        for (int c = 0; c < 3; c++) {
+            d2 += (r[R_D + c] / w) * (r[R_D + c] / w);
+            p2 += (r[R_P + c] / w) * (r[R_P + c] / w);
+        }
+        num += r[R_D2] - w * d2;
+        den += (w - r[R_M2] / w) * p2;
+    }
+    return den > 0 ? num / den : -1;
+}
+
+/* verify_rel_l2 and verify_noise (see the top) from the acc of the regions. */
+static void figures(const double *acc, size_t regions, double *rel, double *noise)
+{
+    const double nu = pooled_spread(acc, regions);
+    double num = 0, den = 0, var = 0;
+    for (size_t g = 0; g < regions; g++) {
+        const double *r = acc + R_SIZE * g, w = r[R_W];
+        if (w == 0)
+            continue;
+        double d2 = 0, p2 = 0;
+        for (int c = 0; c < 3; c++) {
+            d2 += (r[R_D + c] / w) * (r[R_D + c] / w);
+            p2 += (r[R_P + c] / w) * (r[R_P + c] / w);
+        }
+        const double noise_var = r[R_VAR] / (w * w), m2 = r[R_M2];
+        const double v = r[R_N] >= 2 ? m2 / (w * w) * (r[R_D2] - w * d2) / (w - m2 / w)
+                         : nu >= 0  ? nu * p2 * m2 / (w * w)
+                                    : noise_var;
+        num += w * (d2 - v);
+        den += w * p2;
+        var += w * noise_var;
+    }
+    *rel = den > 0 && num > 0 ? sqrt(num / den) : 0;
+    *noise = den > 0 ? sqrt(var / den) : 0;
+}
+
+/* Accumulates the draws into regions and computes the figures: rows and times as draw gives
  * them, b the operator's reflected light, p the path tracer's, se its standard errors (each
- * count×3). A region's mean difference d̄ over w draws estimates the mean over all its
- * subpatches up to the draws' spread: |d̄|² − s²/w (s² their sample variance, which holds the
- * path tracer's noise too) is unbiased for the squared mean difference, so neither a small
- * draw nor the noise passes for error; a region of one draw subtracts the path tracer's
- * variance only. */
+ * count×3). */
 static lrr_status compare(const lrr_operator *op, const size_t *rows, const double *times,
                           size_t count, const float *b, const float *p, const float *se,
                           double *rel, double *noise)
 {
-    size_t draws = 0;
-    for (size_t s = 0; s < count; s++)
-        draws += (size_t)times[s];
-    const size_t grid = grid_for(draws), regions = grid * grid * grid * 6;
+    const size_t regions = (size_t)GRID * GRID * GRID * 6;
     double *acc;
     lrr_status st = lrr__calloc(op->ctx, &acc, regions, R_SIZE * sizeof(double), "regions");
     if (st)
@@ -177,36 +214,21 @@ static lrr_status compare(const lrr_operator *op, const size_t *rows, const doub
     for (int a = 0; a < 3; a++)
         span[a] = hi[a] - lo[a];
     for (size_t s = 0; s < count; s++) {
-        double *r = acc + R_SIZE * region_of(op, op_index(op, rows[s]), grid, lo, span);
+        double *r = acc + R_SIZE * region_of(op, op_index(op, rows[s]), lo, span);
         const double m = times[s];
+        r[R_N] += 1;
         r[R_W] += m;
+        r[R_M2] += m * m;
         for (int c = 0; c < 3; c++) {
             const double d = (double)b[3 * s + c] - p[3 * s + c];
             r[R_D + c] += m * d;
             r[R_D2] += m * d * d;
             r[R_P + c] += m * p[3 * s + c];
-            r[R_VAR + c] += m * m * (double)se[3 * s + c] * se[3 * s + c];
+            r[R_VAR] += m * m * (double)se[3 * s + c] * se[3 * s + c];
         }
     }
-    double num = 0, den = 0, var = 0;
-    for (size_t g = 0; g < regions; g++) {
-        const double *r = acc + R_SIZE * g, w = r[R_W];
-        if (w == 0)
-            continue;
-        double d2 = 0, p2 = 0, v = 0;
-        for (int c = 0; c < 3; c++) {
-            d2 += (r[R_D + c] / w) * (r[R_D + c] / w);
-            p2 += (r[R_P + c] / w) * (r[R_P + c] / w);
-            v += r[R_VAR + c] / (w * w);
-        }
-        const double spread = w > 1 ? (r[R_D2] - w * d2) / (w - 1) / w : v;
-        num += w * (d2 - spread);
-        den += w * p2;
-        var += w * v;
-    }
+    figures(acc, regions, rel, noise);
     lrr_aligned_free(acc);
-    *rel = den > 0 && num > 0 ? sqrt(num / den) : 0;
-    *noise = den > 0 ? sqrt(var / den) : 0;
     return LRR_OK;
 }
 
@@ -231,14 +253,13 @@ static lrr_status emissions(const lrr_operator *op, int *uniform, float **E, flo
     for (size_t i = 0; i < 3 * op->n && *uniform; i++)
         *uniform = !(op->emission[i] > 0);
     lrr_status st;
+    if ((st = lrr__calloc(op->ctx, E, op->n, 3 * sizeof(float), "verified emission")))
+        return st;
     if (!*uniform) {
-        if ((st = lrr__calloc(op->ctx, E, op->n, 3 * sizeof(float), "verified emission")))
-            return st;
         memcpy(*E, op->emission, op->n * 3 * sizeof(float));
         return LRR_OK;
     }
-    if ((st = lrr__calloc(op->ctx, E, op->n, 3 * sizeof(float), "verified emission")) ||
-        (st = lrr__calloc(op->ctx, tri_e, op->geom.n_tri, 3 * sizeof(float),
+    if ((st = lrr__calloc(op->ctx, tri_e, op->geom.n_tri, 3 * sizeof(float),
                           "verified emission")))
         return st;
     for (size_t i = 0; i < 3 * op->n; i++)
@@ -248,39 +269,81 @@ static lrr_status emissions(const lrr_operator *op, int *uniform, float **E, flo
     return LRR_OK;
 }
 
-/* Path traces the draws and compares (steps 2 and 3 of the top). */
-static lrr_status trace_and_compare(lrr_operator *op, const lrr_scene *scene,
-                                    const lrr_verify_options *o, const float *E,
-                                    const float *tri_e, const size_t *rows,
+/* What one verification works with. */
+typedef struct job {
+    lrr_operator *op;
+    const lrr__tracer *tracer;
+    const lrr_verify_options *o;
+    const float *E;        /* n×3, the operator's order */
+    int uniform;
+} job;
+
+/* Path traces the draws (rows, times: got distinct), a subpatch drawn m times with
+ * min(m, MAX_REPEAT)·S paths, one batch per path count, into p and se (got×3). */
+static lrr_status trace(const job *jb, const size_t *rows, const double *times, size_t got,
+                        int pilot, float *p, float *se)
+{
+    size_t *batch = NULL, *at = NULL;
+    float *bp = NULL, *bse = NULL;
+    lrr_status st;
+    if ((st = lrr__calloc(jb->op->ctx, &batch, got, sizeof(size_t), "verify batch")) ||
+        (st = lrr__calloc(jb->op->ctx, &at, got, sizeof(size_t), "verify batch")) ||
+        (st = lrr__calloc(jb->op->ctx, &bp, got, 3 * sizeof(float), "verify batch")) ||
+        (st = lrr__calloc(jb->op->ctx, &bse, got, 3 * sizeof(float), "verify batch")))
+        goto out;
+    for (size_t m = 1; m <= MAX_REPEAT && !st; m++) {
+        size_t count = 0;
+        for (size_t s = 0; s < got; s++)
+            if ((times[s] >= MAX_REPEAT ? MAX_REPEAT : (size_t)times[s]) == m) {
+                batch[count] = rows[s];
+                at[count++] = s;
+            }
+        if (count == 0)
+            continue;
+        lrr_path_trace_options po = lrr_path_trace_options_defaults();
+        po.samples = jb->o->samples * m;
+        po.seed = jb->o->seed;
+        po.threads = jb->o->threads;
+        po.progress = pilot || m > 1 ? NULL : jb->o->progress; /* the bulk: once drawn */
+        po.progress_user = jb->o->progress_user;
+        if ((st = lrr__tracer_rows(jb->tracer, &po, batch, count, bp, bse)))
+            break;
+        for (size_t k = 0; k < count; k++)
+            for (int c = 0; c < 3; c++) {
+                p[3 * at[k] + c] = bp[3 * k + c];
+                se[3 * at[k] + c] = bse[3 * k + c];
+            }
+    }
+out:
+    lrr_aligned_free(batch);
+    lrr_aligned_free(at);
+    lrr_aligned_free(bp);
+    lrr_aligned_free(bse);
+    return st;
+}
+
+/* Traces the draws and, unless it is the pilot, compares them with the operator's B (steps
+ * 2 and 3 of the top); the figures go into op->verify. */
+static lrr_status trace_and_compare(const job *jb, const float *B, const size_t *rows,
                                     const double *times, size_t got, int pilot)
 {
-    float *B = NULL, *b = NULL, *p = NULL, *se = NULL;
+    lrr_operator *op = jb->op;
+    float *b = NULL, *p = NULL, *se = NULL;
     lrr_status st;
-    if ((st = lrr__calloc(op->ctx, &B, op->n, 3 * sizeof(float), "operator radiosity")) ||
-        (st = lrr__calloc(op->ctx, &b, got, 3 * sizeof(float), "verified radiosity")) ||
+    if ((st = lrr__calloc(op->ctx, &b, got, 3 * sizeof(float), "verified radiosity")) ||
         (st = lrr__calloc(op->ctx, &p, got, 3 * sizeof(float), "path-traced radiosity")) ||
         (st = lrr__calloc(op->ctx, &se, got, 3 * sizeof(float), "standard errors")) ||
-        (st = operator_radiosity(op, E, B)))
-        goto out;
-    lrr_path_trace_options po = lrr_path_trace_options_defaults();
-    po.samples = o->samples;
-    po.seed = o->seed;
-    po.threads = o->threads;
-    po.progress = pilot ? NULL : o->progress;
-    po.progress_user = o->progress_user;
-    if ((st = lrr__path_trace_rows(scene, &po, rows, got, tri_e, p, se)))
+        (st = trace(jb, rows, times, got, pilot, p, se)) || pilot)
         goto out;
     for (size_t s = 0; s < got; s++) {
         const size_t i = op_index(op, rows[s]);
         for (int c = 0; c < 3; c++) { /* reflected light: B − E on both sides */
-            b[3 * s + c] = B[3 * i + c] - E[3 * i + c];
-            p[3 * s + c] -= E[3 * i + c];
+            b[3 * s + c] = B[3 * i + c] - jb->E[3 * i + c];
+            p[3 * s + c] -= jb->E[3 * i + c];
         }
     }
-    if (!pilot)
-        st = compare(op, rows, times, got, b, p, se, &op->verify.rel_l2, &op->verify.noise);
+    st = compare(op, rows, times, got, b, p, se, &op->verify.rel_l2, &op->verify.noise);
 out:
-    lrr_aligned_free(B);
     lrr_aligned_free(b);
     lrr_aligned_free(p);
     lrr_aligned_free(se);
@@ -288,40 +351,64 @@ out:
 }
 
 /* Draws `count` subpatches (draw) into fresh rows and times; *got distinct. */
-static lrr_status draw_new(lrr_operator *op, int uniform, uint64_t seed, size_t count,
-                           size_t **rows, double **times, size_t *got)
+static lrr_status draw_new(const job *jb, size_t count, size_t **rows, double **times,
+                           size_t *got)
 {
     lrr_aligned_free(*rows);
     lrr_aligned_free(*times);
     *rows = NULL;
     *times = NULL;
     lrr_status st;
-    if ((st = lrr__calloc(op->ctx, rows, count, sizeof(size_t), "verified subpatches")) ||
-        (st = lrr__calloc(op->ctx, times, count, sizeof(double), "verified subpatches")))
+    if ((st = lrr__calloc(jb->op->ctx, rows, count, sizeof(size_t), "verified subpatches")) ||
+        (st = lrr__calloc(jb->op->ctx, times, count, sizeof(double), "verified subpatches")))
         return st;
-    *got = draw(op, uniform, seed, count, *rows, *times);
+    *got = draw(jb->op, jb->uniform, jb->o->seed, count, *rows, *times);
     return *got ? LRR_OK
-                : lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "lrr_operator_verify: no subpatch "
-                             "that emits nothing reflects light (every reflectance is 0)");
+                : lrr__error(jb->op->ctx, LRR_ERR_INVALID_ARG, "lrr_operator_verify: no "
+                             "subpatch that emits nothing reflects light (every reflectance "
+                             "is 0)");
 }
 
 /* The automatic draw count (see PILOT): the pilot's draws are traced and timed. */
-static lrr_status auto_count(lrr_operator *op, const lrr_scene *scene,
-                             const lrr_verify_options *o, int uniform, const float *E,
-                             const float *tri_e, size_t *count)
+static lrr_status auto_count(const job *jb, size_t *count)
 {
     size_t *rows = NULL, got = 0;
-    double *times = NULL;
-    const double t0 = lrr__now();
-    lrr_status st = draw_new(op, uniform, o->seed, PILOT, &rows, &times, &got);
-    if (!st)
-        st = trace_and_compare(op, scene, o, E, tri_e, rows, times, got, 1);
-    const double per_draw = (lrr__now() - t0) / (double)(got ? got : 1);
+    double *times = NULL, seconds = 0;
+    lrr_status st = draw_new(jb, PILOT, &rows, &times, &got);
+    if (!st) {
+        const double t0 = lrr__now();
+        st = trace_and_compare(jb, NULL, rows, times, got, 1);
+        seconds = lrr__now() - t0;
+    }
+    double drawn = 0;
+    for (size_t s = 0; s < got; s++)
+        drawn += times[s];
     lrr_aligned_free(rows);
     lrr_aligned_free(times);
-    const double fit = per_draw > 0 ? BUILD_SHARE * op->build_seconds / per_draw : 0;
+    const double per_draw = seconds / (drawn > 0 ? drawn : 1);
+    const double fit = per_draw > 0 ? BUILD_SHARE * jb->op->build_seconds / per_draw : 0;
     *count = fit > MIN_DRAWS ? (size_t)fit : MIN_DRAWS;
-    *count = *count < op->n ? *count : op->n;
+    return st;
+}
+
+/* The draws, their path tracing and the comparison, with the tracer built. */
+static lrr_status run(const job *jb, size_t count, size_t *got)
+{
+    size_t *rows = NULL;
+    double *times = NULL;
+    float *B = NULL;
+    lrr_status st;
+    if ((!count && (st = auto_count(jb, &count))) ||
+        (st = lrr__calloc(jb->op->ctx, &B, jb->op->n, 3 * sizeof(float),
+                          "operator radiosity")) ||
+        (st = operator_radiosity(jb->op, jb->E, B)) ||
+        (st = draw_new(jb, count, &rows, &times, got)))
+        goto out;
+    st = trace_and_compare(jb, B, rows, times, *got, 0);
+out:
+    lrr_aligned_free(rows);
+    lrr_aligned_free(times);
+    lrr_aligned_free(B);
     return st;
 }
 
@@ -333,23 +420,24 @@ lrr_status lrr_operator_verify(lrr_operator *op, const lrr_scene *scene,
     if ((st = read_options(op->ctx, opts, &o)) || (st = same_scene(op, scene)))
         return st;
     const double t0 = lrr__now();
-    int uniform;
+    job jb = {op, NULL, &o, NULL, 0};
     float *E = NULL, *tri_e = NULL;
-    size_t *rows = NULL, count = o.subpatches, got = 0;
-    double *times = NULL;
-    if ((st = emissions(op, &uniform, &E, &tri_e)) ||
-        (!count && (st = auto_count(op, scene, &o, uniform, E, tri_e, &count))) ||
-        (st = draw_new(op, uniform, o.seed, count, &rows, &times, &got)) ||
-        (st = trace_and_compare(op, scene, &o, E, tri_e, rows, times, got, 0)))
-        goto out;
-    op->verify.subpatches = got;
-    op->verify.samples = o.samples;
-    op->verify.uniform = uniform;
-    op->verify.seconds = lrr__now() - t0;
-out:
+    lrr__tracer *tracer = NULL;
+    size_t got = 0;
+    if (!(st = emissions(op, &jb.uniform, &E, &tri_e)) &&
+        !(st = lrr__tracer_create(scene, tri_e, &tracer))) {
+        jb.E = E;
+        jb.tracer = tracer;
+        st = run(&jb, o.subpatches, &got);
+    }
+    if (!st) {
+        op->verify.subpatches = got;
+        op->verify.samples = o.samples;
+        op->verify.uniform = jb.uniform;
+        op->verify.seconds = lrr__now() - t0;
+    }
+    lrr__tracer_destroy(tracer);
     lrr_aligned_free(E);
     lrr_aligned_free(tri_e);
-    lrr_aligned_free(rows);
-    lrr_aligned_free(times);
     return st;
 }

@@ -194,10 +194,13 @@ _SPLIT = {"variance": 0, "area": 1}
 _BACKEND = {"cpu": _ffi.BACKEND_CPU, "opencl": _ffi.BACKEND_OPENCL}
 
 
+_RECEIVER = {"auto": 0, "centre": 1, "center": 1, "area": 2}
+
+
 def build_operator(scene, hemicube=128, seed=1, threads=0, no_rotation=False,
                    formfactor="auto", backend="cpu", memory_budget=0, adaptive=0,
                    clusters=0, adaptive_samples=2048, adaptive_split="variance",
-                   storage="f32", progress=None):
+                   storage="f32", progress=None, receiver="auto"):
     """lrr_operator_build on a subdivided Scene, then lrr_operator_set_storage. The options
     are lrr_build_options (include/lrr.h) under the names of `lrr preprocess`: adaptive=K an
     adaptive quadtree hierarchy, clusters=K a cluster hierarchy (both need levels=0 in the
@@ -206,7 +209,8 @@ def build_operator(scene, hemicube=128, seed=1, threads=0, no_rotation=False,
         raise LrrError(ERR_INVALID_ARG, "build: adaptive and clusters exclude each other")
     for name, value, table in (("formfactor", formfactor, _FORMFACTOR),
                                ("adaptive_split", adaptive_split, _SPLIT),
-                               ("backend", backend, _BACKEND)):
+                               ("backend", backend, _BACKEND),
+                               ("receiver", receiver, _RECEIVER)):
         if value not in table:
             raise LrrError(ERR_INVALID_ARG, "build: %s '%s' is not one of %s"
                            % (name, value, ", ".join(table)))
@@ -221,7 +225,8 @@ def build_operator(scene, hemicube=128, seed=1, threads=0, no_rotation=False,
                           adaptive_samples=adaptive_samples,
                           adaptive_split=_SPLIT[adaptive_split],
                           formfactor_method=_FORMFACTOR[formfactor],
-                          hierarchy=1 if clusters else 0)
+                          hierarchy=1 if clusters else 0,
+                          receiver_sampling=_RECEIVER[receiver])
     h = ctypes.c_void_p()
     try:
         scene.context.call(lib.lrr_operator_build, scene.h, ctypes.byref(o), ctypes.byref(h))
@@ -314,7 +319,24 @@ class Operator:
         d["storage"] = lib.lrr_storage_name(i.storage).decode()
         d["layout"] = "rows" if i.layout == 1 else "panels"
         d["hierarchy"] = "clusters" if i.hierarchy == 1 else "quadtree"
+        d["receiver_sampling"] = "area" if i.receiver_sampling == 2 else "centre"
         return d
+
+    def verify(self, scene, subpatches=0, samples=0, seed=0, threads=0, progress=None):
+        """lrr_operator_verify: the operator's error bar against the path tracer on the scene
+        it was built from (subdivided as for the build). Returns (and keeps, for info and save)
+        {'rel_l2', 'noise', 'subpatches', 'samples', 'seconds', 'uniform'}."""
+        if not isinstance(scene, Scene):
+            raise LrrError(ERR_INVALID_ARG, "verify: scene must be a Scene")
+        self._drop_solver()  # no solver may run meanwhile
+        cb = _ffi.PROGRESS_FN(lambda user, done, total: int(bool(progress(done, total)))) \
+            if progress else _ffi.PROGRESS_FN()
+        o = _ffi.VerifyOptions(size=ctypes.sizeof(_ffi.VerifyOptions), subpatches=subpatches,
+                               samples=samples, seed=seed, threads=threads, progress=cb)
+        self.context.call(lib.lrr_operator_verify, self.h, scene.h, ctypes.byref(o))
+        i = self.info
+        return {k: i["verify_" + k] for k in ("rel_l2", "noise", "subpatches", "samples",
+                                              "seconds", "uniform")}
 
     def _sizes(self):
         # n and k are fixed for the operator's life: read once, since every frame needs n

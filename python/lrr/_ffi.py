@@ -62,7 +62,8 @@ class BuildOptions(ctypes.Structure):
                 ("adaptive_samples", c_size_t),
                 ("adaptive_split", ctypes.c_int),
                 ("formfactor_method", ctypes.c_int),
-                ("hierarchy", ctypes.c_int)]
+                ("hierarchy", ctypes.c_int),
+                ("receiver_sampling", ctypes.c_int)]
 
 
 class OperatorInfo(ctypes.Structure):
@@ -83,7 +84,24 @@ class OperatorInfo(ctypes.Structure):
                 ("hierarchy", ctypes.c_int),
                 ("formfactor_seconds", ctypes.c_double),
                 ("smw_seconds", ctypes.c_double),
-                ("layout", ctypes.c_int)]
+                ("layout", ctypes.c_int),
+                ("receiver_sampling", ctypes.c_int),
+                ("verify_rel_l2", ctypes.c_double),
+                ("verify_noise", ctypes.c_double),
+                ("verify_subpatches", c_size_t),
+                ("verify_samples", c_size_t),
+                ("verify_seconds", ctypes.c_double),
+                ("verify_uniform", ctypes.c_int)]
+
+
+class VerifyOptions(ctypes.Structure):
+    _fields_ = [("size", c_size_t),
+                ("subpatches", c_size_t),
+                ("samples", c_size_t),
+                ("seed", ctypes.c_uint64),
+                ("threads", ctypes.c_int),
+                ("progress", PROGRESS_FN),
+                ("progress_user", ctypes.c_void_p)]
 
 
 class LightSource(ctypes.Structure):
@@ -120,7 +138,8 @@ class RenderOptions(ctypes.Structure):
 STRUCTS = {"lrr_subdivision": Subdivision, "lrr_scene_info": SceneInfo,
            "lrr_build_options": BuildOptions, "lrr_operator_info": OperatorInfo,
            "lrr_light_source": LightSource, "lrr_export_options": ExportOptions,
-           "lrr_export_info": ExportInfo, "lrr_render_options": RenderOptions}
+           "lrr_export_info": ExportInfo, "lrr_render_options": RenderOptions,
+           "lrr_verify_options": VerifyOptions}
 
 _P = ctypes.c_void_p  # every opaque handle
 _S = ctypes.c_int     # lrr_status
@@ -160,6 +179,7 @@ _PROTOTYPES = {
     "lrr_operator_patch_offsets": (c_size_t_p, [_P]),
     "lrr_operator_subpatch_origin": (c_size_t_p, [_P]),
     "lrr_operator_subpatch_vertices": (None, [_P, c_float_p]),
+    "lrr_operator_verify": (_S, [_P, _P, ctypes.POINTER(VerifyOptions)]),
     "lrr_solver_create": (_S, [_P, ctypes.c_int, ctypes.POINTER(_P)]),
     "lrr_solver_destroy": (None, [_P]),
     "lrr_solver_kernel": (_STR, [_P]),

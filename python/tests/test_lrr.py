@@ -308,6 +308,31 @@ class Build(unittest.TestCase):
         self.assertIn(missing, str(cm.exception))
 
 
+class Verify(unittest.TestCase):
+    def test_error_bar_matches_the_cli(self):
+        """Operator.verify gives what `lrr preprocess --verify` stores (same draws and paths),
+        and the receiver sampling reaches the library."""
+        d = tmpdir()
+        path = os.path.join(d, "op.lrr")
+        out = run_lrr("preprocess", "cornell", "-o", path, "--patches", "54", "--levels", "1",
+                      "--hemicube", "32", "--receiver", "centre", "--verify", "300")
+        sc = lrr.Scene.open("cornell").subdivide(patches=54, levels=1)
+        self.assertEqual(lrr.build_operator(sc, hemicube=16, receiver="area")
+                         .info["receiver_sampling"], "area")
+        op = lrr.build_operator(sc, hemicube=32, receiver="centre")
+        self.assertEqual(op.info["receiver_sampling"], "centre")
+        self.assertEqual(op.info["verify_subpatches"], 0)
+        v = op.verify(sc, subpatches=300, seed=1)
+        self.assertAlmostEqual(v["rel_l2"] / float(out["verify_rel_l2"]), 1, places=5)
+        self.assertEqual(v["subpatches"], int(out["verify_subpatches"]))
+        self.assertGreater(v["noise"], 0)
+        self.assertEqual(lrr.load(path).info["verify_rel_l2"], v["rel_l2"])
+        with self.assertRaises(lrr.LrrError) as cm:
+            op.verify(lrr.Scene.open("cornell").subdivide(patches=60, levels=1))
+        self.assertIn("not the one the operator was built from", str(cm.exception))
+        shutil.rmtree(d)
+
+
 class Errors(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
