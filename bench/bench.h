@@ -4,8 +4,9 @@
  * compare (lrr_solve, the paper's method, plain sgemv), comparison of radiosities and
  * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c,
  * probes.c, adaptive.c, scenes.c, lights.c; four of them measure in a second file (table_cell.c,
- * realtime_cell.c, adaptive_scene.c, scenes_run.c), and what the two files share is declared
- * at the end.
+ * realtime_cell.c, adaptive_scene.c, scenes_run.c; scenes writes its output in scenes_out.c
+ * and judges accuracy in judge.c), and what the files of a command share is declared at
+ * the end.
  */
 #ifndef LRR_BENCH_H
 #define LRR_BENCH_H
@@ -383,14 +384,14 @@ int adaptive_scene_rows(lrr_context *ctx, const adaptive_args *a, const adaptive
                         adaptive_row *rows, size_t *count);
 void adaptive_scene_free(adaptive_scene *sc);
 
-/* ----------------------------------------------------------------- scenes.c, scenes_run.c */
+/* ------------------------------------------ scenes.c, scenes_run.c, scenes_out.c, judge.c */
 #define SC_MAX_SCENES 16
-#define SC_SE_LIMIT 0.01 /* triangles compared: reference relative standard error below 1% */
 
 typedef struct sc_args {
     char scenes[SC_MAX_SCENES][1024]; /* resolved paths or built-in names */
     size_t n_scenes;
     size_t patches, samples;          /* K (adaptive_patches), path-traced samples */
+    size_t verify_subpatches;         /* lrr_verify_options.subpatches (0: automatic) */
     unsigned hemicube, repeat;
     int split, threads, quick;
     uint64_t seed;
@@ -403,31 +404,64 @@ typedef struct sc_quart {
     size_t runs;
 } sc_quart;
 
+/* The judgement of judge.c (its top comment defines each figure; nan when undefined). */
+#define SC_GRID 8 /* cells per axis of the regions' grid */
+enum { SC_UP, SC_SIDE, SC_DOWN, SC_FACINGS };
+typedef struct sc_judgement {
+    double rel_l2, noise, rel_l2_debiased, rel_l2_f16; /* over regions */
+    size_t regions, subpatches;                         /* non-empty regions; subpatches judged */
+    double ratio[SC_FACINGS], ratio_noise[SC_FACINGS];  /* operator / reference per facing */
+    double rel_l2_subpatch, noise_subpatch;             /* every subpatch its own region */
+    double rel_l2_verify_grid; /* debiased, over lrr_operator_verify's regions (judge.c) */
+} sc_judgement;
+
+/* Per-subpatch geometry in the scene's order (lrr_scene_subpatches), SC_GEO floats each. */
+enum { SC_GEO_CENTRE = 0, SC_GEO_NORMAL = 3, SC_GEO_AREA = 6, SC_GEO_RHO = 7,
+       SC_GEO_EMISSION = 10, SC_GEO = 13 };
+
+typedef struct sc_judge_input {
+    size_t n;
+    const float *geo;     /* n×SC_GEO */
+    const float *b, *b16; /* the operator's B with F̄ in f32 and in f16 (n×3, scene order) */
+    const float *p, *se;  /* the path-traced B and its standard errors (n×3) */
+    size_t verify_grid;   /* cells per axis of lrr_operator_verify's grid; 0: not judged */
+} sc_judge_input;
+
+/* Fills *j (judge.c). Returns 0, or -1 when out of memory or n >= 2^32. */
+int sc_judge(const sc_judge_input *in, sc_judgement *j);
+/* Every figure nan, the counts 0. */
+void sc_judgement_init(sc_judgement *j);
+
 /* One scene's row: every number nan until measured. */
 typedef struct sc_result {
     char label[64];
     char failed[96];  /* the step that failed, "" when all went through */
     size_t triangles, emitters, n, k, d_min, d_max;
-    int threads, hierarchy;
+    int threads, hierarchy, receiver_sampling;
     double subdivide_s, build_s, clustering_s, formfactor_s, smw_s, preprocess_s;
-    double op_mib, peak_mib, back_face_share;
+    double op_mib, peak_mib, peak_mib_build, back_face_share;
     sc_quart f32, f16;
     char kernel[32];
     double bandwidth, floor_f32, floor_f16, ratio_f32, ratio_f16;
     double reference_s, reference_peak_mib;
-    double rel_l2, rel_l2_reflected, rel_l2_f16, max_rel, ref_se, area_share;
-    size_t tris_used;
-    double ref_se_reflected;       /* ref_se against the reflected part */
-    double rel_l2_lit, ref_se_lit; /* over every lit triangle, whatever its noise */
-    size_t tris_lit;
+    sc_judgement judge;
+    /* lrr_operator_verify's own error bar, from lrr_operator_info */
+    double verify_rel_l2, verify_noise, verify_seconds;
+    size_t verify_subpatches, verify_samples;
 } sc_result;
 
 /* The read bandwidth (bytes/s, 0 on failure) measured in a child process, so that its
  * buffer counts in no scene's peak memory. Returns 0 or the exit status, having said why. */
 int sc_measure_bandwidth(const sc_args *a, double *bandwidth);
-/* One scene: the operator pipeline in one child process (its peak memory is the scene's),
- * the path-traced reference in another, then the comparison per triangle. r->failed names
- * the step that failed (the message is printed); returns 0 or the exit status. */
+/* One scene: the operator pipeline (build, lrr_operator_verify, frames) in one child
+ * process (its peak memory is the scene's), the path-traced reference in another, then the
+ * judgement (judge.c). r->failed names the step that failed (the message is printed);
+ * returns 0 or the exit status. */
 int sc_run_scene(const sc_args *a, const char *scene, sc_result *r);
+/* scenes_out.c: the CSV of rows[0..count) (rewritten whole); 0 or the exit status. */
+int sc_write_csv(const sc_args *a, const char *cpu, const sc_result *rows, size_t count);
+/* scenes_out.c: the table and targets on stdout, then --md and --plot; 0 or the exit status. */
+int sc_outputs(const sc_args *a, const char *cmdline, const char *cpu, double bw,
+               const sc_result *rows, size_t count);
 
 #endif /* LRR_BENCH_H */

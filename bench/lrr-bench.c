@@ -19,8 +19,10 @@
  *                       patch budget and subpatches: error against the n×n solution,
  *                       preprocessing, selection and real-time step (adaptive.c)
  *   lrr-bench scenes    the real scenes end to end: preprocessing split, peak memory, ms per
- *                       frame (f32, f16) against the bandwidth floor, error per triangle
- *                       against a path-traced reference (scenes.c, scenes_run.c)
+ *                       frame (f32, f16) against the bandwidth floor, reflected light
+ *                       against a path-traced reference per region and facing, beside
+ *                       lrr_operator_verify's figure (scenes.c, scenes_run.c,
+ *                       scenes_out.c, judge.c)
  * What they share (messages, options, timing, bandwidth, the baselines) is in common.c.
  *
  * Results go to stdout ('key: value' lines and aligned tables), progress to stderr. Exit
@@ -52,8 +54,9 @@ static const char main_help[] =
     "             budget: error against the n×n solution, selection and build time\n"
     "  scenes     the real scenes (FZK-Haus, bunny room) end to end: preprocessing\n"
     "             (clustering, form factors, SMW), peak memory, ms per frame in f32 and f16\n"
-    "             against the bandwidth floor, error per triangle against a path-traced\n"
-    "             reference with its own error bar\n"
+    "             against the bandwidth floor, reflected light against a path-traced\n"
+    "             reference per region and per facing, with its noise, beside\n"
+    "             lrr_operator_verify's own error bar\n"
     "  lights     moving point lights: ms per frame of the direct light and its shadow rays\n"
     "             per second, all lights moving or one, against Embree's occlusion rate\n"
     "\n"

@@ -1,10 +1,12 @@
 /*
- * lrr-bench scenes, one scene (scenes.c has the command, its options and its output).
- * Each heavy step runs in a forked child process that sends its numbers back through a pipe:
- * the operator pipeline (subdivide, build, f32 and f16 frames) in one, so that its peak
- * resident memory (wait4's ru_maxrss) is the pipeline's own and not the path tracer's or
- * another scene's; the path-traced reference in another. The parent runs no OpenMP region
- * (libgomp's thread pool does not survive fork) and only compares per-triangle means.
+ * lrr-bench scenes, one scene (scenes.c has the command, its options and its output;
+ * judge.c the accuracy judgement). Each heavy step runs in a forked child process that sends
+ * its numbers back through a pipe: the operator pipeline (subdivide, build,
+ * lrr_operator_verify, f32 and f16 frames) in one, so that its peak resident memory
+ * (wait4's ru_maxrss) is the pipeline's own and not the reference's or another scene's, and
+ * so that lrr_operator_verify sees the operator it judges; the path-traced reference in
+ * another. The parent runs no OpenMP region (libgomp's thread pool does not survive fork):
+ * it only judges the per-subpatch values the children sent.
  */
 #include <errno.h>
 #include <math.h>
@@ -222,6 +224,7 @@ static int sc_build(sc_child *c, lrr_operator **op)
     lrr_operator_get_info(*op, &oi, sizeof oi);
     sc_result *r = c->r;
     r->n = oi.n;
+    r->receiver_sampling = oi.receiver_sampling;
     r->k = oi.k;
     r->d_min = oi.d_min;
     r->d_max = oi.d_max;
@@ -304,101 +307,67 @@ static int time_storage(sc_child *c, const lrr_operator *op, const float *e, flo
     return s == LRR_OK ? 0 : step_fail(c, s, "lrr_solve");
 }
 
-/* ------------------------------------------------------------------ per-triangle means */
-/* Triangle areas without the vertices: x one-hot at one subpatch i of each triangle t gives
- * the triangle mean A_i / A_t, and A_i is the scene's. */
-static int triangle_areas(sc_child *c, const float *sub_area, float *tri_area)
+/* ------------------------------------------------------------------ verification */
+/* lrr_operator_verify as `lrr preprocess --verify` runs it (the library's defaults, the
+ * bench's seed and threads), on the f32 operator just built, so that its figure stands
+ * beside the bench's judgement of the same operator. peak_mib_build is read first: the
+ * path tracer's scene copy and buffers count in peak_mib, not in the build's own peak. */
+static int sc_verify(sc_child *c, lrr_operator *op)
 {
-    size_t n = c->r->n, T = c->r->triangles;
-    float *x = calloc(3 * n, sizeof *x), *m = calloc(3 * T, sizeof *m);
-    size_t *first = malloc(T * sizeof *first);
-    int rc = 0;
-    if (!x || !m || !first)
-        rc = bench_fail("%s: out of memory", c->r->label);
-    for (size_t t = 0; t < T && !rc; t++) {
-        first[t] = lrr_scene_subpatch_at(c->sc, t, 1.0 / 3, 1.0 / 3);
-        if (first[t] >= n)
-            rc = bench_fail("%s: triangle %zu has no subpatch", c->r->label, t);
-        else
-            x[3 * first[t]] = 1.0f;
-    }
-    lrr_status s = LRR_OK;
-    if (!rc && (s = lrr_reference_triangle_means(c->sc, x, NULL, m, NULL)) != LRR_OK)
-        rc = step_fail(c, s, "lrr_reference_triangle_means");
-    for (size_t t = 0; t < T && !rc; t++)
-        tri_area[t] = m[3 * t] > 0 ? sub_area[first[t]] / m[3 * t] : 0.0f;
-    free(x);
-    free(m);
-    free(first);
-    return rc;
-}
-
-/* Per-triangle means of B (operator order) into out (T×3). */
-static int op_means(sc_child *c, const lrr_operator *op, const float *b, float *tmp, float *out)
-{
-    lrr_operator_scene_order(op, b, tmp);
-    lrr_status s = lrr_reference_triangle_means(c->sc, tmp, NULL, out, NULL);
-    return s == LRR_OK ? 0 : step_fail(c, s, "lrr_reference_triangle_means");
-}
-
-/* The scene's per-triangle geometry: areas (T) and emission means (T×3). */
-static int scene_means(sc_child *c, float *tri_area, float *e_mean)
-{
-    size_t n = c->r->n;
-    float *area = malloc(n * sizeof *area), *em = malloc(3 * n * sizeof *em);
-    int rc = 0;
-    lrr_status s = LRR_OK;
-    if (!area || !em)
-        rc = bench_fail("%s: out of memory", c->r->label);
-    else if ((s = lrr_scene_subpatches(c->sc, NULL, NULL, area, NULL, em)) != LRR_OK)
-        rc = step_fail(c, s, "lrr_scene_subpatches");
-    else if ((s = lrr_reference_triangle_means(c->sc, em, NULL, e_mean, NULL)) != LRR_OK)
-        rc = step_fail(c, s, "lrr_reference_triangle_means");
-    if (!rc)
-        rc = triangle_areas(c, area, tri_area);
-    free(area);
-    free(em);
-    return rc;
+    struct rusage ru;
+    memset(&ru, 0, sizeof ru);
+    if (getrusage(RUSAGE_SELF, &ru) == 0)
+        c->r->peak_mib_build = (double)ru.ru_maxrss / 1024.0; /* Linux: kilobytes */
+    lrr_verify_options vo = lrr_verify_options_defaults();
+    vo.subpatches = c->a->verify_subpatches;
+    vo.seed = c->a->seed;
+    vo.threads = c->a->threads;
+    cli_progress bar;
+    char label[96];
+    snprintf(label, sizeof label, "%s: verify", c->r->label);
+    cli_progress_init(&bar, label, isatty(STDERR_FILENO));
+    vo.progress = cli_progress_cb;
+    vo.progress_user = &bar;
+    lrr_status s = lrr_operator_verify(op, c->sc, &vo);
+    cli_progress_finish(&bar);
+    if (s != LRR_OK)
+        return step_fail(c, s, "lrr_operator_verify");
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi, sizeof oi);
+    c->r->verify_rel_l2 = oi.verify_rel_l2;
+    c->r->verify_noise = oi.verify_noise;
+    c->r->verify_seconds = oi.verify_seconds;
+    c->r->verify_subpatches = oi.verify_subpatches;
+    c->r->verify_samples = oi.verify_samples;
+    return 0;
 }
 
 /* ------------------------------------------------------------------ the operator child */
-/* sends: the sc_result, then T areas, T×3 emission means, T×3 f32 means, T×3 f16 means */
-static int op_send(int fd, sc_child *c, float *const arrays[4])
+/* sends: the sc_result, n, then the f32 and the f16 B (n×3 each, the scene's order) */
+static int op_send(int fd, sc_child *c, float *const b[2])
 {
-    size_t T = c->r->triangles;
-    if (write_all(fd, c->r, sizeof *c->r) != 0)
+    size_t n = c->r->n;
+    if (write_all(fd, c->r, sizeof *c->r) != 0 || write_all(fd, &n, sizeof n) != 0)
         return -1;
-    for (int i = 0; i < 4; i++)
-        if (write_all(fd, arrays[i], (i ? 3 : 1) * T * sizeof(float)) != 0)
+    for (int i = 0; i < 2; i++)
+        if (write_all(fd, b[i], 3 * n * sizeof(float)) != 0)
             return -1;
     return 0;
 }
 
-static int op_pipeline(sc_child *c, lrr_operator **op, float *const arrays[4])
+/* The frames in f32, then in f16; each storage's last B into out[0], out[1] (scene order). */
+static int op_frames(sc_child *c, lrr_operator *op, float *b, float *const out[2])
 {
-    int rc = sc_build(c, op);
-    if (rc)
-        return rc;
-    size_t n = c->r->n;
-    float *b = alloc_floats(n, 3), *tmp = alloc_floats(n, 3);
-    const float *e = lrr_operator_emission(*op);
+    int rc = time_storage(c, op, lrr_operator_emission(op), b, &c->r->f32);
     lrr_status s = LRR_OK;
-    if (!b || !tmp)
-        rc = bench_fail("%s: out of memory for B (n = %zu)", c->r->label, n);
     if (!rc)
-        rc = time_storage(c, *op, e, b, &c->r->f32);
-    if (!rc)
-        rc = op_means(c, *op, b, tmp, arrays[2]);
-    if (!rc && (s = lrr_operator_set_storage(*op, LRR_STORAGE_F16)) != LRR_OK)
+        lrr_operator_scene_order(op, b, out[0]);
+    if (!rc && (s = lrr_operator_set_storage(op, LRR_STORAGE_F16)) != LRR_OK)
         rc = step_fail(c, s, "lrr_operator_set_storage f16");
     if (!rc) /* emission again: set_storage may have moved the operator's arrays */
-        rc = time_storage(c, *op, lrr_operator_emission(*op), b, &c->r->f16);
+        rc = time_storage(c, op, lrr_operator_emission(op), b, &c->r->f16);
     if (!rc)
-        rc = op_means(c, *op, b, tmp, arrays[3]);
-    if (!rc)
-        rc = scene_means(c, arrays[0], arrays[1]);
-    lrr_aligned_free(b);
-    lrr_aligned_free(tmp);
+        lrr_operator_scene_order(op, b, out[1]);
     return rc;
 }
 
@@ -407,36 +376,54 @@ static int op_child(int fd, void *arg)
     sc_child *c = arg;
     child_threads(c->a->threads);
     c->r->threads = omp_get_max_threads();
-    int rc = sc_open(c);
     lrr_operator *op = NULL;
-    float *arrays[4] = {NULL, NULL, NULL, NULL};
-    size_t T = c->r->triangles;
-    for (int i = 0; i < 4 && !rc; i++)
-        if (!(arrays[i] = calloc((i ? 3 : 1) * T, sizeof(float))))
-            rc = bench_fail("%s: out of memory", c->r->label);
+    float *b = NULL, *out[2] = {NULL, NULL};
+    int rc = sc_open(c);
     if (!rc)
-        rc = op_pipeline(c, &op, arrays);
-    if (!rc && op_send(fd, c, arrays) != 0)
+        rc = sc_build(c, &op);
+    if (!rc)
+        rc = sc_verify(c, op);
+    size_t n = c->r->n;
+    if (!rc && (!(b = alloc_floats(n, 3)) || !(out[0] = alloc_floats(n, 3)) ||
+                !(out[1] = alloc_floats(n, 3))))
+        rc = bench_fail("%s: out of memory for B (n = %zu)", c->r->label, n);
+    if (!rc)
+        rc = op_frames(c, op, b, out);
+    if (!rc && op_send(fd, c, out) != 0)
         rc = bench_fail("%s: sending the results: %s", c->r->label, strerror(errno));
     lrr_operator_destroy(op);
-    for (int i = 0; i < 4; i++)
-        free(arrays[i]);
+    lrr_aligned_free(b);
+    lrr_aligned_free(out[0]);
+    lrr_aligned_free(out[1]);
     sc_close(c);
     return rc;
 }
 
 /* ------------------------------------------------------------------ the reference child */
-static int ref_trace(sc_child *c, float *mean, float *mean_se)
+/* The judge's per-subpatch geometry (SC_GEO floats each, the scene's order). */
+static int ref_geometry(sc_child *c, size_t n, float *geo)
 {
-    lrr_scene_info si;
-    lrr_scene_get_info(c->sc, &si, sizeof si);
-    const size_t n = si.subpatches;
-    float *b = alloc_floats(n, 3), *se = alloc_floats(n, 3);
-    if (!b || !se) {
-        lrr_aligned_free(b);
-        lrr_aligned_free(se);
-        return bench_fail("%s: out of memory for the reference (n = %zu)", c->r->label, n);
+    float *f = alloc_floats(n, SC_GEO); /* planar: centre 3, normal 3, area 1, ρ 3, E 3 */
+    if (!f)
+        return bench_fail("%s: out of memory for the geometry (n = %zu)", c->r->label, n);
+    float *centre = f, *normal = f + 3 * n, *area = f + 6 * n, *rho = f + 7 * n,
+          *em = f + 10 * n;
+    lrr_status s = lrr_scene_subpatches(c->sc, centre, normal, area, rho, em);
+    for (size_t i = 0; i < n && s == LRR_OK; i++) {
+        float *g = geo + SC_GEO * i;
+        memcpy(g + SC_GEO_CENTRE, centre + 3 * i, 3 * sizeof *g);
+        memcpy(g + SC_GEO_NORMAL, normal + 3 * i, 3 * sizeof *g);
+        g[SC_GEO_AREA] = area[i];
+        memcpy(g + SC_GEO_RHO, rho + 3 * i, 3 * sizeof *g);
+        memcpy(g + SC_GEO_EMISSION, em + 3 * i, 3 * sizeof *g);
     }
+    lrr_aligned_free(f);
+    return s == LRR_OK ? 0 : step_fail(c, s, "lrr_scene_subpatches");
+}
+
+/* The path tracer on every subpatch: B into p, its standard errors into se (n×3). */
+static int ref_trace(sc_child *c, float *p, float *se)
+{
     lrr_path_trace_options o = lrr_path_trace_options_defaults();
     o.samples = c->a->samples;
     o.seed = c->a->seed;
@@ -448,115 +435,43 @@ static int ref_trace(sc_child *c, float *mean, float *mean_se)
     o.progress = cli_progress_cb;
     o.progress_user = &bar;
     double t0 = cli_now();
-    lrr_status s = lrr_reference_path_trace(c->sc, &o, b, se);
+    lrr_status s = lrr_reference_path_trace(c->sc, &o, p, se);
     cli_progress_finish(&bar);
     c->r->reference_s = cli_now() - t0;
-    int rc = s == LRR_OK ? 0 : step_fail(c, s, "lrr_reference_path_trace");
-    if (!rc && (s = lrr_reference_triangle_means(c->sc, b, se, mean, mean_se)) != LRR_OK)
-        rc = step_fail(c, s, "lrr_reference_triangle_means (reference)");
-    lrr_aligned_free(b);
-    lrr_aligned_free(se);
-    return rc;
+    return s == LRR_OK ? 0 : step_fail(c, s, "lrr_reference_path_trace");
 }
 
-/* sends: reference_s, T, then T×3 means and T×3 standard errors */
+/* sends: reference_s, n, then the geometry (n×SC_GEO), B and standard errors (n×3 each) */
 static int ref_child(int fd, void *arg)
 {
     sc_child *c = arg;
     child_threads(c->a->threads);
     int rc = sc_open(c);
-    size_t T = c->r->triangles;
-    float *mean = rc ? NULL : calloc(3 * T, sizeof *mean);
-    float *se = rc ? NULL : calloc(3 * T, sizeof *se);
-    if (!rc && (!mean || !se))
-        rc = bench_fail("%s: out of memory", c->r->label);
+    lrr_scene_info si;
+    size_t n = 0;
+    if (!rc) {
+        lrr_scene_get_info(c->sc, &si, sizeof si);
+        n = si.subpatches;
+    }
+    float *geo = rc ? NULL : alloc_floats(n, SC_GEO), *p = rc ? NULL : alloc_floats(n, 3);
+    float *se = rc ? NULL : alloc_floats(n, 3);
+    if (!rc && (!geo || !p || !se))
+        rc = bench_fail("%s: out of memory for the reference (n = %zu)", c->r->label, n);
     if (!rc)
-        rc = ref_trace(c, mean, se);
+        rc = ref_geometry(c, n, geo);
+    if (!rc)
+        rc = ref_trace(c, p, se);
     if (!rc && (write_all(fd, &c->r->reference_s, sizeof(double)) != 0 ||
-                write_all(fd, &T, sizeof T) != 0 ||
-                write_all(fd, mean, 3 * T * sizeof *mean) != 0 ||
-                write_all(fd, se, 3 * T * sizeof *se) != 0))
+                write_all(fd, &n, sizeof n) != 0 ||
+                write_all(fd, geo, SC_GEO * n * sizeof *geo) != 0 ||
+                write_all(fd, p, 3 * n * sizeof *p) != 0 ||
+                write_all(fd, se, 3 * n * sizeof *se) != 0))
         rc = bench_fail("%s: sending the reference: %s", c->r->label, strerror(errno));
-    free(mean);
-    free(se);
+    lrr_aligned_free(geo);
+    lrr_aligned_free(p);
+    lrr_aligned_free(se);
     sc_close(c);
     return rc;
-}
-
-/* ------------------------------------------------------------------ comparison */
-/* Rec. 709 luminance: the filter on the reference's noise looks at one number per triangle */
-static double lum(const float *v)
-{
-    return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2];
-}
-
-static double dist2(const float *a, const float *b, const float *e)
-{
-    double s = 0;
-    for (int ch = 0; ch < 3; ch++) {
-        double d = (double)a[ch] - b[ch] - (e ? e[ch] : 0);
-        s += d * d;
-    }
-    return s;
-}
-
-/* Sums over a set of triangles (A the area, d = op - ref, RGB norms). */
-typedef struct sc_acc {
-    double num, num16, den, den_refl, noise, area, max_rel;
-    size_t count;
-} sc_acc;
-
-static void acc_add(sc_acc *s, double a, const float *em, const float *op, const float *op16,
-                    const float *ref, const float *se)
-{
-    static const float zero[3] = {0, 0, 0};
-    const double d2 = dist2(op, ref, NULL), r2 = dist2(ref, zero, NULL);
-    s->num += a * d2;
-    s->num16 += a * dist2(op16, ref, NULL);
-    s->den += a * r2;
-    s->den_refl += a * dist2(ref, zero, em);
-    s->noise += a * dist2(se, zero, NULL);
-    s->area += a;
-    s->max_rel = fmax(s->max_rel, isfinite(d2) ? sqrt(d2 / r2) : INFINITY);
-    s->count++;
-}
-
-static double ratio_sqrt(double num, double den)
-{
-    return den > 0 ? sqrt(num / den) : NAN;
-}
-
-/* Over triangles with lum(se) < 1% of lum(ref) (lum(se) bounds the luminance's standard
- * error from above whatever the channels' correlation): area-weighted relative L2 of op
- * against ref (RGB), the same for the reflected part (emission taken off both), the
- * reference's own relative error bar (the same formula with se for the difference), the
- * largest per-triangle relative error, the count and area share used; and rel_l2 and the
- * error bar over every lit triangle (lum(ref) > 0), whatever its noise. */
-static void compare_tris(size_t T, const float *area, const float *em, const float *op,
-                         const float *op16, const float *ref, const float *se, sc_result *r)
-{
-    sc_acc used = {0}, lit = {0};
-    double a_all = 0;
-    for (size_t t = 0; t < T; t++) {
-        const float *R = ref + 3 * t;
-        a_all += area[t];
-        if (!(lum(R) > 0) || !(area[t] > 0))
-            continue;
-        acc_add(&lit, area[t], em + 3 * t, op + 3 * t, op16 + 3 * t, R, se + 3 * t);
-        if (lum(se + 3 * t) < SC_SE_LIMIT * lum(R))
-            acc_add(&used, area[t], em + 3 * t, op + 3 * t, op16 + 3 * t, R, se + 3 * t);
-    }
-    r->tris_used = used.count;
-    r->area_share = a_all > 0 ? used.area / a_all : NAN;
-    r->rel_l2 = ratio_sqrt(used.num, used.den);
-    r->rel_l2_f16 = ratio_sqrt(used.num16, used.den);
-    r->rel_l2_reflected = ratio_sqrt(used.num, used.den_refl);
-    r->ref_se = ratio_sqrt(used.noise, used.den);
-    r->ref_se_reflected = ratio_sqrt(used.noise, used.den_refl);
-    r->max_rel = used.count ? used.max_rel : NAN;
-    r->tris_lit = lit.count;
-    r->rel_l2_lit = ratio_sqrt(lit.num, lit.den);
-    r->ref_se_lit = ratio_sqrt(lit.noise, lit.den);
 }
 
 /* ------------------------------------------------------------------ one scene */
@@ -566,48 +481,51 @@ static void result_init(sc_result *r, const char *scene)
     scene_label(scene, r->label, sizeof r->label);
     double *nan_fields[] = {
         &r->subdivide_s, &r->build_s,   &r->clustering_s, &r->formfactor_s, &r->smw_s,
-        &r->preprocess_s, &r->op_mib,   &r->peak_mib,     &r->back_face_share,
-        &r->f32.median,  &r->f32.q1,    &r->f32.q3,       &r->f16.median,   &r->f16.q1,
-        &r->f16.q3,      &r->bandwidth, &r->floor_f32,    &r->floor_f16,    &r->ratio_f32,
-        &r->ratio_f16,   &r->reference_s, &r->reference_peak_mib, &r->rel_l2,
-        &r->rel_l2_reflected, &r->rel_l2_f16, &r->max_rel, &r->ref_se, &r->area_share,
-        &r->rel_l2_lit, &r->ref_se_lit, &r->ref_se_reflected};
+        &r->preprocess_s, &r->op_mib,   &r->peak_mib,     &r->peak_mib_build,
+        &r->back_face_share, &r->f32.median, &r->f32.q1,  &r->f32.q3,       &r->f16.median,
+        &r->f16.q1,      &r->f16.q3,    &r->bandwidth,    &r->floor_f32,    &r->floor_f16,
+        &r->ratio_f32,   &r->ratio_f16, &r->reference_s,  &r->reference_peak_mib,
+        &r->verify_rel_l2, &r->verify_noise, &r->verify_seconds};
     for (size_t i = 0; i < sizeof nan_fields / sizeof nan_fields[0]; i++)
         *nan_fields[i] = NAN;
+    sc_judgement_init(&r->judge);
     snprintf(r->kernel, sizeof r->kernel, "-");
 }
 
-/* The operator child's row and arrays (area, emission, f32 and f16 means) into r and arr. */
-static int take_op(sc_buf *b, sc_result *r, float *arr[4])
+/* n×w floats of what a child sent into a fresh *out. */
+static int take_floats(sc_buf *b, size_t n, size_t w, float **out)
+{
+    size_t len = n * w * sizeof(float);
+    return (*out = malloc(len ? len : 1)) && buf_take(b, *out, len) == 0 ? 0 : -1;
+}
+
+/* The operator child's row and its f32 and f16 B into r and op. */
+static int take_op(sc_buf *b, sc_result *r, float *op[2])
 {
     sc_result got;
-    if (buf_take(b, &got, sizeof got) != 0)
+    size_t n = 0;
+    if (buf_take(b, &got, sizeof got) != 0 || buf_take(b, &n, sizeof n) != 0 || n != got.n)
         return -1;
     got.peak_mib = r->peak_mib;
     *r = got;
-    for (int i = 0; i < 4; i++) {
-        size_t len = (i ? 3 : 1) * r->triangles * sizeof(float);
-        if (!(arr[i] = malloc(len ? len : 1)) || buf_take(b, arr[i], len) != 0)
-            return -1;
-    }
-    return 0;
+    return take_floats(b, n, 3, &op[0]) || take_floats(b, n, 3, &op[1]) ? -1 : 0;
 }
 
-/* The reference child's arrays (means, standard errors) into ref[0..1]. */
-static int take_ref(sc_buf *b, sc_result *r, float *ref[2])
+/* The reference child's geometry, B and standard errors into ref[0..2]; n must be the
+ * operator's (both children subdivided the same scene the same way). */
+static int take_ref(sc_buf *b, sc_result *r, float *ref[3])
 {
-    size_t T = 0;
-    if (buf_take(b, &r->reference_s, sizeof(double)) != 0 || buf_take(b, &T, sizeof T) != 0 ||
-        T != r->triangles)
+    size_t n = 0;
+    if (buf_take(b, &r->reference_s, sizeof(double)) != 0 || buf_take(b, &n, sizeof n) != 0 ||
+        n != r->n)
         return -1;
-    for (int i = 0; i < 2; i++)
-        if (!(ref[i] = malloc(3 * T * sizeof(float) + 1)) ||
-            buf_take(b, ref[i], 3 * T * sizeof(float)) != 0)
-            return -1;
-    return 0;
+    return take_floats(b, n, SC_GEO, &ref[0]) || take_floats(b, n, 3, &ref[1]) ||
+                   take_floats(b, n, 3, &ref[2])
+               ? -1
+               : 0;
 }
 
-static int run_reference(const sc_args *a, sc_child *c, sc_result *r, float *ref[2])
+static int run_reference(const sc_args *a, sc_child *c, sc_result *r, float *ref[3])
 {
     sc_buf b = {0};
     sc_result scratch = *r;
@@ -615,11 +533,33 @@ static int run_reference(const sc_args *a, sc_child *c, sc_result *r, float *ref
     note("%s: path-traced reference (%zu samples per subpatch)", r->label, a->samples);
     int rc = run_child(r->label, ref_child, c, &b, &r->reference_peak_mib);
     if (!rc && take_ref(&b, r, ref) != 0)
-        rc = bench_fail("%s: the reference child sent too little", r->label);
+        rc = bench_fail("%s: the reference child sent too little, or for another n than "
+                        "the operator's %zu", r->label, r->n);
     free(b.p);
     if (rc)
         snprintf(r->failed, sizeof r->failed, "path-traced reference");
     return rc;
+}
+
+/* The cells per axis of lrr_operator_verify's grid for its draws (lib/verify/verify.c:
+ * about eight draws a region of 6 facings, 1..8), from the distinct subpatches it traced:
+ * lrr_operator_info does not say how many draws there were, which is more where large
+ * subpatches were drawn more than once, so on such scenes the grid may be coarser than
+ * verify's. */
+static size_t verify_grid(size_t draws)
+{
+    size_t g = (size_t)cbrt((double)draws / 48.0);
+    return g < 1 ? 1 : g > SC_GRID ? SC_GRID : g;
+}
+
+static int judge(sc_result *r, float *const op[2], float *const ref[3])
+{
+    sc_judge_input in = {r->n, ref[0], op[0], op[1], ref[1], ref[2],
+                         r->verify_subpatches ? verify_grid(r->verify_subpatches) : 0};
+    if (sc_judge(&in, &r->judge) == 0)
+        return 0;
+    snprintf(r->failed, sizeof r->failed, "judgement");
+    return bench_fail("%s: the judgement: out of memory (n = %zu)", r->label, r->n);
 }
 
 int sc_run_scene(const sc_args *a, const char *scene, sc_result *r)
@@ -627,22 +567,23 @@ int sc_run_scene(const sc_args *a, const char *scene, sc_result *r)
     result_init(r, scene);
     sc_child c = {a, scene, r, NULL, NULL, ""};
     sc_buf b = {0};
-    float *arr[4] = {NULL, NULL, NULL, NULL}, *ref[2] = {NULL, NULL};
-    note("%s: operator (K %zu, hemicube %u)", r->label, a->patches, a->hemicube);
+    float *op[2] = {NULL, NULL}, *ref[3] = {NULL, NULL, NULL};
+    note("%s: operator (K %zu, hemicube %u), verify, frames", r->label, a->patches,
+         a->hemicube);
     double peak = NAN;
     int rc = run_child(r->label, op_child, &c, &b, &peak);
     r->peak_mib = peak;
-    if (!rc && take_op(&b, r, arr) != 0)
+    if (!rc && take_op(&b, r, op) != 0)
         rc = bench_fail("%s: the operator child sent too little", r->label);
     free(b.p);
     if (rc) {
         snprintf(r->failed, sizeof r->failed, "operator pipeline");
         r->peak_mib = NAN; /* of a pipeline that did not finish */
     } else if (!(rc = run_reference(a, &c, r, ref)))
-        compare_tris(r->triangles, arr[0], arr[1], arr[2], arr[3], ref[0], ref[1], r);
-    for (int i = 0; i < 4; i++)
-        free(arr[i]);
-    free(ref[0]);
-    free(ref[1]);
+        rc = judge(r, op, ref);
+    for (int i = 0; i < 2; i++)
+        free(op[i]);
+    for (int i = 0; i < 3; i++)
+        free(ref[i]);
     return rc;
 }

@@ -452,26 +452,61 @@ else
 fi
 
 # ---------------------------------------------------------------- scenes
-# The end-to-end command of the real scenes, smoke-tested on the closed Cornell box (the real
+# The end-to-end command of the real scenes, smoke-tested on the Cornell boxes (the real
 # scenes take minutes): it runs, writes its CSV, Markdown and plot. No time thresholds.
-help_mentions scenes --scenes --data-dir --patches --split --hemicube --samples --seed \
-    --threads --repeat --quick --csv --md --plot ratio_f16_to_floor ref_se
+help_mentions scenes --scene --scenes --data-dir --clusters --patches --split --hemicube \
+    --samples --verify-subpatches --seed --threads --repeat --quick --csv --md --plot \
+    ratio_f16_to_floor rel_l2 noise ratio_up ratio_side ratio_down rel_l2_subpatch \
+    noise_subpatch verify_rel_l2 verify_noise verify_seconds
 run scenes --split foo
 if [ "$rc" -eq 2 ] && grep -q -- '--split' "$T/err"; then pass "scenes --split foo: exit 2"; else fail "scenes --split foo: exit $rc"; fi
 run scenes --scenes no-such-scene
 if [ "$rc" -eq 2 ] && grep -q 'no-such-scene' "$T/err"; then pass "scenes: an unknown scene: exit 2"; else fail "scenes --scenes no-such-scene: exit $rc"; fi
+run scenes --scene cornell,no-such-scene
+if [ "$rc" -eq 2 ] && grep -q -- '--scene: .no-such-scene' "$T/err"; then pass "scenes --scene: an unknown scene in a list: exit 2"; else fail "scenes --scene cornell,no-such-scene: exit $rc"; fi
+# Two scenes, --scenes then --scene, in that order: cornell-closed for the outputs, cornell
+# (256 paths a subpatch: the reference's noise about 2% over regions) for the judgement.
 SCCSV="$T/scenes.csv"
-run scenes --quick --scenes cornell-closed --repeat 5 --csv "$SCCSV" --md "$T/scenes.md" \
-    --plot "$T/scenes.png"
-scheader='scene,cpu,threads,T,n,k,R,clustering_s,formfactor_s,smw_s,preprocess_s,peak_mib,ms_f32,ms_f32_iqr,ms_f16,ms_f16_iqr,floor_ms_f16,ratio_f16_to_floor,bandwidth_gbs,nk,rel_l2,max_rel,ref_se,tris_used,samples'
+run scenes --quick --scenes cornell-closed --scene cornell --samples 256 \
+    --verify-subpatches 300 --repeat 5 --csv "$SCCSV" --md "$T/scenes.md" --plot "$T/scenes.png"
+scheader='scene,cpu,threads,T,n,k,R,clustering_s,formfactor_s,smw_s,preprocess_s,peak_mib,ms_f32,ms_f32_iqr,ms_f16,ms_f16_iqr,floor_ms_f16,ratio_f16_to_floor,bandwidth_gbs,nk,rel_l2,noise,ratio_up,ratio_side,ratio_down,rel_l2_subpatch,noise_subpatch,verify_rel_l2,verify_noise,verify_seconds,samples'
 if [ "$rc" -eq 0 ] && [ -f "$SCCSV" ] && head -n 1 "$SCCSV" | grep -q "^$scheader," &&
-    awk -F, 'NR == 2 && $5 > 0 && $6 > 0 && $12 > 0 && $13 > 0 && $15 > 0 &&
-        $21 ~ /^[0-9.eE+-]+$/ { ok = 1 } END { exit !ok }' "$SCCSV" &&
+    grep -q '^scenes: cornell-closed cornell$' "$T/out" &&
+    awk -F, 'NR == 2 && $1 == "cornell-closed" && $5 > 0 && $6 > 0 && $12 > 0 && $13 > 0 &&
+        $15 > 0 && $21 ~ /^[0-9.eE+-]+$/ { ok = 1 } END { exit !ok }' "$SCCSV" &&
     grep -q '^Command: `lrr-bench scenes' "$T/scenes.md" && grep -q '^CPU: ' "$T/scenes.md" &&
     [ "$(od -An -tx1 -N8 "$T/scenes.png" 2>/dev/null | tr -d ' \n')" = 89504e470d0a1a0a ]; then
-    pass "scenes --quick on cornell-closed: CSV row, Markdown report, PNG plot"
+    pass "scenes --quick on cornell-closed and cornell: CSV rows in order, Markdown report, PNG plot"
 else
-    fail "scenes --quick on cornell-closed: exit $rc"
+    fail "scenes --quick on cornell-closed and cornell: exit $rc"
+    show_err
+fi
+# The judgement on the Cornell box, by column name: errors small (an operator compared in its
+# own subpatch order instead of the scene's gives rel_l2 > 4 and ratios of 1.1-1.8), the
+# reference's noise above 0 and below the error bound, ratios near 1, the lamps left out
+# (judged < n), the library's verification ran on at most the 300 subpatches asked for.
+if [ "$rc" -eq 0 ] && awk -F, '
+    NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; next }
+    $1 == "cornell" {
+        v = "rel_l2 noise ratio_up ratio_side ratio_down rel_l2_subpatch noise_subpatch " \
+            "verify_rel_l2 verify_noise verify_seconds regions subpatches_judged n " \
+            "verify_subpatches"
+        split(v, names, " ")
+        for (i in names) { x = $(col[names[i]]); if (x !~ /^[0-9.eE+-]+$/) exit 1; c[names[i]] = x + 0 }
+        ok = c["rel_l2"] > 0 && c["rel_l2"] <= 0.15 && c["noise"] > 0 && c["noise"] < 0.1 &&
+            c["ratio_up"] >= 0.8 && c["ratio_up"] <= 1.2 && c["ratio_side"] >= 0.8 &&
+            c["ratio_side"] <= 1.2 && c["ratio_down"] >= 0.8 && c["ratio_down"] <= 1.2 &&
+            c["rel_l2_subpatch"] > 0 && c["rel_l2_subpatch"] <= 0.5 &&
+            c["noise_subpatch"] > 0 && c["verify_rel_l2"] >= 0 && c["verify_rel_l2"] <= 0.15 &&
+            c["verify_noise"] > 0 && c["verify_seconds"] > 0 && c["regions"] > 10 &&
+            c["subpatches_judged"] > c["n"] / 2 && c["subpatches_judged"] < c["n"] &&
+            c["verify_subpatches"] > 0 && c["verify_subpatches"] <= 300
+    }
+    END { exit !ok }' "$SCCSV" &&
+    grep -q '^cornell: rel_l2 [0-9.]* noise [0-9.]* .*ratio_up [0-9.]* ratio_side [0-9.]* ratio_down [0-9.]* .*verify_rel_l2 [0-9.]*' "$T/out"; then
+    pass "scenes on cornell: rel_l2 <= 15%, noise > 0, ratios within 0.8-1.2, lamps not judged, verify_rel_l2 beside"
+else
+    fail "scenes on cornell: the judgement's columns ($(grep '^cornell:' "$T/out"))"
     show_err
 fi
 
