@@ -396,6 +396,7 @@ typedef struct sc_args {
     int split, threads, quick;
     uint64_t seed;
     const char *csv, *md, *plot;
+    const char *operator_file;        /* --operator: judge this file instead of a build */
 } sc_args;
 
 /* median and quartiles of the timed frames, ms */

@@ -149,6 +149,10 @@ static const char scenes_help[] =
     "                     subpatches step 2 path-traces (lrr_verify_options.subpatches;\n"
     "                     default 0: the library's automatic count, as many as a fifth of\n"
     "                     the build time allows, at least 1000 or n)\n"
+    "  --operator FILE    judge this operator (a .lrr of the one scene given, built with\n"
+    "                     the same --clusters: its subpatches must be the bench's) instead\n"
+    "                     of building one: e.g. one an earlier lrr wrote, to compare\n"
+    "                     versions with the same judge; the build columns are the file's\n"
     "  --seed S           seed of the hemicube rotations and of the paths (default 1)\n"
     "  --threads N        OpenMP and OpenBLAS threads of every step (default 0: OpenMP's\n"
     "                     default, OMP_NUM_THREADS or all cores)\n"
@@ -175,7 +179,7 @@ static const char scenes_help[] =
     "  -h, --help         show this help\n";
 
 enum { OPT_SC_SCENES = 512, OPT_SC_DATA, OPT_SC_PATCHES, OPT_SC_SPLIT, OPT_SC_THREADS,
-       OPT_SC_MD, OPT_SC_VERIFY };
+       OPT_SC_MD, OPT_SC_VERIFY, OPT_SC_OPERATOR };
 
 /* ------------------------------------------------------------------ scenes, machine */
 /* DATA: --data-dir, $LRR_DATA_DIR, the installed data when it holds the scenes, ./data */
@@ -313,6 +317,9 @@ static int parse_one(const char *prog, int c, sc_args *a, sc_parse_state *st, ch
     case OPT_SC_VERIFY:
         return cli_parse_size(prog, "--verify-subpatches", optarg, 0, SIZE_MAX,
                               &a->verify_subpatches);
+    case OPT_SC_OPERATOR:
+        a->operator_file = optarg;
+        return 0;
     case OPT_SEED:
         return cli_parse_u64(prog, "--seed", optarg, 0, UINT64_MAX, &a->seed);
     case OPT_SC_THREADS: {
@@ -350,6 +357,7 @@ static const struct option sc_longopts[] = {
     {"hemicube", required_argument, NULL, OPT_HEMICUBE},
     {"samples", required_argument, NULL, OPT_SAMPLES},
     {"verify-subpatches", required_argument, NULL, OPT_SC_VERIFY},
+    {"operator", required_argument, NULL, OPT_SC_OPERATOR},
     {"seed", required_argument, NULL, OPT_SEED},
     {"threads", required_argument, NULL, OPT_SC_THREADS},
     {"repeat", required_argument, NULL, OPT_REPEAT},
@@ -400,7 +408,14 @@ static int sc_parse(int argc, char *argv[], sc_args *a)
         a->hemicube = st.hemicube_given ? a->hemicube : SC_QUICK_HEMICUBE;
         a->samples = st.samples_given ? a->samples : SC_QUICK_SAMPLES;
     }
-    return sc_scenes(prog, &st, a) != 0 ? CLI_EXIT_USAGE : BENCH_RUN;
+    if (sc_scenes(prog, &st, a) != 0)
+        return CLI_EXIT_USAGE;
+    if (a->operator_file && a->n_scenes != 1) {
+        cli_usage_error(prog, "--operator judges one operator: give exactly one scene (%zu "
+                              "given)", a->n_scenes);
+        return CLI_EXIT_USAGE;
+    }
+    return BENCH_RUN;
 }
 
 /* ------------------------------------------------------------------ run */

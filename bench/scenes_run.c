@@ -201,7 +201,46 @@ static void sc_close(sc_child *c)
     lrr_context_destroy(c->ctx);
 }
 
-static int sc_build(sc_child *c, lrr_operator **op)
+/* --operator: the file instead of a build; its subpatches must be the scene's as opened. */
+static int sc_load(sc_child *c, lrr_operator **op)
+{
+    lrr_status s = lrr_operator_load(c->ctx, c->a->operator_file, op);
+    if (s != LRR_OK)
+        return step_fail(c, s, "lrr_operator_load");
+    lrr_operator_info oi;
+    lrr_scene_info si;
+    lrr_operator_get_info(*op, &oi, sizeof oi);
+    lrr_scene_get_info(c->sc, &si, sizeof si);
+    if (oi.n != si.subpatches)
+        return bench_fail("%s: %s has %zu subpatches, the scene subdivided for K = %zu has "
+                          "%zu: build it with the same --clusters", c->r->label,
+                          c->a->operator_file, oi.n, c->a->patches, si.subpatches);
+    return 0;
+}
+
+/* The build's figures into the result. */
+static void sc_record(sc_child *c, const lrr_operator *op)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi, sizeof oi);
+    sc_result *r = c->r;
+    r->n = oi.n;
+    r->receiver_sampling = oi.receiver_sampling;
+    r->k = oi.k;
+    r->d_min = oi.d_min;
+    r->d_max = oi.d_max;
+    r->hierarchy = oi.hierarchy;
+    r->build_s = oi.build_seconds;
+    r->clustering_s = oi.selection_seconds;
+    r->formfactor_s = oi.formfactor_seconds;
+    r->smw_s = oi.smw_seconds;
+    r->preprocess_s = r->subdivide_s + r->build_s;
+    r->op_mib = (double)oi.bytes / (1 << 20);
+    r->back_face_share = oi.back_face_share;
+}
+
+/* lrr_operator_build of the opened scene with the bench's options. */
+static int sc_make(sc_child *c, lrr_operator **op)
 {
     const sc_args *a = c->a;
     lrr_build_options o = lrr_build_options_defaults();
@@ -218,25 +257,16 @@ static int sc_build(sc_child *c, lrr_operator **op)
     progress_begin(&bar, label, &o);
     lrr_status s = lrr_operator_build(c->sc, &o, op);
     cli_progress_finish(&bar);
-    if (s != LRR_OK)
-        return step_fail(c, s, "lrr_operator_build");
-    lrr_operator_info oi;
-    lrr_operator_get_info(*op, &oi, sizeof oi);
-    sc_result *r = c->r;
-    r->n = oi.n;
-    r->receiver_sampling = oi.receiver_sampling;
-    r->k = oi.k;
-    r->d_min = oi.d_min;
-    r->d_max = oi.d_max;
-    r->hierarchy = oi.hierarchy;
-    r->build_s = oi.build_seconds;
-    r->clustering_s = oi.selection_seconds;
-    r->formfactor_s = oi.formfactor_seconds;
-    r->smw_s = oi.smw_seconds;
-    r->preprocess_s = r->subdivide_s + r->build_s;
-    r->op_mib = (double)oi.bytes / (1 << 20);
-    r->back_face_share = oi.back_face_share;
-    return 0;
+    return s == LRR_OK ? 0 : step_fail(c, s, "lrr_operator_build");
+}
+
+/* The operator, built or (--operator) loaded, and its figures. */
+static int sc_build(sc_child *c, lrr_operator **op)
+{
+    int rc = c->a->operator_file ? sc_load(c, op) : sc_make(c, op);
+    if (!rc)
+        sc_record(c, *op);
+    return rc;
 }
 
 /* ------------------------------------------------------------------ frames */
@@ -541,21 +571,11 @@ static int run_reference(const sc_args *a, sc_child *c, sc_result *r, float *ref
     return rc;
 }
 
-/* The cells per axis of lrr_operator_verify's grid for its draws (lib/verify/verify.c:
- * about eight draws a region of 6 facings, 1..8), from the distinct subpatches it traced:
- * lrr_operator_info does not say how many draws there were, which is more where large
- * subpatches were drawn more than once, so on such scenes the grid may be coarser than
- * verify's. */
-static size_t verify_grid(size_t draws)
-{
-    size_t g = (size_t)cbrt((double)draws / 48.0);
-    return g < 1 ? 1 : g > SC_GRID ? SC_GRID : g;
-}
-
 static int judge(sc_result *r, float *const op[2], float *const ref[3])
 {
+    /* lrr_operator_verify's regions: the same 8³ cells, × facing (lib/verify/verify.c) */
     sc_judge_input in = {r->n, ref[0], op[0], op[1], ref[1], ref[2],
-                         r->verify_subpatches ? verify_grid(r->verify_subpatches) : 0};
+                         r->verify_subpatches ? SC_GRID : 0};
     if (sc_judge(&in, &r->judge) == 0)
         return 0;
     snprintf(r->failed, sizeof r->failed, "judgement");

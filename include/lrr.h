@@ -582,8 +582,11 @@ typedef struct lrr_verify_options {
     size_t subpatches;        /* draws ∝ area among the non-emitting subpatches that
                                  reflect; 0 = automatic: as many as a fifth of the build's
                                  time (lrr_operator_info.build_seconds) allows at the speed of
-                                 a timed pilot of 64, at least 1000 (or n) */
-    size_t samples;           /* paths per drawn subpatch, >= 2; 0 = 1024 */
+                                 a timed pilot of 64, at least 1000 (it depends on the
+                                 timing; a given count, seed and samples give the same
+                                 figure) */
+    size_t samples;           /* paths per drawn subpatch, >= 2; 0 = 1024 (a subpatch drawn
+                                 m times gets min(m, 16) times as many) */
     uint64_t seed;            /* the draw and the paths */
     int threads;              /* OpenMP threads of the path tracer; 0 = OpenMP's default */
     lrr_progress_fn progress; /* may be NULL; done/total drawn subpatches */

@@ -46,7 +46,7 @@ help_body() {
             if (want == "opt") {
                 if (tok !~ /^\\-/) break
             } else if (want == "arg") {
-                if (tok !~ /^[A-Z]/ && tok !~ /^\\-/) break
+                if (tok !~ /^\[?[A-Z]/ && tok !~ /^\\-/) break   # ARG or [ARG] (optional)
                 if (tok ~ /^\\-/) break
             } else break
             term = term (term == "" ? "" : " ") tok
@@ -153,7 +153,7 @@ option_table() {
             match(rest, /[^ ]+/); tok = substr(rest, RSTART, RLENGTH)
             if (term != "" && RSTART > 2) break
             if (want == "opt" && tok !~ /^-/) break
-            if (want == "arg" && tok !~ /^[A-Z]/) break
+            if (want == "arg" && tok !~ /^[A-Z]/) break   # [ARG] is optional: none to complete
             if (want == "none") break
             term = term (term == "" ? "" : " ") tok
             rest = substr(rest, RSTART + RLENGTH)
