@@ -510,6 +510,36 @@ else
     show_err
 fi
 
+# --operator judges a file instead of a build: the same operator (lrr preprocess with the
+# bench's subdivision and options) gets the same judgement; one that another K subdivided is
+# refused, naming --clusters.
+LRR_TOOL=${LRR_BIN:-./lrr}
+if [ -x "$LRR_TOOL" ]; then
+    "$LRR_TOOL" preprocess cornell --clusters 200 --hemicube 16 -o "$T/op200.lrr" >/dev/null 2>&1
+    run scenes --quick --scenes cornell --samples 64 --verify-subpatches 100 --repeat 3
+    built=$(sed -n 's/^cornell: \(rel_l2 [0-9.]* noise [0-9.]*\).*/\1/p' "$T/out")
+    run scenes --quick --scenes cornell --samples 64 --verify-subpatches 100 --repeat 3 \
+        --operator "$T/op200.lrr"
+    loaded=$(sed -n 's/^cornell: \(rel_l2 [0-9.]* noise [0-9.]*\).*/\1/p' "$T/out")
+    if [ "$rc" -eq 0 ] && [ -n "$built" ] && [ "$built" = "$loaded" ]; then
+        pass "scenes --operator: the file lrr preprocess wrote is judged as the bench's build ($loaded)"
+    else
+        fail "scenes --operator: exit $rc, '$loaded' against the build's '$built'"; show_err
+    fi
+    run scenes --quick --scenes cornell --clusters 100 --operator "$T/op200.lrr" --repeat 3
+    if [ "$rc" -ne 0 ] && grep -q 'same --clusters' "$T/err"; then
+        pass "scenes --operator of another subdivision: refused, naming --clusters"
+    else
+        fail "scenes --operator, other subdivision: exit $rc"; show_err
+    fi
+    run scenes --scenes cornell,cornell-closed --operator "$T/op200.lrr"
+    if [ "$rc" -eq 2 ] && grep -q 'exactly one scene' "$T/err"; then
+        pass "scenes --operator with two scenes: exit 2"
+    else
+        fail "scenes --operator with two scenes: exit $rc"; show_err
+    fi
+fi
+
 # ---------------------------------------------------------------- summary
 if [ "$failures" -eq 0 ]; then
     rm -rf "$T"

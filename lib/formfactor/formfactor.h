@@ -47,13 +47,6 @@ lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
 lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
                                      const lrr_build_options *opts, const size_t *rows,
                                      size_t count, float *out);
-/* Each receiver's row sum of F, R_i = Σ_j F_ij (the share of its hemisphere that meets the
- * front of a triangle), into out (n), from hemicubes of LRR__ROW_SUM_RESOLUTION (the other
- * settings as opts: the same rotations and receiver sampling): for the cluster hierarchy's
- * visibility rule, ~1.6% of an R 64 build's rays. g: levels 0, no hierarchy. */
-#define LRR__ROW_SUM_RESOLUTION 8
-lrr_status lrr__hemicube_row_sums(lrr_context *ctx, const lrr__geometry *g,
-                                  const lrr_build_options *opts, float *out);
 
 /* Hemicube integration on an OpenCL device (hemicube_opencl.c): rows of F̄ from a batch of
  * resolved hemicubes (patch ids per pixel in the item-buffer layout, 3R² per hemicube, -1 for

@@ -962,33 +962,6 @@ lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
     return rows_impl(ctx, g, &o, 1, rows, count, out, NULL);
 }
 
-lrr_status lrr__hemicube_row_sums(lrr_context *ctx, const lrr__geometry *g,
-                                  const lrr_build_options *opts, float *out)
-{
-    /* F̄ of one patch holding every subpatch: F̄_i0 = R_i / n */
-    const size_t n = g->n, first[2] = {0, n};
-    size_t *order;
-    lrr_status st = lrr__calloc(ctx, &order, n, sizeof(size_t), "row sums' order");
-    if (st)
-        return st;
-    for (size_t i = 0; i < n; i++)
-        order[i] = i;
-    lrr__geometry one;
-    st = lrr__geometry_clusters(ctx, g, order, first, 1, "row sums", LRR_ERR_INVALID_ARG, &one);
-    lrr_aligned_free(order);
-    if (st)
-        return st;
-    lrr_build_options o = *opts;
-    o.hemicube_resolution = LRR__ROW_SUM_RESOLUTION;
-    o.backend = LRR_BACKEND_CPU;
-    o.progress = NULL;
-    st = rows_impl(ctx, &one, &o, 0, NULL, n, out, NULL);
-    for (size_t i = 0; !st && i < n; i++)
-        out[i] = (float)((double)out[i] * (double)n);
-    lrr__geometry_free(&one);
-    return st;
-}
-
 /* The per-triangle table of g and the diagonal of its bounding box. */
 static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, tri_info **out,
                             double *diag)

@@ -5,27 +5,27 @@
  * scene's emitters with other surfaces is split into the two (the low-rank model spreads
  * a patch's emission over its whole area, which would turn a small bright lamp into a
  * dim ceiling: measured on the Cornell box, n = 3240, K = 200, rel L2 6.3% with the lamp
- * merged). A node whose subpatches' visible shares R_j (the part of each hemisphere that
- * meets the scene) span more than LRR__CLUSTER_VISIBLE_SPAN is split at the middle of that
- * span (the outside of a building from its inside). A node whose normals do not all lie
- * within LRR__CLUSTER_CONE of their area-weighted mean is split by normal (along the axis
- * where the normals' components spread most, at the middle of that spread: the two sides of
- * a wall, or a floor and a wall, part first); any other node is split in space (along its
- * centres' longest extent, at the area median), so nodes stay compact and balanced. The
- * subpatches are kept in the tree's leaf order, so every node is a contiguous run [j0, j1)
- * of that order: the operator's patch-major numbering.
+ * merged). A node whose normals do not all lie within LRR__CLUSTER_CONE of their
+ * area-weighted mean is split by normal (along the axis where the normals' components spread
+ * most, at the middle of that spread: the two sides of a wall, or a floor and a wall, part
+ * first); any other node is split in space (along its centres' longest extent, at the area
+ * median), so nodes stay compact and balanced. The subpatches are kept in the tree's leaf
+ * order, so every node is a contiguous run [j0, j1) of that order: the operator's
+ * patch-major numbering.
  *
  * The patches are a cut of the tree: the nodes that break a rule are always split (also
  * below a node that keeps them: a part's normals may leave the cone of its own mean); then,
  * until there are K patches, the node with the largest score: its area (LRR_SPLIT_AREA), or
- * (LRR_SPLIT_VARIANCE) the error of the model over it,
+ * (LRR_SPLIT_VARIANCE) the error of the area-weighted model over it,
  *
- *     V_p = Σ_i w_i Σ_{j∈p} (F_ij − F_{i→p} a_j / Σ_{p} a)²,    w_i = Σ_c rho_ic²,
+ *     V_p = Σ_i w_i Σ_{j∈p} (F_ij − F_{i→p} A_j / A_p)²,    w_i = Σ_c rho_ic²,
  *
- * a_j = A_j R_j, the share the model gives j of the light gathered from p (the weights of
- * lib/operator/weights.c), estimated from the same sampled rows of F as the quadtree's
- * adaptive selection (ffsample.c), with (n/S) Σ over the sample. V_p never grows under a
- * split and vanishes for a single subpatch.
+ * estimated from the same sampled rows of F as the quadtree's adaptive selection
+ * (ffsample.c), with (n/S) Σ over the sample. V_p never grows under a split and vanishes
+ * for a single subpatch. (The model itself weighs a cluster's subpatches by A_j R_j, R_j
+ * their row sums, known only after the form factors; a score with R_j estimated from R 8
+ * hemicubes, and a rule keeping subpatches whose R_j differ by more than 0.3 apart, were
+ * measured: no better, and the rule worse, bench/results/2026-12-03-accuracy.md.)
  */
 #include "config.h"
 #include "hierarchy/adaptive_internal.h"
@@ -38,12 +38,6 @@
  * cluster differ by at most 60°: never the two sides of a wall (180°), never a floor and a
  * wall (90°). */
 #define LRR__CLUSTER_CONE_COS 0.8660254037844386
-/* The visibility rule: the shares of the hemisphere that meet the scene (R_j) of one
- * cluster's subpatches span at most this, so the outside of a building (R ~ 0.1-0.5) and
- * its inside (R ~ 1) never share one: a receiver that sees only the dark part of such a
- * cluster gathers its bright mean (Crytek Sponza, K = 2000: wall tops 3.1×, roof undersides
- * 3.9× the path tracer's reflected light; bench/results/2026-12-03-accuracy.md). */
-#define LRR__CLUSTER_VISIBLE_SPAN 0.3f
 /* The sampled rows hold at most this many bytes (S·n floats); S shrinks beyond it. */
 #define LRR__CLUSTER_SAMPLE_BYTES ((size_t)512 << 20)
 
@@ -60,25 +54,10 @@ typedef struct tree {
     cnode *node;
     size_t *perm;            /* leaf order → scene (triangle-order) subpatch */
     const float *centre, *normal, *area;
-    const float *visible;    /* n: the share of each hemisphere that meets the scene, or NULL */
     const uint8_t *emits;    /* n: 1 for the scene's emitters */
 } tree;
 
 /* ------------------------------------------------------------ building the tree */
-/* 1 when the run's visible shares span more than LRR__CLUSTER_VISIBLE_SPAN. */
-static int mixes_visibility(const tree *t, size_t j0, size_t j1)
-{
-    if (!t->visible)
-        return 0;
-    float lo = t->visible[t->perm[j0]], hi = lo;
-    for (size_t j = j0 + 1; j < j1; j++) {
-        const float v = t->visible[t->perm[j]];
-        lo = v < lo ? v : lo;
-        hi = v > hi ? v : hi;
-    }
-    return hi - lo > LRR__CLUSTER_VISIBLE_SPAN;
-}
-
 /* 1 when the run mixes emitters and non-emitters (a rule as strict as the normals'). */
 static int mixes_emitters(const tree *t, size_t j0, size_t j1)
 {
@@ -98,7 +77,7 @@ static int cone_check(const tree *t, size_t j0, size_t j1, double *area)
         a += t->area[i];
     }
     *area = a;
-    if (mixes_emitters(t, j0, j1) || mixes_visibility(t, j0, j1))
+    if (mixes_emitters(t, j0, j1))
         return 0;
     lrr__normalize3(m);
     for (size_t j = j0; j < j1; j++) {
@@ -118,21 +97,16 @@ static int keyed_cmp(const void *a, const void *b)
     return (x->idx > y->idx) - (x->idx < y->idx);
 }
 
-/* Keys of order_by: a component of the normal or the centre, or the visible share. */
-enum { BY_CENTRE, BY_NORMAL, BY_VISIBLE };
-
-/* Reorders perm[j0..j1) by key (component `axis` of the normal or centre, or the visible
- * share), returns the split position: the middle of the key range (normal, visible) or the
- * area median (centre); 0 when the keys do not separate. */
-static size_t order_by(tree *t, keyed *buf, size_t j0, size_t j1, int by, int axis)
+/* Reorders perm[j0..j1) by key(component `axis` of normal (by_normal) or centre), returns
+ * the split position: the middle of the key range (normal) or the area median (space);
+ * 0 when the keys do not separate. */
+static size_t order_by(tree *t, keyed *buf, size_t j0, size_t j1, int by_normal, int axis)
 {
     const size_t m = j1 - j0;
-    const int by_normal = by != BY_CENTRE; /* (the middle of the range) */
+    const float *src = by_normal ? t->normal : t->centre;
     for (size_t j = 0; j < m; j++) {
         buf[j].idx = t->perm[j0 + j];
-        buf[j].key = by == BY_VISIBLE ? t->visible[buf[j].idx]
-                     : by == BY_NORMAL ? t->normal[3 * buf[j].idx + axis]
-                                       : t->centre[3 * buf[j].idx + axis];
+        buf[j].key = src[3 * buf[j].idx + axis];
     }
     qsort(buf, m, sizeof *buf, keyed_cmp);
     for (size_t j = 0; j < m; j++)
@@ -198,12 +172,10 @@ static size_t split_node(tree *t, keyed *buf, const cnode *x)
     if (!x->cone_ok && mixes_emitters(t, x->j0, x->j1))
         return x->j0 + split_emitters(t, buf, x->j0, x->j1);
     size_t s = 0;
-    if (!x->cone_ok && mixes_visibility(t, x->j0, x->j1))
-        s = order_by(t, buf, x->j0, x->j1, BY_VISIBLE, 0);
-    if (!x->cone_ok && s == 0)
-        s = order_by(t, buf, x->j0, x->j1, BY_NORMAL, widest_axis(t, x->j0, x->j1, 1));
+    if (!x->cone_ok)
+        s = order_by(t, buf, x->j0, x->j1, 1, widest_axis(t, x->j0, x->j1, 1));
     if (s == 0)
-        s = order_by(t, buf, x->j0, x->j1, BY_CENTRE, widest_axis(t, x->j0, x->j1, 0));
+        s = order_by(t, buf, x->j0, x->j1, 0, widest_axis(t, x->j0, x->j1, 0));
     return s ? x->j0 + s : x->j0 + (x->j1 - x->j0) / 2; /* coincident centres: by count */
 }
 
@@ -250,8 +222,7 @@ static lrr_status build_tree(lrr_context *ctx, tree *t)
 typedef struct scorer {
     int split;
     lrr__ffsample s;
-    double *a;      /* n: each leaf-order subpatch's A_j R_j, its share of the model (A_j
-                       without visible shares) */
+    double *a;      /* n: area of each leaf-order subpatch */
 } scorer;
 
 /* V_p over the sample (see the top of the file). */
@@ -465,7 +436,7 @@ static lrr_status check_args(lrr_context *ctx, const lrr__geometry *g,
 
 lrr_status lrr__cluster_select(lrr_context *ctx, const lrr__geometry *g, const float *rho,
                                const float *emission, const float *centre,
-                               const float *normal, const float *area, const float *visible,
+                               const float *normal, const float *area,
                                const lrr_build_options *opts, lrr__rows_fn render,
                                lrr__geometry *out)
 {
@@ -474,7 +445,7 @@ lrr_status lrr__cluster_select(lrr_context *ctx, const lrr__geometry *g, const f
     if (st)
         return st;
     const size_t n = g->n, K = opts->adaptive_patches < n ? opts->adaptive_patches : n;
-    tree t = {.n = n, .centre = centre, .normal = normal, .area = area, .visible = visible};
+    tree t = {.n = n, .centre = centre, .normal = normal, .area = area};
     scorer sc = {.split = opts->adaptive_split};
     size_t *heap = NULL, *first = NULL;
     uint8_t *emits = NULL;
@@ -493,10 +464,8 @@ lrr_status lrr__cluster_select(lrr_context *ctx, const lrr__geometry *g, const f
     t.emits = emits;
     if ((st = build_tree(ctx, &t)))
         goto done;
-    /* the model spreads a cluster's light as A_j R_j (lib/operator/weights.c): so does the
-     * score, with R_j as estimated for the visibility rule */
     for (size_t j = 0; j < n; j++)
-        sc.a[j] = area[t.perm[j]] * (visible ? visible[t.perm[j]] : 1.0f);
+        sc.a[j] = area[t.perm[j]];
     if (sc.split == LRR_SPLIT_VARIANCE &&
         (st = take_sample(ctx, &sc, g, rho, emission, area, opts, render, &t)))
         goto done;

@@ -55,14 +55,12 @@ lrr_status lrr__adaptive_select(lrr_context *ctx, const lrr__geometry *g, const 
 /* The cluster hierarchy over g's patches (g uniform, levels 0; they become the subpatches):
  * about opts->adaptive_patches clusters across triangles (cluster.c), chosen by
  * opts->adaptive_split; centre, normal (n×3), area, rho and emission (n×3; emitters and
- * other surfaces never share a cluster) are g's per-subpatch frames and materials; visible
- * (n, or NULL) each subpatch's share of the hemisphere that meets the scene (the row sums
- * of F; subpatches that differ much never share a cluster); the sampled rows
- * (LRR_SPLIT_VARIANCE) come from `rows`. out gets the clustered geometry (origin/order
- * set). */
+ * other surfaces never share a cluster) are g's per-subpatch frames and materials; the
+ * sampled rows (LRR_SPLIT_VARIANCE) come from `rows`. out gets the clustered geometry
+ * (origin/order set). */
 lrr_status lrr__cluster_select(lrr_context *ctx, const lrr__geometry *g, const float *rho,
                                const float *emission, const float *centre,
-                               const float *normal, const float *area, const float *visible,
+                               const float *normal, const float *area,
                                const lrr_build_options *opts, lrr__rows_fn rows,
                                lrr__geometry *out);
 /* The sampled rows the cluster selection takes for n subpatches (adaptive_samples, capped

@@ -147,19 +147,16 @@ static lrr_status new_for_hierarchy(const lrr_scene *scene, const lrr_build_opti
     lrr__geometry hg;
     memset(&hg, 0, sizeof hg);
     float *rho = NULL, *emission = NULL, *area = NULL, *centre = NULL, *normal = NULL;
-    float *visible = NULL;
     lrr_status st;
     if (!(st = lrr__calloc(ctx, &rho, n, 3 * sizeof(float), "subpatch reflectances")) &&
         !(st = lrr__calloc(ctx, &emission, n, 3 * sizeof(float), "subpatch emission")) &&
         !(st = lrr__calloc(ctx, &area, n, sizeof(float), "subpatch areas")) &&
         (!cluster ||
          (!(st = lrr__calloc(ctx, &centre, n, 3 * sizeof(float), "subpatch centres")) &&
-          !(st = lrr__calloc(ctx, &normal, n, 3 * sizeof(float), "subpatch normals")) &&
-          !(st = lrr__calloc(ctx, &visible, n, sizeof(float), "visible shares")) &&
-          !(st = lrr__hemicube_row_sums(ctx, &scene->geom, o, visible)))) &&
+          !(st = lrr__calloc(ctx, &normal, n, 3 * sizeof(float), "subpatch normals")))) &&
         !(st = lrr_scene_subpatches(scene, centre, normal, area, rho, emission)))
         st = cluster ? lrr__cluster_select(ctx, &scene->geom, rho, emission, centre, normal,
-                                           area, visible, o,
+                                           area, o,
                                            lrr__hemicube_sample_rows, &hg)
                      : lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, NULL, o,
                                             lrr__hemicube_sample_rows, &hg, NULL);
@@ -168,7 +165,6 @@ static lrr_status new_for_hierarchy(const lrr_scene *scene, const lrr_build_opti
     lrr_aligned_free(area);
     lrr_aligned_free(centre);
     lrr_aligned_free(normal);
-    lrr_aligned_free(visible);
     /* the normal rule may have made more clusters than asked: check the budget anew */
     if (st || (st = lrr__operator_budget_check(ctx, hg.n_tri, hg.n, hg.k, LRR_STORAGE_F32, o))) {
         lrr__geometry_free(&hg);
@@ -259,10 +255,11 @@ lrr_status lrr_operator_set_reflectance(lrr_operator *op, const float *rho)
         return st;
     memcpy(old, op->rho, op->n * 3 * sizeof(float));
     memcpy(op->rho, rho, op->n * 3 * sizeof(float));
-    memset(&op->verify, 0, sizeof op->verify); /* the error bar was for the other ρ */
     double cond[3];
     memcpy(cond, op->cond, sizeof cond);
-    if ((st = lrr__smw_factor(op))) {
+    if (!(st = lrr__smw_factor(op)))
+        memset(&op->verify, 0, sizeof op->verify); /* the error bar was for the other ρ */
+    else {
         /* keep the operator usable: restore the old reflectances and M */
         memcpy(op->rho, old, op->n * 3 * sizeof(float));
         lrr__smw_factor(op);

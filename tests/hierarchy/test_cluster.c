@@ -119,63 +119,6 @@ static void test_tiling_and_rules(void **state)
     lrr_context_destroy(ctx);
 }
 
-/* The visibility rule: a floor under a lamp and a sill beside it under the sky face the same
- * way, and the emitter rule alone would leave them one cluster with K <= 2; the visible
- * shares R_j (0.2 at the floor's corners to 0.6 at its middle, 0 on the sill) split it
- * until each cluster's span <= 0.3 (estimated at R 8; checked here from F̄'s row sums at
- * R 32, within their difference). */
-static void test_visibility_rule(void **state)
-{
-    (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    float v[54], rho[18], em[18];
-    const double f0[3] = {0, 0, 0}, f1[3] = {1, 0, 0}, f2[3] = {1, 1, 0}, f3[3] = {0, 1, 0};
-    const double l0[3] = {0, 0, .5}, l1[3] = {0, 1, .5}, l2[3] = {1, 1, .5}, l3[3] = {1, 0, .5};
-    const double s0[3] = {1.5, 0, .5}, s1[3] = {2.5, 0, .5}, s2[3] = {2.5, 1, .5},
-                 s3[3] = {1.5, 1, .5};
-    tu_quad(v, f0, f1, f2, f3);
-    tu_quad(v + 18, l0, l1, l2, l3);
-    tu_quad(v + 36, s0, s1, s2, s3);
-    for (int t = 0; t < 6; t++)
-        for (int c = 0; c < 3; c++) {
-            rho[3 * t + c] = 0.5f;
-            em[3 * t + c] = t == 2 || t == 3 ? 1.0f : 0.0f;
-        }
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_create(ctx, 6, v, rho, em, "floor and sill", &s));
-    lrr_subdivision sd = {.max_patch_area = 1.0 / 32};
-    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    for (size_t K = 1; K <= 2; K++) {
-        lrr_build_options bo = cluster_opts(K, LRR_SPLIT_VARIANCE);
-        lrr_operator *op;
-        LRR_CHECK(ctx, lrr_operator_build(s, &bo, &op));
-        lrr_operator_info oi;
-        lrr_operator_get_info(op, &oi, sizeof oi);
-        assert_true(oi.k >= 3);
-        const size_t *first = lrr_operator_patch_offsets(op);
-        float *row = malloc(oi.k * sizeof(float));
-        for (size_t p = 0; p < oi.k; p++) {
-            double lo = 1, hi = 0;
-            for (size_t i = first[p]; i < first[p + 1]; i++) {
-                lrr_operator_fbar_row(op, i, row);
-                double R = 0;
-                for (size_t q = 0; q < oi.k; q++)
-                    R += row[q] * (double)(first[q + 1] - first[q]);
-                lo = fmin(lo, R);
-                hi = fmax(hi, R);
-            }
-            print_message("K = %zu: cluster %zu of %zu subpatches: R in [%.3f, %.3f]\n", K, p,
-                          first[p + 1] - first[p], lo, hi);
-            assert_true(hi - lo <= 0.35);
-        }
-        free(row);
-        lrr_operator_destroy(op);
-    }
-    lrr_scene_destroy(s);
-    lrr_context_destroy(ctx);
-}
-
 /* A thin panel in a box: its two sides (1 mm apart, normals opposite) never share a
  * cluster, however few are asked for. */
 static void test_thin_wall(void **state)
@@ -567,7 +510,6 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_tiling_and_rules),
         cmocka_unit_test(test_thin_wall),
-        cmocka_unit_test(test_visibility_rule),
         cmocka_unit_test(test_every_subpatch_is_exact),
         cmocka_unit_test(test_area_weights),
         cmocka_unit_test(test_file_round_trip),

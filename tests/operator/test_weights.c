@@ -10,8 +10,8 @@
 /* An open scene whose one non-emitting cluster mixes a floor that sees the lamp with a sill
  * that sees only the sky: floor [0,1]² at z = 0 facing up, lamp [0,1]² at z = 0.5 facing
  * down (emits 1, reflects 0.5), sill [1.5,2.5]×[0,1] at z = 0.5 facing up (nothing above
- * it). The cluster selection keeps the two apart (the visibility rule); the operator is
- * built here on the grouping {lamp}, {floor, sill} (grouped). */
+ * it). The operator is built here on the grouping {lamp}, {floor, sill} (grouped), which
+ * the cluster selection gives too where the normal rule alone decides. */
 #define H 0.5
 static lrr_scene *open_scene(lrr_context *ctx)
 {
