@@ -391,7 +391,7 @@ typedef struct sc_args {
     char scenes[SC_MAX_SCENES][1024]; /* resolved paths or built-in names */
     size_t n_scenes;
     size_t patches, samples;          /* K (adaptive_patches), path-traced samples */
-    size_t verify_subpatches;         /* lrr_verify_options.subpatches (0: automatic) */
+    size_t verify_samples;            /* lrr_verify_options.samples (0: automatic) */
     unsigned hemicube, repeat;
     int split, threads, quick;
     uint64_t seed;

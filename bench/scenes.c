@@ -36,7 +36,7 @@ static const char scenes_help[] =
     "     about K;\n"
     "  2. verify: lrr_operator_verify on the operator just built, with the library's\n"
     "     defaults (its automatic count of subpatches, 1024 paths each) but --seed,\n"
-    "     --threads and --verify-subpatches: what 'lrr preprocess --verify' prints;\n"
+    "     --threads and --verify-samples: what 'lrr preprocess --verify' prints;\n"
     "  3. solve for the scene's own emission, F̄ in f32 and then in f16\n"
     "     (lrr_operator_set_storage), each on a new CPU solver forced to one pass over F̄\n"
     "     (LRR_PATH_FULL; the automatic path would serve a fixed emission from cached\n"
@@ -95,17 +95,14 @@ static const char scenes_help[] =
     "                         reference's noise, shown so that the regions' gain shows\n"
     "  noise_subpatch         noise with every subpatch its own region\n"
     "  verify_rel_l2          lrr_operator_info.verify_rel_l2 after step 2: the library's\n"
-    "                         own error bar (subpatches drawn by area, regions grid cell ×\n"
-    "                         facing, its noise taken off); honest when within a factor of\n"
-    "                         2 of rel_l2 (verify_to_bench in the CSV: verify_rel_l2 /\n"
-    "                         rel_l2). rel_l2_verify_grid (CSV): rel_l2 with the noise\n"
-    "                         taken off as rel_l2_debiased, over verify's regions (cells of\n"
-    "                         a g×g×g grid, g = cbrt(verify_subpatches / 48) rounded down,\n"
-    "                         1..8, × the axis direction nearest the normal) but every\n"
-    "                         subpatch: near verify_rel_l2 when verify samples honestly,\n"
-    "                         and then a gap to rel_l2 comes from its coarser regions\n"
-    "                         (approximate where verify drew large subpatches more than\n"
-    "                         once: its g counts draws, which lrr_operator_info lacks)\n"
+    "                         own error bar (every subpatch with fewer paths, regions grid\n"
+    "                         cell × facing, its noise taken off); honest when within a\n"
+    "                         factor of 2 of rel_l2 (verify_to_bench in the CSV:\n"
+    "                         verify_rel_l2 / rel_l2). rel_l2_verify_grid (CSV): rel_l2 with\n"
+    "                         the noise taken off as rel_l2_debiased, over verify's regions\n"
+    "                         (the 8³ cells × the axis direction nearest the normal): near\n"
+    "                         verify_rel_l2 when verify measures honestly, and then a gap to\n"
+    "                         rel_l2 comes from the regions (facing against material)\n"
     "  verify_noise           lrr_operator_info.verify_noise: the verification's own noise\n"
     "  verify_seconds         lrr_operator_info.verify_seconds: step 2's wall time;\n"
     "                         verify_subpatches, verify_samples (CSV): subpatches traced and\n"
@@ -145,10 +142,9 @@ static const char scenes_help[] =
     "  --samples S        path-traced samples per subpatch of step 4, >= 2 (default 1024,\n"
     "                     the library's; about 1 min for fzk_haus and 2-3 min for\n"
     "                     bunny_room on 2 cores)\n"
-    "  --verify-subpatches N\n"
-    "                     subpatches step 2 path-traces (lrr_verify_options.subpatches;\n"
-    "                     default 0: the library's automatic count, as many as a fifth of\n"
-    "                     the build time allows, at least 1000 or n)\n"
+    "  --verify-samples S paths per subpatch of step 2 (lrr_verify_options.samples;\n"
+    "                     default 0: the library's automatic count, what a fifth of the\n"
+    "                     build time allows, 32..1024)\n"
     "  --operator FILE    judge this operator (a .lrr of the one scene given, built with\n"
     "                     the same --clusters: its subpatches must be the bench's) instead\n"
     "                     of building one: e.g. one an earlier lrr wrote, to compare\n"
@@ -315,8 +311,8 @@ static int parse_one(const char *prog, int c, sc_args *a, sc_parse_state *st, ch
         st->samples_given = 1;
         return cli_parse_size(prog, "--samples", optarg, 2, (size_t)1 << 24, &a->samples);
     case OPT_SC_VERIFY:
-        return cli_parse_size(prog, "--verify-subpatches", optarg, 0, SIZE_MAX,
-                              &a->verify_subpatches);
+        return cli_parse_size(prog, "--verify-samples", optarg, 0, (size_t)1 << 24,
+                              &a->verify_samples);
     case OPT_SC_OPERATOR:
         a->operator_file = optarg;
         return 0;
@@ -356,7 +352,7 @@ static const struct option sc_longopts[] = {
     {"split", required_argument, NULL, OPT_SC_SPLIT},
     {"hemicube", required_argument, NULL, OPT_HEMICUBE},
     {"samples", required_argument, NULL, OPT_SAMPLES},
-    {"verify-subpatches", required_argument, NULL, OPT_SC_VERIFY},
+    {"verify-samples", required_argument, NULL, OPT_SC_VERIFY},
     {"operator", required_argument, NULL, OPT_SC_OPERATOR},
     {"seed", required_argument, NULL, OPT_SEED},
     {"threads", required_argument, NULL, OPT_SC_THREADS},
@@ -430,10 +426,10 @@ static void sc_print_setup(const sc_args *a, double bw)
            a->split == LRR_SPLIT_AREA ? "area" : "variance");
     printf("hemicube: %u\nsamples: %zu\nseed: %llu\nthreads: %d%s\n", a->hemicube, a->samples,
            (unsigned long long)a->seed, a->threads, a->threads ? "" : " (OpenMP's default)");
-    if (a->verify_subpatches)
-        printf("verify_subpatches: %zu\n", a->verify_subpatches);
+    if (a->verify_samples)
+        printf("verify_samples: %zu\n", a->verify_samples);
     else
-        printf("verify_subpatches: automatic (lrr_operator_verify's default)\n");
+        printf("verify_samples: automatic (lrr_operator_verify's default)\n");
     if (bw > 0)
         printf("read_bandwidth_gbs: %.2f (tuned read kernel, %zu MiB, best of %d)\n", bw / 1e9,
                bandwidth_buffer_bytes() >> 20, BANDWIDTH_PASSES);
@@ -451,10 +447,10 @@ static void sc_print_scene(const sc_result *r)
         return;
     printf("%s: rel_l2 %.4f noise %.4f rel_l2_debiased %.4f regions %zu ratio_up %.4f "
            "ratio_side %.4f ratio_down %.4f rel_l2_subpatch %.4f noise_subpatch %.4f "
-           "verify_rel_l2 %.4f verify_noise %.4f verify_subpatches %zu verify_seconds %.1f\n",
+           "verify_rel_l2 %.4f verify_noise %.4f verify_samples %zu verify_seconds %.1f\n",
            r->label, j->rel_l2, j->noise, j->rel_l2_debiased, j->regions, j->ratio[SC_UP],
            j->ratio[SC_SIDE], j->ratio[SC_DOWN], j->rel_l2_subpatch, j->noise_subpatch,
-           r->verify_rel_l2, r->verify_noise, r->verify_subpatches, r->verify_seconds);
+           r->verify_rel_l2, r->verify_noise, r->verify_samples, r->verify_seconds);
     fflush(stdout);
 }
 

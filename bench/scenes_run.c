@@ -342,6 +342,14 @@ static int time_storage(sc_child *c, const lrr_operator *op, const float *e, flo
  * bench's seed and threads), on the f32 operator just built, so that its figure stands
  * beside the bench's judgement of the same operator. peak_mib_build is read first: the
  * path tracer's scene copy and buffers count in peak_mib, not in the build's own peak. */
+/* A progress bar "SCENE: STEP" on stderr, drawn when it is a terminal. */
+static void step_bar(cli_progress *bar, const sc_child *c, const char *step)
+{
+    char label[96];
+    snprintf(label, sizeof label, "%s: %s", c->r->label, step);
+    cli_progress_init(bar, label, isatty(STDERR_FILENO));
+}
+
 static int sc_verify(sc_child *c, lrr_operator *op)
 {
     struct rusage ru;
@@ -349,13 +357,11 @@ static int sc_verify(sc_child *c, lrr_operator *op)
     if (getrusage(RUSAGE_SELF, &ru) == 0)
         c->r->peak_mib_build = (double)ru.ru_maxrss / 1024.0; /* Linux: kilobytes */
     lrr_verify_options vo = lrr_verify_options_defaults();
-    vo.subpatches = c->a->verify_subpatches;
+    vo.samples = c->a->verify_samples;
     vo.seed = c->a->seed;
     vo.threads = c->a->threads;
     cli_progress bar;
-    char label[96];
-    snprintf(label, sizeof label, "%s: verify", c->r->label);
-    cli_progress_init(&bar, label, isatty(STDERR_FILENO));
+    step_bar(&bar, c, "verify");
     vo.progress = cli_progress_cb;
     vo.progress_user = &bar;
     lrr_status s = lrr_operator_verify(op, c->sc, &vo);
@@ -459,9 +465,7 @@ static int ref_trace(sc_child *c, float *p, float *se)
     o.seed = c->a->seed;
     o.threads = c->a->threads;
     cli_progress bar;
-    char label[96];
-    snprintf(label, sizeof label, "%s: path tracing", c->r->label);
-    cli_progress_init(&bar, label, isatty(STDERR_FILENO));
+    step_bar(&bar, c, "path tracing");
     o.progress = cli_progress_cb;
     o.progress_user = &bar;
     double t0 = cli_now();

@@ -462,7 +462,7 @@ typedef struct lrr_operator_info {
     double verify_rel_l2;       /* area-weighted relative L2 of the reflected light B − E
                                    against the path tracer, over regions (a fraction) */
     double verify_noise;        /* the path tracer's own error in the same measure */
-    size_t verify_subpatches;   /* distinct subpatches path traced */
+    size_t verify_subpatches;   /* subpatches path traced */
     size_t verify_samples;      /* paths per subpatch */
     double verify_seconds;      /* the verification's wall time */
     int verify_uniform;         /* 1: verified for E = 1 everywhere (the scene emits
@@ -576,20 +576,16 @@ LRR_API LRR_NODISCARD lrr_status lrr_solver_set_cache(lrr_solver *solver, size_t
 
 /* ---------------------------------------------------------------- verification */
 /* The operator's error bar (docs/METHOD.md "Verification"): its radiosity for the scene's
- * emission against the path tracer on a sample of its own subpatches. */
+ * emission against the path tracer on every one of its subpatches, compared in regions. */
 typedef struct lrr_verify_options {
     size_t size;              /* sizeof(lrr_verify_options) (its _defaults) or 0 */
-    size_t subpatches;        /* draws ∝ area among the non-emitting subpatches that
-                                 reflect; 0 = automatic: as many as a fifth of the build's
-                                 time (lrr_operator_info.build_seconds) allows at the speed of
-                                 a timed pilot of 64, at least 1000 (it depends on the
-                                 timing; a given count, seed and samples give the same
-                                 figure) */
-    size_t samples;           /* paths per drawn subpatch, >= 2; 0 = 1024 (a subpatch drawn
-                                 m times gets min(m, 16) times as many) */
-    uint64_t seed;            /* the draw and the paths */
+    size_t samples;           /* paths per subpatch, >= 2; 0 = automatic: what a fifth of
+                                 the build's time (lrr_operator_info.build_seconds) allows at
+                                 the speed of a timed pilot, between 32 and 1024 (it depends
+                                 on the timing; a given count and seed give the same figure) */
+    uint64_t seed;            /* the paths */
     int threads;              /* OpenMP threads of the path tracer; 0 = OpenMP's default */
-    lrr_progress_fn progress; /* may be NULL; done/total drawn subpatches */
+    lrr_progress_fn progress; /* may be NULL; done/total subpatches */
     void *progress_user;
 } lrr_verify_options;
 static inline lrr_verify_options lrr_verify_options_defaults(void)
@@ -600,12 +596,12 @@ static inline lrr_verify_options lrr_verify_options_defaults(void)
     return o;
 }
 
-/* Path traces the drawn subpatches of scene (the scene, subdivided, the operator was built
- * from: LRR_ERR_INVALID_ARG otherwise), solves with op for the same emission (the scene's;
- * E = 1 on every triangle where it emits nothing) and compares the reflected light in
- * regions (grid cells × facing): the result goes into op (lrr_operator_info.verify_*,
- * lrr_operator_save). opts may be NULL (defaults). Thread safety: one thread per object, and
- * no solver of op may run meanwhile. */
+/* Path traces every subpatch of scene that reflects and does not emit (the scene,
+ * subdivided, the operator was built from: LRR_ERR_INVALID_ARG otherwise), solves with op for
+ * the same emission (the scene's; E = 1 on every triangle where it emits nothing) and
+ * compares the reflected light in regions (grid cells × facing): the result goes into op
+ * (lrr_operator_info.verify_*, lrr_operator_save). opts may be NULL (defaults). Thread
+ * safety: one thread per object, and no solver of op may run meanwhile. */
 LRR_API LRR_NODISCARD lrr_status lrr_operator_verify(lrr_operator *op, const lrr_scene *scene,
                                                      const lrr_verify_options *opts)
     LRR_NONNULL(1, 2);

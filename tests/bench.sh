@@ -455,7 +455,7 @@ fi
 # The end-to-end command of the real scenes, smoke-tested on the Cornell boxes (the real
 # scenes take minutes): it runs, writes its CSV, Markdown and plot. No time thresholds.
 help_mentions scenes --scene --scenes --data-dir --clusters --patches --split --hemicube \
-    --samples --verify-subpatches --seed --threads --repeat --quick --csv --md --plot \
+    --samples --verify-samples --seed --threads --repeat --quick --csv --md --plot \
     ratio_f16_to_floor rel_l2 noise ratio_up ratio_side ratio_down rel_l2_subpatch \
     noise_subpatch verify_rel_l2 verify_noise verify_seconds
 run scenes --split foo
@@ -468,7 +468,7 @@ if [ "$rc" -eq 2 ] && grep -q -- '--scene: .no-such-scene' "$T/err"; then pass "
 # (256 paths a subpatch: the reference's noise about 2% over regions) for the judgement.
 SCCSV="$T/scenes.csv"
 run scenes --quick --scenes cornell-closed --scene cornell --samples 256 \
-    --verify-subpatches 300 --repeat 5 --csv "$SCCSV" --md "$T/scenes.md" --plot "$T/scenes.png"
+    --verify-samples 64 --repeat 5 --csv "$SCCSV" --md "$T/scenes.md" --plot "$T/scenes.png"
 scheader='scene,cpu,threads,T,n,k,R,clustering_s,formfactor_s,smw_s,preprocess_s,peak_mib,ms_f32,ms_f32_iqr,ms_f16,ms_f16_iqr,floor_ms_f16,ratio_f16_to_floor,bandwidth_gbs,nk,rel_l2,noise,ratio_up,ratio_side,ratio_down,rel_l2_subpatch,noise_subpatch,verify_rel_l2,verify_noise,verify_seconds,samples'
 if [ "$rc" -eq 0 ] && [ -f "$SCCSV" ] && head -n 1 "$SCCSV" | grep -q "^$scheader," &&
     grep -q '^scenes: cornell-closed cornell$' "$T/out" &&
@@ -484,13 +484,13 @@ fi
 # The judgement on the Cornell box, by column name: errors small (an operator compared in its
 # own subpatch order instead of the scene's gives rel_l2 > 4 and ratios of 1.1-1.8), the
 # reference's noise above 0 and below the error bound, ratios near 1, the lamps left out
-# (judged < n), the library's verification ran on at most the 300 subpatches asked for.
+# (judged < n), the library's verification ran on the same subpatches with the 64 paths asked.
 if [ "$rc" -eq 0 ] && awk -F, '
     NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; next }
     $1 == "cornell" {
         v = "rel_l2 noise ratio_up ratio_side ratio_down rel_l2_subpatch noise_subpatch " \
             "verify_rel_l2 verify_noise verify_seconds regions subpatches_judged n " \
-            "verify_subpatches"
+            "verify_subpatches verify_samples"
         split(v, names, " ")
         for (i in names) { x = $(col[names[i]]); if (x !~ /^[0-9.eE+-]+$/) exit 1; c[names[i]] = x + 0 }
         ok = c["rel_l2"] > 0 && c["rel_l2"] <= 0.15 && c["noise"] > 0 && c["noise"] < 0.1 &&
@@ -500,7 +500,8 @@ if [ "$rc" -eq 0 ] && awk -F, '
             c["noise_subpatch"] > 0 && c["verify_rel_l2"] >= 0 && c["verify_rel_l2"] <= 0.15 &&
             c["verify_noise"] > 0 && c["verify_seconds"] > 0 && c["regions"] > 10 &&
             c["subpatches_judged"] > c["n"] / 2 && c["subpatches_judged"] < c["n"] &&
-            c["verify_subpatches"] > 0 && c["verify_subpatches"] <= 300
+            c["verify_subpatches"] > c["n"] / 2 && c["verify_subpatches"] < c["n"] &&
+            c["verify_samples"] == 64
     }
     END { exit !ok }' "$SCCSV" &&
     grep -q '^cornell: rel_l2 [0-9.]* noise [0-9.]* .*ratio_up [0-9.]* ratio_side [0-9.]* ratio_down [0-9.]* .*verify_rel_l2 [0-9.]*' "$T/out"; then
@@ -516,9 +517,9 @@ fi
 LRR_TOOL=${LRR_BIN:-./lrr}
 if [ -x "$LRR_TOOL" ]; then
     "$LRR_TOOL" preprocess cornell --clusters 200 --hemicube 16 -o "$T/op200.lrr" >/dev/null 2>&1
-    run scenes --quick --scenes cornell --samples 64 --verify-subpatches 100 --repeat 3
+    run scenes --quick --scenes cornell --samples 64 --verify-samples 16 --repeat 3
     built=$(sed -n 's/^cornell: \(rel_l2 [0-9.]* noise [0-9.]*\).*/\1/p' "$T/out")
-    run scenes --quick --scenes cornell --samples 64 --verify-subpatches 100 --repeat 3 \
+    run scenes --quick --scenes cornell --samples 64 --verify-samples 16 --repeat 3 \
         --operator "$T/op200.lrr"
     loaded=$(sed -n 's/^cornell: \(rel_l2 [0-9.]* noise [0-9.]*\).*/\1/p' "$T/out")
     if [ "$rc" -eq 0 ] && [ -n "$built" ] && [ "$built" = "$loaded" ]; then

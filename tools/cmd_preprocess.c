@@ -55,14 +55,14 @@ static const char preprocess_help[] =
     "                       rendered at a quarter of the hemicube resolution)\n"
     "  --adaptive-split X   variance (default) or area: area splits the largest patch first,\n"
     "                       i.e. uniform subdivision at the same K (the baseline)\n"
-    "  --verify [N]         the operator's error bar: path-trace N subpatches drawn by area\n"
-    "                       (default: what a fifth of the build's time allows, at least\n"
-    "                       1000) for the scene's\n"
-    "                       emission (E = 1 everywhere if it has none), 1024 paths each,\n"
-    "                       and compare the reflected light B − E in regions (grid cells ×\n"
-    "                       facing). Prints verify_rel_l2 (a fraction), verify_noise (the\n"
-    "                       path tracer's own), verify_subpatches, verify_samples,\n"
-    "                       verify_seconds; stored in FILE.lrr ('lrr info FILE.lrr')\n" BUILD_HELP
+    "  --verify [S]         the operator's error bar: path-trace every subpatch with S paths\n"
+    "                       (default: what a fifth of the build's time allows, 32..1024)\n"
+    "                       for the scene's emission (E = 1 everywhere if it has none) and\n"
+    "                       compare the reflected light B − E in regions (grid cells ×\n"
+    "                       facing), the path tracer's noise taken off. Prints\n"
+    "                       verify_rel_l2 (a fraction), verify_noise (the path tracer's\n"
+    "                       own), verify_subpatches, verify_samples, verify_seconds; stored\n"
+    "                       in FILE.lrr ('lrr info FILE.lrr')\n" BUILD_HELP
     OPERATOR_BUDGET_HELP
     "  -h, --help           show this help\n" SUBDIV_HELP
     "With none of --adaptive, --clusters, --patches, --max-patch-area and --levels, a scene\n"
@@ -81,7 +81,7 @@ typedef struct preprocess_args {
     size_t budget;
     int auto_hierarchy;    /* no hierarchy or subdivision option: chosen by the scene */
     int verify;            /* --verify given */
-    size_t verify_n;       /* its N; 0 = automatic */
+    size_t verify_samples; /* its S; 0 = automatic */
 } preprocess_args;
 
 /* ------------------------------------------------------------------ parsing */
@@ -125,15 +125,16 @@ static int preprocess_option(preprocess_args *a, int c, const char *arg)
         return parse_operator_budget(prog, arg, &a->budget) != 0 ? -1 : 1;
     case OPT_VERIFY:
         a->verify = 1;
-        return !arg || cli_parse_size(prog, "--verify", arg, 1, SIZE_MAX, &a->verify_n) == 0
+        return !arg || cli_parse_size(prog, "--verify", arg, 2, (size_t)1 << 24,
+                                      &a->verify_samples) == 0
                    ? 1 : -1;
     default:
         return 0;
     }
 }
 
-/* --verify's optional N may follow as the next word ("--verify 4000"): getopt takes an
- * optional argument only as "--verify=4000". */
+/* --verify's optional S may follow as the next word ("--verify 256"): getopt takes an
+ * optional argument only as "--verify=256". */
 static const char *verify_count(int argc, char *argv[])
 {
     if (optind < argc && argv[optind][0] &&
@@ -268,7 +269,7 @@ static lrr_status verify(lrr_operator *op, const preprocess_args *a, const lrr_s
     cli_progress bar;
     cli_progress_init(&bar, "verify", a->ba.force_progress || isatty(STDERR_FILENO));
     lrr_verify_options vo = lrr_verify_options_defaults();
-    vo.subpatches = a->verify_n;
+    vo.samples = a->verify_samples;
     vo.seed = a->ba.seed;
     vo.threads = (int)a->ba.threads;
     vo.progress = cli_progress_cb;

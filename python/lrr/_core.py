@@ -322,7 +322,7 @@ class Operator:
         d["receiver_sampling"] = "area" if i.receiver_sampling == 2 else "centre"
         return d
 
-    def verify(self, scene, subpatches=0, samples=0, seed=0, threads=0, progress=None):
+    def verify(self, scene, samples=0, seed=0, threads=0, progress=None):
         """lrr_operator_verify: the operator's error bar against the path tracer on the scene
         it was built from (subdivided as for the build). Returns (and keeps, for info and save)
         {'rel_l2', 'noise', 'subpatches', 'samples', 'seconds', 'uniform'}."""
@@ -331,8 +331,8 @@ class Operator:
         self._drop_solver()  # no solver may run meanwhile
         cb = _ffi.PROGRESS_FN(lambda user, done, total: int(bool(progress(done, total)))) \
             if progress else _ffi.PROGRESS_FN()
-        o = _ffi.VerifyOptions(size=ctypes.sizeof(_ffi.VerifyOptions), subpatches=subpatches,
-                               samples=samples, seed=seed, threads=threads, progress=cb)
+        o = _ffi.VerifyOptions(size=ctypes.sizeof(_ffi.VerifyOptions), samples=samples,
+                               seed=seed, threads=threads, progress=cb)
         self.context.call(lib.lrr_operator_verify, self.h, scene.h, ctypes.byref(o))
         i = self.info
         return {k: i["verify_" + k] for k in ("rel_l2", "noise", "subpatches", "samples",

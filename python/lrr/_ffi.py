@@ -96,7 +96,6 @@ class OperatorInfo(ctypes.Structure):
 
 class VerifyOptions(ctypes.Structure):
     _fields_ = [("size", c_size_t),
-                ("subpatches", c_size_t),
                 ("samples", c_size_t),
                 ("seed", ctypes.c_uint64),
                 ("threads", ctypes.c_int),
