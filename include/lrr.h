@@ -579,10 +579,13 @@ LRR_API LRR_NODISCARD lrr_status lrr_solver_set_cache(lrr_solver *solver, size_t
  * emission against the path tracer on every one of its subpatches, compared in regions. */
 typedef struct lrr_verify_options {
     size_t size;              /* sizeof(lrr_verify_options) (its _defaults) or 0 */
-    size_t samples;           /* paths per subpatch, >= 2; 0 = automatic: what a fifth of
-                                 the build's time (lrr_operator_info.build_seconds) allows at
-                                 the speed of a timed pilot, between 32 and 1024 (it depends
-                                 on the timing; a given count and seed give the same figure) */
+    size_t samples;           /* S, paths per subpatch, >= 4: two independent estimates of
+                                 S/2 each (up to 16·S/2 for the subpatches whose noise would
+                                 dominate, found by a scout of 16 paths); 0 = automatic: what
+                                 a fifth of the build's time (lrr_operator_info.build_seconds)
+                                 leaves after the scout at its speed, between 32 and 1024
+                                 (it depends on the timing; a given S and seed give the same
+                                 figure) */
     uint64_t seed;            /* the paths */
     int threads;              /* OpenMP threads of the path tracer; 0 = OpenMP's default */
     lrr_progress_fn progress; /* may be NULL; done/total subpatches */

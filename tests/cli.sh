@@ -306,7 +306,7 @@ else
     fail "lrr info FILE.lrr: exit $rc, verify_rel_l2 '$(value verify_rel_l2)'"; show_err
 fi
 run preprocess cornell --patches 54 --levels 1 --verify 1 -o "$T/verify.lrr"
-expect_rc 2 "preprocess --verify 1 is a usage error (a standard error needs 2 paths)"
+expect_rc 2 "preprocess --verify 1 is a usage error (two estimates of 2 paths or more)"
 
 # No hierarchy option on a scene of more than 2000 triangles: clusters, K = 2000 or what the
 # memory budget allows (here ~70), said on stderr; the refusal of a build that does not fit

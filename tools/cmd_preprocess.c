@@ -56,10 +56,11 @@ static const char preprocess_help[] =
     "  --adaptive-split X   variance (default) or area: area splits the largest patch first,\n"
     "                       i.e. uniform subdivision at the same K (the baseline)\n"
     "  --verify [S]         the operator's error bar: path-trace every subpatch with S paths\n"
-    "                       (default: what a fifth of the build's time allows, 32..1024)\n"
-    "                       for the scene's emission (E = 1 everywhere if it has none) and\n"
-    "                       compare the reflected light B − E in regions (grid cells ×\n"
-    "                       facing), the path tracer's noise taken off. Prints\n"
+    "                       (two independent halves; default: what a fifth of the build's\n"
+    "                       time allows, 32..1024) for the scene's emission (E = 1\n"
+    "                       everywhere if it has none) and compare the reflected light B − E\n"
+    "                       in regions (grid cells × facing), the path tracer's noise taken\n"
+    "                       off. Prints\n"
     "                       verify_rel_l2 (a fraction), verify_noise (the path tracer's\n"
     "                       own), verify_subpatches, verify_samples, verify_seconds; stored\n"
     "                       in FILE.lrr ('lrr info FILE.lrr')\n" BUILD_HELP
@@ -125,7 +126,7 @@ static int preprocess_option(preprocess_args *a, int c, const char *arg)
         return parse_operator_budget(prog, arg, &a->budget) != 0 ? -1 : 1;
     case OPT_VERIFY:
         a->verify = 1;
-        return !arg || cli_parse_size(prog, "--verify", arg, 2, (size_t)1 << 24,
+        return !arg || cli_parse_size(prog, "--verify", arg, 4, (size_t)1 << 24,
                                       &a->verify_samples) == 0
                    ? 1 : -1;
     default:
