@@ -318,7 +318,7 @@ awk 'BEGIN { print "mtllib none.mtl"; for (i = 0; i <= 41; i++) for (j = 0; j <=
     > "$T/grid.obj"
 run preprocess "$T/grid.obj" -o "$T/grid.lrr" --hemicube 8 --memory-budget 513
 if [ "$rc" -eq 0 ] && [ "$(value hierarchy)" = clusters ] &&
-    grep -q '2050 triangles: --clusters [0-9]*, the most that fits --memory-budget 513' "$T/err"
+    grep -q '2050 triangles: --clusters [0-9]* --hemicube 8, the most clusters that fit --memory-budget 513' "$T/err"
 then
     pass "preprocess of 2050 triangles, no options: $(grep -o -- '--clusters [0-9]*' "$T/err"), k = $(value k)"
 else

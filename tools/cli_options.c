@@ -279,6 +279,7 @@ void build_init(build_args *b)
     b->no_rotation = 0;
     b->formfactor = LRR_FORMFACTOR_AUTO;
     b->receiver = LRR_RECEIVER_AUTO;
+    b->hemicube_given = 0;
 }
 
 int build_option(build_args *b, const char *prog, int c, const char *arg)
@@ -287,6 +288,7 @@ int build_option(build_args *b, const char *prog, int c, const char *arg)
     case OPT_HEMICUBE:
         if (cli_parse_unsigned(prog, "--hemicube", arg, 8, 4096, &b->hemicube) != 0)
             return -1;
+        b->hemicube_given = 1;
         if (b->hemicube % 2 != 0) {
             cli_usage_error(prog, "--hemicube: %u is odd (the side faces are R×R/2)",
                             b->hemicube);

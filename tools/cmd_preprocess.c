@@ -68,8 +68,8 @@ static const char preprocess_help[] =
     "  -h, --help           show this help\n" SUBDIV_HELP
     "With none of --adaptive, --clusters, --patches, --max-patch-area and --levels, a scene\n"
     "of more than 2000 triangles gets --clusters K: K = 2000, or the largest K whose build\n"
-    "fits --memory-budget (a note on stderr says which and why); smaller scenes get\n"
-    "--patches 216 --levels 2.\n";
+    "fits --memory-budget, and --hemicube 64 unless given (a note on stderr says which and\n"
+    "why); smaller scenes get --patches 216 --levels 2.\n";
 
 typedef struct preprocess_args {
     const char *scene, *output;
@@ -343,9 +343,12 @@ static double cluster_build_bytes(size_t T, size_t K)
 
 /* With no hierarchy option: clusters for a scene of more than AUTO_TRIANGLES triangles (the
  * default --patches 216 --levels 2 would give every triangle a patch, k >= T, and F̄ grows
- * as 16·k²), K = AUTO_CLUSTERS or the largest that fits the memory budget. */
+ * as 16·k²), K = AUTO_CLUSTERS or the largest that fits the memory budget, and hemicubes of
+ * AUTO_HEMICUBE unless --hemicube is given: with 2000 clusters R 128 costs 4× the rays of
+ * R 64 for little (the atrium of issue 27: 16.6% → 16.2%). */
 #define AUTO_TRIANGLES 2000
 #define AUTO_CLUSTERS 2000
+#define AUTO_HEMICUBE 64u
 static void choose_hierarchy(preprocess_args *a, const lrr_scene *scene)
 {
     lrr_scene_info si;
@@ -358,14 +361,17 @@ static void choose_hierarchy(preprocess_args *a, const lrr_scene *scene)
     a->clusters = a->adaptive = a->sa.clusters = K;
     a->sa.sub.levels = 0;
     a->sa.sub.target_patches = 0;
+    if (!a->ba.hemicube_given)
+        a->ba.hemicube = AUTO_HEMICUBE;
     if (K == AUTO_CLUSTERS)
-        fprintf(stderr, "lrr preprocess: note: %zu triangles: --clusters %zu (the default for "
-                        "scenes of more than %d triangles; --patches/--levels give the "
-                        "quadtree, --clusters another K)\n", si.triangles, K, AUTO_TRIANGLES);
+        fprintf(stderr, "lrr preprocess: note: %zu triangles: --clusters %zu --hemicube %u "
+                        "(the default for scenes of more than %d triangles; --patches/--levels "
+                        "give the quadtree, --clusters another K)\n", si.triangles, K,
+                a->ba.hemicube, AUTO_TRIANGLES);
     else
-        fprintf(stderr, "lrr preprocess: note: %zu triangles: --clusters %zu, the most that "
-                        "fits --memory-budget %zu MiB (%d otherwise)\n",
-                si.triangles, K, a->budget >> 20, AUTO_CLUSTERS);
+        fprintf(stderr, "lrr preprocess: note: %zu triangles: --clusters %zu --hemicube %u, "
+                        "the most clusters that fit --memory-budget %zu MiB (%d otherwise)\n",
+                si.triangles, K, a->ba.hemicube, a->budget >> 20, AUTO_CLUSTERS);
 }
 
 static int open_and_subdivide(lrr_context *ctx, preprocess_args *a, lrr_scene **scene)

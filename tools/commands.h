@@ -232,6 +232,7 @@ typedef struct build_args {
     int no_rotation;
     int formfactor;   /* LRR_FORMFACTOR_* */
     int receiver;     /* LRR_RECEIVER_* */
+    int hemicube_given; /* --hemicube was given */
 } build_args;
 
 void build_init(build_args *b);
