@@ -28,7 +28,6 @@
 #if defined(__x86_64__) || defined(__i386__)
 #define LRR_X86 1
 #include <immintrin.h>
-#include <cpuid.h>
 #endif
 
 #define LANES 8
@@ -472,89 +471,38 @@ __attribute__((target("avx512f"))) static void gemv_rows_avx512(const float *a, 
 
 /* ------------------------------------------------------------------ dispatch */
 
-
-/* Each ISA twice: as measured on the AMD EPYC (the hardware prefetcher alone) and with the
- * panels' software prefetch (panel_kernel.c's PREFETCH_AHEAD, measured on an Intel Xeon). */
+/* Each ISA twice: with the hardware prefetcher alone (AMD) and with the panels' software
+ * prefetch (panel_kernel.c's PREFETCH_AHEAD, measured on an Intel Xeon); core/cpu.c picks
+ * the level and the twin. */
 static const lrr__kernel kernels[] = {
-    {"c", fbar_rows_c, f16_rows_c, bf16_rows_c, gemv_rows_c, lrr__panels_f32_c,
+    {"c", LRR__ISA_C, 0, fbar_rows_c, f16_rows_c, bf16_rows_c, gemv_rows_c, lrr__panels_f32_c,
      lrr__panels_f16_c, lrr__panels_bf16_c},
 #ifdef LRR_X86
-    {"avx2", fbar_rows_avx2, f16_rows_avx2, bf16_rows_avx2, gemv_rows_avx2,
+    {"avx2", LRR__ISA_AVX2, 0, fbar_rows_avx2, f16_rows_avx2, bf16_rows_avx2, gemv_rows_avx2,
      lrr__panels_f32_avx2, lrr__panels_f16_avx2, lrr__panels_bf16_avx2},
-    {"avx2+prefetch", fbar_rows_avx2, f16_rows_avx2, bf16_rows_avx2, gemv_rows_avx2,
-     lrr__panels_f32_avx2_pf, lrr__panels_f16_avx2_pf, lrr__panels_bf16_avx2_pf},
-    {"avx512", fbar_rows_avx512, f16_rows_avx512, bf16_rows_avx512, gemv_rows_avx512,
-     lrr__panels_f32_avx512, lrr__panels_f16_avx512, lrr__panels_bf16_avx512},
-    {"avx512+prefetch", fbar_rows_avx512, f16_rows_avx512, bf16_rows_avx512, gemv_rows_avx512,
-     lrr__panels_f32_avx512_pf, lrr__panels_f16_avx512_pf, lrr__panels_bf16_avx512_pf},
+    {"avx2+prefetch", LRR__ISA_AVX2, 1, fbar_rows_avx2, f16_rows_avx2, bf16_rows_avx2,
+     gemv_rows_avx2, lrr__panels_f32_avx2_pf, lrr__panels_f16_avx2_pf,
+     lrr__panels_bf16_avx2_pf},
+    {"avx512", LRR__ISA_AVX512, 0, fbar_rows_avx512, f16_rows_avx512, bf16_rows_avx512,
+     gemv_rows_avx512, lrr__panels_f32_avx512, lrr__panels_f16_avx512,
+     lrr__panels_bf16_avx512},
+    {"avx512+prefetch", LRR__ISA_AVX512, 1, fbar_rows_avx512, f16_rows_avx512,
+     bf16_rows_avx512, gemv_rows_avx512, lrr__panels_f32_avx512_pf, lrr__panels_f16_avx512_pf,
+     lrr__panels_bf16_avx512_pf},
 #endif
 };
 
-#ifdef LRR_X86
-/* F16C is CPUID leaf 1, ECX bit 29, read directly: clang before 16 rejects "f16c" in
- * __builtin_cpu_supports (the --enable-fuzzing build uses clang). */
-static int has_f16c(void)
+const lrr__kernel *lrr__kernel_select(const lrr__cpu_choice *choice, size_t k)
 {
-    unsigned a, b, c, d;
-    return __get_cpuid(1, &a, &b, &c, &d) && (c & bit_F16C) != 0;
-}
-#endif
-
-/* name's instruction set, without "+prefetch" */
-static int supported(const char *name)
-{
-#ifdef LRR_X86
-    if (strncmp(name, "avx2", 4) == 0)
-        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma") && has_f16c();
-    if (strncmp(name, "avx512", 6) == 0)
-        return __builtin_cpu_supports("avx512f");
-#endif
-    return strcmp(name, "c") == 0;
-}
-
-/* Software prefetch where it was measured to pay: Intel (1.15 → 0.95× the read loop in f32,
- * 1.47 → 1.01× in f16, panel_kernel.c). AMD's hardware prefetcher kept the panels at 0.84×
- * without it, and the row kernels' own prefetch was slower there. */
-static int wants_prefetch(void)
-{
-#ifdef LRR_X86
-    return __builtin_cpu_is("intel");
-#else
-    return 0;
-#endif
-}
-
-lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, size_t k,
-                              const lrr__kernel **out)
-{
-    const size_t count = sizeof kernels / sizeof kernels[0];
-    if (force && *force) {
-        for (size_t i = 0; i < count; i++)
-            if (strcmp(kernels[i].name, force) == 0) {
-                if (!supported(force))
-                    return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
-                                      "LRR_SIMD=%s: this CPU lacks the instructions", force);
-                *out = &kernels[i];
-                return LRR_OK;
-            }
-        return lrr__error(ctx, LRR_ERR_INVALID_ARG,
-                          "LRR_SIMD=%s: not one of c, avx2, avx2+prefetch, avx512, "
-                          "avx512+prefetch", force);
-    }
-    /* The widest variant: measured interleaved, AVX-512 with 8-row groups beats AVX2 at
-     * every size tried (k = 216 and 864, n = 3456 to 221184; see ROWS_AVX512). An earlier
-     * sequential measurement that favoured AVX2 for short rows was noise on this shared
-     * machine. k stays a parameter for rules a future variant may need. */
+    /* the level alone decides: AVX-512 with 8-row groups beats AVX2 at every size measured
+     * (k = 216 and 864; ROWS_AVX512). k stays a parameter for rules a future variant may
+     * need. */
     (void)k;
-    const int pf = wants_prefetch();
-    *out = &kernels[0];
-    for (size_t i = count; i-- > 1;)
-        if (supported(kernels[i].name) &&
-            (strstr(kernels[i].name, "+prefetch") != NULL) == pf) {
-            *out = &kernels[i];
-            break;
-        }
-    return LRR_OK;
+    for (size_t i = 0; i < sizeof kernels / sizeof kernels[0]; i++)
+        if (kernels[i].isa == choice->isa &&
+            (choice->isa == LRR__ISA_C || kernels[i].prefetch == !!choice->prefetch))
+            return &kernels[i];
+    return &kernels[0]; /* a level this build has no kernels for (not x86) */
 }
 
 /* Rows per OpenMP chunk: a multiple of the panel height (and of the row kernels' groups). */
