@@ -6,7 +6,7 @@
  * eight-lane steps AVX-512 F with VL (256-bit masked integer stores). Without LRR_SIMD the
  * widest level runs: AVX-512 with 8-row groups beats AVX2 in the solver at every size
  * measured (k = 216 and 864, n = 3456 to 221184; realtime_kernel.c's ROWS_AVX512), and
- * eight hemicube lanes beat four (Cornell 216/2, one thread, R 64 0.394 → 0.370 s,
+ * eight hemicube lanes beat four (Cornell 216/2, one thread, R 64 0.370 against 0.394 s,
  * docs/METHOD.md "Form factors"). */
 #include "config.h"
 #include "core/cpu.h"
@@ -43,10 +43,10 @@ int lrr__cpu_supports(lrr__isa isa)
     return isa == LRR__ISA_C;
 }
 
-/* Software prefetch in the solver's panels where it was measured to pay: Intel (1.15 →
- * 0.95× the read loop in f32, 1.47 → 1.01× in f16, panel_kernel.c). AMD's hardware
- * prefetcher keeps the panels at 0.84× without it, and the row kernels' own prefetch is
- * slower there. */
+/* Software prefetch in the solver's panels where it is measured to pay: Intel (0.95× the
+ * read loop in f32 against 1.15× without, 1.01× against 1.47× in f16, panel_kernel.c). AMD's
+ * hardware prefetcher keeps the panels at 0.84× without it, and the row kernels' own
+ * prefetch is slower there. */
 static int wants_prefetch(void)
 {
 #ifdef LRR_X86

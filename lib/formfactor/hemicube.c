@@ -127,7 +127,7 @@ static void receiver_frame(const lrr__geometry *g, size_t i, uint64_t seed, int 
     lrr__normalize3(U0);
     lrr__cross3(N, U0, V0);
     /* drawn from the subpatch's scene-order index, so a cluster hierarchy's renumbering
-     * leaves every receiver's hemicube as it was */
+     * leaves every receiver's hemicube the same */
     const size_t id = g->origin ? g->origin[i] : i;
     double theta =
         rotate ? 2 * M_PI * (double)(lrr__splitmix64(seed ^ lrr__splitmix64(id)) >> 11) *
@@ -194,7 +194,7 @@ static void hemicube_row(const hemi_ctx *h, size_t i, uint64_t seed, int rotate,
         memset(sc->row, 0, cols * sizeof(double));
     double back_sum = 0;
     /* the CPU's own buffers are cleared as they are integrated (a memset of both a hemicube
-     * was 2.5% of a Cornell R 64 profile); the device's item buffers are its input */
+     * costs 2.5% of a Cornell R 64 profile); the device's item buffers are its input */
     const int clear = out && !h->rc;
     for (int fi = 0; fi < 5; fi++)
         back_sum += lrr__hemi_integrate_face(h, x, &faces[fi], out ? sc->row : NULL, clear);
@@ -503,7 +503,8 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
         lrr__multiplier_map_free(&mm);
         return st;
     }
-    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc, lrr__hemi_simd_pick(cpu.isa),
+    hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc,
+                  lrr__hemi_simd_pick(cpu.isa),
                   cells, sx, sx ? sx + R : NULL, sx ? sx + 2 * (size_t)R : NULL, pre,
                   pre ? pre + (size_t)R * (R + 1) : NULL,
                   lrr__receiver_sampling(opts, method) == LRR_RECEIVER_AREA};

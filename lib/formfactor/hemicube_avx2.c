@@ -107,8 +107,8 @@ T256 static inline __m256 to_ps8(__m256d lo, __m256d hi)
  * out 0, ±inf or NaN (rcpps flushes a denormal input or result), which the compares reject:
  * t = 0 fails f ≥ m12, ±inf and NaN fail every compare. *code gets the cells (0 where a lane
  * does not qualify); returns the lanes that qualify, a movemask. Two 4-lane divides and the
- * same steps in double per eight pixels (codes4 before) were twice the time: Cornell
- * LRR_SIMD=avx2 R 128, 1 thread, codes4 half of the profile. */
+ * same steps in double per eight pixels take twice the time (Cornell LRR_SIMD=avx2 R 128,
+ * 1 thread: half of the profile against a quarter). */
 T256 static inline int fast_cells4x2(const codes4_k *k, __m256 nd, __m256 n1, __m256 n2,
                                      __m256i *code)
 {
@@ -159,7 +159,8 @@ T256 static inline __m128i exact_codes4(const codes4_k *k, __m256d nd, __m256d n
     }
     __m256d ok = zero;
     __m128i code = _mm_setzero_si128();
-    if (k->table) { /* the cell's leaf from the table, where the margin allows (hemicube.c) */
+    if (k->table) { /* the cell's leaf from the table, where the margin allows
+                       (hemicube_integrate.c) */
         const __m256d sv = k->sv;
         const __m256d t0 = _mm256_mul_pd(b0, sv), t1 = _mm256_mul_pd(b1, sv),
                       t2 = _mm256_mul_pd(b2, sv);
@@ -248,8 +249,9 @@ T256 static void leaves_run4(const double b1k[3], const double b2k[3], const dou
                              const double *sxt, double sy, int a, int b, unsigned depth,
                              const uint16_t *cells, uint32_t *leaf, uint64_t *brk)
 {
-    /* brk as it goes (put_codes8's way): a lrr__hemi_breaks pass over each run's codes was
-     * 1.5% more instructions in a Cornell R 32 LRR_SIMD=avx2 run (callgrind 1.894G → 1.866G) */
+    /* brk as it goes (put_codes8's way): a lrr__hemi_breaks pass over each run's codes
+     * takes 1.5% more instructions in a Cornell R 32 LRR_SIMD=avx2 run (callgrind 1.894G
+     * against 1.866G) */
     memset(brk, 0, (size_t)(b - a + 64) / 64 * sizeof *brk);
     __m256i prev = _mm256_setzero_si256(); /* whatever it holds: bit 0 is set at the end */
     codes4_k k;
@@ -304,9 +306,10 @@ T256 static void leaves_run4(const double b1k[3], const double b2k[3], const dou
 /* Eight pixels x.. (up to R) of a row: the edge functions and 1/z in two groups of four
  * (double), the float compare and the stores of eight at once, as raster_tri's scalar loop
  * lane by lane (ties resolve the same); a row's last pixels load and store no further
- * (masked). Returns the lanes it wrote, as a vector mask. (A 4-lane step with its own
- * compare, branch and stores: Cornell LRR_SIMD=avx2, two threads, medians of 5 builds,
- * interleaved: R 64 0.0983-0.0993 → 0.0954-0.0958 s, R 128 0.2662-0.2683 → 0.2549-0.2561.) */
+ * (masked). Returns the lanes it wrote, as a vector mask. (Against a 4-lane step with its
+ * own compare, branch and stores: Cornell LRR_SIMD=avx2, two threads, medians of 5 builds,
+ * interleaved: R 64 0.0954-0.0958 s against 0.0983-0.0993 s, R 128 0.2549-0.2561 s against
+ * 0.2662-0.2683 s.) */
 T256 static inline __m256i depth4x2_step(__m256d A0, __m256d BC0, __m256d C0, __m256d A1,
                                          __m256d BC1, __m256d C1, __m256d A2, __m256d BC2,
                                          __m256d C2, __m256d Z0, __m256d Z1, __m256d Z2,
@@ -339,7 +342,7 @@ T256 static inline __m256i depth4x2_step(__m256d A0, __m256d BC0, __m256d C0, __
                           px, x, R, depth, item);                                             \
     } while (0)
 
-/* One row's span L..R at py (lrr__hemi_depth_span). */
+/* One row's span L..R at py (lrr__hemi_simd.depth_span). */
 T256 static void depth_span4(const double abc[9], const double iz[3], double inv_area, double py,
                              int L, int R, float *depth, int32_t *item, int32_t id)
 {
@@ -347,10 +350,10 @@ T256 static void depth_span4(const double abc[9], const double iz[3], double inv
     DEPTH4_ROW(py, L, R, depth, item);
 }
 
-/* depth_rows8 (lrr__hemi_depth_rows) with AVX2: eight pixels a step, their edge functions in
- * two groups of four (double), their codes by codes4x2. The set-up once for all rows (one
- * call per row: 4.6% more instructions in a Cornell R 32 LRR_SIMD=avx2 run, callgrind
- * 1.986G → 1.894G). */
+/* depth_rows8 (lrr__hemi_simd.depth_rows) with AVX2: eight pixels a step, their edge
+ * functions in two groups of four (double), their codes by codes4x2. The set-up once for all
+ * rows (a call per row takes 4.6% more instructions in a Cornell R 32 LRR_SIMD=avx2 run,
+ * callgrind 1.986G against 1.894G). */
 T256 static void depth_rows4(const double abc[9], const double iz[3], double inv_area, int y0,
                              int y1, const int32_t *span, int W, float *depth, int32_t *item,
                              int32_t id, const lrr__hemi_codes *lc)
@@ -399,10 +402,10 @@ T256 static void depth_rows4(const double abc[9], const double iz[3], double inv
 #undef DEPTH4_SETUP
 #undef EDGE4
 
-/* lrr__hemi_spans four rows at a time: spans8's steps (see there) with AVX2 compares and
- * blends, lane by lane the same IEEE operations (no FMA in target "avx2"). Without it the
- * AVX2 path ran edge_span per row: Cornell LRR_SIMD=avx2, 1 thread, R 32 0.288 → 0.210 s,
- * R 64 0.654 → 0.613 s, R 128 1.690 → 1.463 s (best of 5). */
+/* lrr__hemi_simd.spans four rows at a time: spans8's steps (see hemicube_avx512.c) with AVX2
+ * compares and blends, lane by lane the same IEEE operations (no FMA in target "avx2").
+ * Against edge_span per row: Cornell LRR_SIMD=avx2, 1 thread, best of 5, R 32 0.210 s
+ * against 0.288 s, R 64 0.613 against 0.654 s, R 128 1.463 against 1.690 s. */
 __attribute__((target("avx2"))) static int spans4(const lrr__hemi_edge *e, int x0, int x1,
                                                  int y0, int y1, int32_t *span)
 {
@@ -471,9 +474,9 @@ __attribute__((target("avx2"))) static int spans4(const lrr__hemi_edge *e, int x
     return any != 0;
 }
 
-/* breaks16_pair in eight lanes: an item row and its codes in one pass, a word of 64 pixels at
- * a time in registers (two eight-lane passes and an OR were 7% of a Cornell R 64
- * LRR_SIMD=avx2 profile, against 4% for breaks16_pair in the AVX-512 one) */
+/* breaks16_pair (hemicube_avx512.c) in eight lanes: an item row and its codes in one pass, a
+ * word of 64 pixels at a time in registers (two eight-lane passes and an OR take 7% of a
+ * Cornell R 64 LRR_SIMD=avx2 profile, against 4% for breaks16_pair in the AVX-512 one) */
 T256 static void breaks8_pair(const int32_t *v, const int32_t *u, int n, uint64_t *mv,
                               uint64_t *mu)
 {

@@ -90,8 +90,8 @@ T512 static inline __mmask8 cells8(__m512d t0, __m512d t1, __m512d t2, __m512d s
 }
 
 /* Pixels a..b's leaf codes (lrr__hemi_leaf_of): with the table, first from t̃_j =
- * n_j·rcp14(nd)·2^d without the division (a 512-bit divide per eight pixels was the bulk of
- * this loop): rcp14 is within 2^-14 of 1/nd relative, so t̃_j is within 2^-13·2^d of the
+ * n_j·rcp14(nd)·2^d without the division (a 512-bit divide per eight pixels is the bulk of
+ * this loop's time): rcp14 is within 2^-14 of 1/nd relative, so t̃_j is within 2^-13·2^d of the
  * scalar path's t_j = fl(n_j·fl(1/nd))·2^d (same n_j, nd, t_j < 2^d) for j = 1, 2, and t0
  * is bounded through them (fast_cells8): eight lanes that qualify are in the scalar path's
  * cell beyond the table's margin, b_j in (0, 1); their codes are the cells. Otherwise the
@@ -178,8 +178,8 @@ T512 __attribute__((always_inline)) static inline __m256i codes8(const codes8_k 
 {
     /* k·(sx, sy, 1) = (k0·sx + k1·sy) + k2: k1·sy (d1, p1, q1) is the row's one product.
      * n1, n2 come scaled by s = 2^depth (the coefficients and p1, q1 are): a power of two
-     * commutes with every rounding, so s·n1 and (s·n1)·rc are exactly what n1 and
-     * (n1·rc)·s were, one multiply fewer each (and back by 1/s, exactly, where b is). */
+     * commutes with every rounding, so s·n1 and (s·n1)·rc are exactly n1·s and (n1·rc)·s,
+     * one multiply fewer each (and back by 1/s, exactly, where b is). */
     const __m512d one = _mm512_set1_pd(1.0), zero = _mm512_setzero_pd();
     const __m512d nd = lin8(k->d0, d1, k->d2, sx), n1 = lin8(k->p0, p1, k->p2, sx),
                   n2 = lin8(k->q0, q1, k->q2, sx);
@@ -208,7 +208,8 @@ T512 __attribute__((always_inline)) static inline __m256i codes8(const codes8_k 
         b0 = _mm512_mask_mov_pd(b0, neg, zero);
     }
     __mmask8 ok = 0;
-    if (k->table) /* the cell's leaf from the table, where the margin allows (hemicube.c) */
+    if (k->table) /* the cell's leaf from the table, where the margin allows
+                     (hemicube_integrate.c, "leaves of a row") */
         ok = cells8(_mm512_mul_pd(b0, k->sv), _mm512_mul_pd(b1, k->sv),
                     _mm512_mul_pd(b2, k->sv), k->sv, k->up, k->down, k->need, k->need, &cell);
     __m256i code = k->table ? _mm512_cvttpd_epi32(cell) : _mm256_setzero_si256();
@@ -346,12 +347,12 @@ T512 static void depth_rows8(const double abc[9], const double iz[3], double inv
 #undef DEPTH8_SETUP
 #undef EDGE8
 
-/* lrr__hemi_spans: edge_span's cases without a pixel test, lane by lane (its expressions,
+/* lrr__hemi_simd.spans: edge_span's cases without a pixel test, lane by lane (its expressions,
  * unfused): an edge with A = 0 is a sign test per row; else a row where no pixel index lies
  * within tol of the crossing estimate xc is cut at n = floor(xc + tol), and one whose start
  * (A > 0) or end (A < 0) lies beyond that tolerance keeps it (checked against x0, x1: the
- * narrower range edge_span would see only moves further inside). Per-row spans were 11% of
- * a Cornell R 64 profile. */
+ * narrower range edge_span would see only moves further inside). Spans a row at a time
+ * take 11% of a Cornell R 64 profile. */
 T512 static int spans8(const lrr__hemi_edge *e, int x0, int x1, int y0, int y1, int32_t *span)
 {
     const __m512d offs = _mm512_setr_pd(0.5, 1.5, 2.5, 3.5, 4.5, 5.5, 6.5, 7.5),
@@ -397,7 +398,7 @@ T512 static int spans8(const lrr__hemi_edge *e, int x0, int x1, int y0, int y1, 
         }
         empty |= _mm512_cmp_pd_mask(L, R, _CMP_GT_OQ);
         /* (L, R) pairs of the rows: exact ones (INT32_MIN, R) for the caller, empty (1, 0);
-         * one masked store (a scalar loop over the rows' masks was a third of this) */
+         * one masked store (a scalar loop over the rows' masks costs a third of this) */
         __m256i l = _mm256_mask_mov_epi32(_mm512_cvttpd_epi32(L), empty, _mm256_set1_epi32(1));
         l = _mm256_mask_mov_epi32(l, exact, _mm256_set1_epi32(INT32_MIN));
         const __m256i r = _mm256_maskz_mov_epi32((__mmask8)~empty, _mm512_cvttpd_epi32(R));
@@ -413,9 +414,9 @@ T512 static int spans8(const lrr__hemi_edge *e, int x0, int x1, int y0, int y1, 
 }
 
 /* lrr__hemi_breaks of two rows at once, sixteen lanes a step (an item row and its codes: one
- * loop instead of two, ~2% of a Cornell R 64 hemicube), a word of 64 pixels at a time in registers (|= into the masks
- * per sixteen was a chain of loads and stores through each word: 4.6% of a Cornell R 64
- * profile) */
+ * loop instead of two, ~2% of a Cornell R 64 hemicube), a word of 64 pixels at a time in
+ * registers (|= into the masks per sixteen makes a chain of loads and stores through each
+ * word: 4.6% of a Cornell R 64 profile) */
 T512 static void breaks16_pair(const int32_t *v, const int32_t *u, int n, uint64_t *mv,
                                uint64_t *mu)
 {

@@ -81,10 +81,10 @@ lrr_status lrr__hemi_cell_table(lrr_context *ctx, uint16_t **out)
 }
 
 /* The leaf that pixel column sx of a row at height sy shows on the triangle of bp: the
- * scalar path, and the reference of lrr__hemi_leaves_run. */
+ * scalar path, and the reference of lrr__hemi_simd.leaves_run. */
 static inline size_t leaf_at(const bary_plane *bp, double sx, double sy, unsigned depth)
 {
-    /* one division: two were a quarter of the per-pixel loop's time */
+    /* one division: two take a quarter of the per-pixel loop's time */
     const double r = 1.0 / (bp->den[0] * sx + bp->den[1] * sy + bp->den[2]);
     double b0, b1 = (bp->b1[0] * sx + bp->b1[1] * sy + bp->b1[2]) * r,
                b2 = (bp->b2[0] * sx + bp->b2[1] * sy + bp->b2[2]) * r;
@@ -104,7 +104,7 @@ typedef struct {
 } integ;
 
 /* Pixels x0..x1 of the face row show leaf `leaf` of triangle t: row[p] += their multipliers
- * as a difference of prefix sums (the pixel-order sum's dependency chain was a tenth of a
+ * as a difference of prefix sums (the pixel-order sum's dependency chain takes a tenth of a
  * Cornell R 64 profile; relative rounding ~1e-16 of the row's total, far below F̄'s float),
  * or the item buffer gets p. */
 static inline void put(integ *in, size_t t, size_t leaf, int x0, int x1)
@@ -212,7 +212,7 @@ double lrr__hemi_integrate_face(const hemi_ctx *h, const double x[3], const face
      * longer than coded_run's chunks */
     const int flat = row && !h->by_subpatch && !h->g->origin && !h->g->node && f->W <= CHUNK;
     /* the face's bary_planes by triangle id mod BARY_CACHE: a row's runs alternate between a
-     * few triangles (one set-up per run was 5% of a Cornell R 32 profile) */
+     * few triangles (a set-up per run takes 5% of a Cornell R 32 profile) */
     bary_plane bpc[BARY_CACHE];
     int32_t set_for[BARY_CACHE]; /* the triangle each is set up for */
     for (int c = 0; c < BARY_CACHE; c++)
@@ -239,7 +239,7 @@ double lrr__hemi_integrate_face(const hemi_ctx *h, const double x[3], const face
             const int coded = h->simd && depth >= 1 && depth <= LRR__LEAF_TABLE_DEPTH;
             if (coded && flat) {
                 /* one run of one code (cbrk also breaks where the item does): coded_run's sums
-                 * in the row's one loop, not a loop per run of the triangle (whose exits were
+                 * in the row's one loop, not a loop per run of the triangle (whose exits are
                  * mispredicted) */
                 while (!cbits && ++cw < words)
                     cbits = cbrk[cw];

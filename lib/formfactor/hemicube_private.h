@@ -1,7 +1,8 @@
-/* What hemicube.c (the rasteriser) and raycast.c (Embree rays through the same pixels) share:
- * the per-triangle table, a face of one receiver's hemicube and the build's constants. The
- * frame, the per-receiver rotation, the pixel centres, the multiplier map and the turning of
- * an item buffer (triangle ids) into a row stay in hemicube.c; raycast.c only fills the item
+/* What the rasteriser (hemicube.c, hemicube_raster.c, hemicube_integrate.c and its SIMD
+ * steps) and raycast.c (Embree rays through the same pixels) share: the per-triangle table, a
+ * face of one receiver's hemicube and the build's constants. The frame, the per-receiver
+ * rotation, the pixel centres and the multiplier map stay in hemicube.c, the turning of an
+ * item buffer (triangle ids) into a row in hemicube_integrate.c; raycast.c only fills the item
  * buffer. */
 #ifndef LRR_FORMFACTOR_HEMICUBE_PRIVATE_H
 #define LRR_FORMFACTOR_HEMICUBE_PRIVATE_H
@@ -30,7 +31,7 @@ typedef struct lrr__hemi_face {
                               (rasteriser) or already its patch (ray caster); else
                               LRR__ITEM_NONE or LRR__ITEM_BACK */
     uint32_t *code;        /* per pixel where the item is a triangle with codes (SIMD
-                              rasteriser, lrr__hemi_depth_rows): its leaf code */
+                              rasteriser, lrr__hemi_simd.depth_rows): its leaf code */
 } lrr__hemi_face;
 
 /* Item-buffer markers: nothing seen (or a triangle edge-on), or the back of a triangle,
@@ -50,8 +51,8 @@ typedef struct lrr__hemi_ctx {
     const lrr__raycaster *rc; /* non-NULL: pixels by ray casting (raycast.c), else raster */
     const lrr__hemi_simd *simd; /* the SIMD steps (lrr__hemi_simd_pick), chosen once per
                                    build; NULL: the scalar path */
-    const uint16_t *cells; /* the rasteriser's leaves of the regular grids (hemicube.c's
-                              cell_table) */
+    const uint16_t *cells; /* the rasteriser's leaves of the regular grids
+                              (lrr__hemi_cell_table, hemicube_integrate.c) */
     const double *sx;      /* per pixel column x: (x + 0.5)/(R/2) − 1, as the faces have it */
     const double *sy_top, *sy_side; /* per pixel row y: sy of the top face and of the sides */
     const double *pre_top, *pre_side; /* the multiplier maps' prefix sums per row (R + 1
@@ -66,7 +67,7 @@ typedef struct lrr__hemi_ctx {
  * leaves_run: the leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of
  * pixels a..b of a row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
  * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]: codes for
- * lrr__hemi_leaf_of, whose leaves are bit-identical to the scalar path's (hemicube.c's
+ * lrr__hemi_leaf_of, whose leaves are bit-identical to the scalar path's (hemicube_integrate.c's
  * leaf_at). cells: hemicube_integrate.c's leaf table of this depth, or NULL to descend (the codes are
  * then the leaves). brk gets lrr__hemi_breaks of the b − a + 1 codes (made as they are: a
  * pass over them per run costs 4% of a Cornell R 64 profile). */
@@ -102,7 +103,7 @@ typedef struct {
  * (raster_tri): abc holds the edge functions A, B, C of the weights of the three vertices, iz
  * their 1/depth; depth and item point at the row. Bit-identical to the scalar loop. */
 /* What depth_rows needs to write a triangle's leaf codes where it wins the depth
- * test: its barycentric plane on the face (hemicube.c's bary_plane), the face's sx and sy
+ * test: its barycentric plane on the face (hemicube_raster.h's lrr__bary_plane), the face's sx and sy
  * per column and row, its leaf depth (1..LRR__LEAF_TABLE_DEPTH) and the face's code buffer
  * (W a row). */
 typedef struct {

@@ -44,7 +44,7 @@ static inline double plane_d(const cvert *p, double a, double b, double c, doubl
 static int clip_plane(const cvert *in, int n, cvert *out, double a, double b, double c,
                       double off)
 {
-    /* each vertex's side once (twice, and a % per vertex, before) */
+    /* each vertex's side once, into d[] */
     double d[MAX_POLY];
     for (int i = 0; i < n; i++)
         d[i] = plane_d(&in[i], a, b, c, off);
@@ -92,7 +92,7 @@ static void edge_setup(const svert *a, const svert *b, int W, int H, edge_fn *e)
     /* With px <= W, py <= H: the computed A·px + B·py + C is within 3.1u·S of the exact
      * value, S = |A|·W + |B|·H + |C| (u = 2^-53), so it keeps the exact sign beyond
      * 3.1u·S/|A| pixels of the exact crossing; the estimate k0 + k1·py, from one reciprocal
-     * r = 1/A (three divisions were 2.9% of a Cornell R 64 profile with edge_setup's rest),
+     * r = 1/A (three divisions make 2.9% of a Cornell R 64 profile with edge_setup's rest),
      * two products, a difference and a product and sum, stays within 4u·S/|A| + u of it.
      * 16u·S/|A| covers both. */
     const double S = fabs(A) * W + fabs(B) * H + fabs(C);
@@ -122,8 +122,8 @@ static inline double edge_at(const edge_fn *e, double px, double py)
  * The computed edge function is monotone in px (each rounding step is), so the inside pixels
  * of a row form one interval: start from the analytic crossing and settle its ends with the
  * exact per-pixel test, so the covered pixels are exactly those of a test at every pixel
- * (measured: that test was 44% of a Cornell R 64 profile, most of it on the bounding box's
- * empty half). */
+ * (measured: that test at every pixel is 44% of a Cornell R 64 profile, most of it on the
+ * bounding box's empty half). */
 static inline __attribute__((always_inline)) int edge_span(const edge_fn *e, double py, int *L,
                                                           int *R)
 {
@@ -197,7 +197,7 @@ static void raster_tri(svert a, svert b, svert c, int32_t id, int W, int H, floa
     double inv_area = 1.0 / area;
     const double abc[9] = {e0.A, e0.B, e0.C, e1.A, e1.B, e1.C, e2.A, e2.B, e2.C},
                  vz[3] = {a.iz, b.iz, c.iz};
-    if (simd) { /* the rows' spans, then their depth tests in one call (one per row was a
+    if (simd) { /* the rows' spans, then their depth tests in one call (one per row costs a
                    fifth of depth_span8's time, its set-up) */
         int32_t span[2 * SPAN_ROWS];
         for (int y = y0; y <= y1; y += SPAN_ROWS) {
@@ -310,7 +310,7 @@ void lrr__hemi_raster_faces(const hemi_ctx *h, const double x[3], const double N
     const lrr__geometry *g = h->g;
     size_t total = (size_t)h->mm->res * h->mm->res * 3;
     /* 0.0f is all zero bytes and LRR__ITEM_NONE (−1) all 0xff: memset's wide stores instead of
-     * the scalar loop gcc -O2 left (Cornell R 64 one thread 0.371 → 0.359 s user) */
+     * the scalar loop gcc -O2 leaves (Cornell R 64 one thread 0.359 against 0.371 s user) */
     _Static_assert(LRR__ITEM_NONE == -1, "memset fills the item buffer with 0xff bytes");
     if (!sc->clean) {
         memset(sc->depth, 0, total * sizeof *sc->depth);

@@ -34,7 +34,8 @@ typedef struct {
     int32_t *item;
     uint32_t *code;
     double *row;
-    int clean; /* depth 0 and item LRR__ITEM_NONE everywhere (lrr__hemi_integrate_face left them so) */
+    int clean; /* depth 0 and item LRR__ITEM_NONE everywhere (as lrr__hemi_integrate_face
+                  leaves them) */
 } lrr__hemi_scratch;
 
 /* Rasterises every input triangle into the five faces (cost ∝ triangles); x is the

@@ -70,7 +70,9 @@ static void test_parse(void **state)
         const lrr_status st = lrr__cpu_parse(ctx, names[i], &ch);
         if (cpu_runs(i)) {
             assert_int_equal(st, LRR_OK);
-            assert_int_equal(ch.isa, i == 0 ? LRR__ISA_C : i <= 2 ? LRR__ISA_AVX2 : LRR__ISA_AVX512);
+            assert_int_equal(ch.isa, i == 0   ? LRR__ISA_C
+                                     : i <= 2 ? LRR__ISA_AVX2
+                                              : LRR__ISA_AVX512);
             assert_int_equal(ch.prefetch, strstr(names[i], "+prefetch") != NULL);
         } else {
             assert_int_equal(st, LRR_ERR_UNSUPPORTED);
@@ -81,7 +83,9 @@ static void test_parse(void **state)
     /* unset or empty: the widest level this CPU runs */
     lrr__cpu_choice ch;
     assert_int_equal(lrr__cpu_parse(ctx, NULL, &ch), LRR_OK);
-    assert_int_equal(ch.isa, cpu_runs(3) ? LRR__ISA_AVX512 : cpu_runs(1) ? LRR__ISA_AVX2 : LRR__ISA_C);
+    assert_int_equal(ch.isa, cpu_runs(3)   ? LRR__ISA_AVX512
+                             : cpu_runs(1) ? LRR__ISA_AVX2
+                                           : LRR__ISA_C);
     assert_int_equal(lrr__cpu_parse(ctx, "", &ch), LRR_OK);
     /* names differ from a valid one by case, a suffix or a prefix */
     const char *bad[] = {"AVX2", "avx2+", "avx512f", "sse2", "avx2+prefetch ", "+prefetch"};

@@ -466,7 +466,7 @@ static void test_depth_codes_exact(void **state)
 #undef NEXT_U
     for (unsigned d = 1; d <= D; d++)
         free(cells[d]);
-    print_message("depth codes: %zu pixels won as lrr__hemi_leaves_run codes them (%zu "
+    print_message("depth codes: %zu pixels won as leaves_run codes them (%zu "
                   "descended), %zu lost\n", won, descended, lost);
     assert_true(won > 10000 && lost > 10000 && descended > 0);
 }
@@ -520,8 +520,8 @@ static void test_breaks_exact(void **state)
     }
 }
 
-/* hemicube.c's edge_setup (the canonical-order edge of a→b), copied: the edges
- * lrr__hemi_spans gets. */
+/* hemicube_raster.c's edge_setup (the canonical-order edge of a→b), copied: the edges
+ * lrr__hemi_simd.spans gets. */
 static void edge_of(const double a[2], const double b[2], int W, int H, lrr__hemi_edge *e)
 {
     const int swap = (b[0] < a[0]) || (b[0] == a[0] && b[1] < a[1]);
