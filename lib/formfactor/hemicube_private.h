@@ -61,19 +61,10 @@ typedef struct lrr__hemi_ctx {
                               random point of the receiver (raycast.c) */
 } lrr__hemi_ctx;
 
-/* The SIMD steps below come as a table per instruction set (lrr__hemi_simd: four lanes in
- * hemicube_avx2.c, eight in hemicube_avx512.c), every step bit-identical to the scalar path.
- *
- * leaves_run: the leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of
- * pixels a..b of a row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
- * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]: codes for
- * lrr__hemi_leaf_of, whose leaves are bit-identical to the scalar path's (hemicube_integrate.c's
- * leaf_at). cells: hemicube_integrate.c's leaf table of this depth, or NULL to descend (the codes are
- * then the leaves). brk gets lrr__hemi_breaks of the b − a + 1 codes (made as they are: a
- * pass over them per run costs 4% of a Cornell R 64 profile). */
-/* With a table, leaves_run's code of a pixel is its cell (a table slot, the
- * lookup left to the caller: once per run of equal codes) or its leaf | LRR__LEAF_DESCENT
- * (descended; depth <= 6, so leaves < 2^12). Equal leaves may have two codes. */
+/* A SIMD leaf code (lrr__hemi_simd's leaves_run and depth_rows): with the cell table, a
+ * pixel's cell (a table slot, the lookup left to the caller: once per run of equal codes) or
+ * its leaf | LRR__LEAF_DESCENT (descended; depth <= 6, so leaves < 2^12); without, the leaf.
+ * Equal leaves may have two codes. */
 #define LRR__LEAF_DESCENT 0x80000000u
 static inline uint32_t lrr__hemi_leaf_of(uint32_t code, const uint16_t *cells)
 {
@@ -93,17 +84,8 @@ typedef struct {
     double tol;      /* how far (pixels) that estimate may be from where the computed edge
                         function changes sign (edge_span); +inf for A = 0 */
 } lrr__hemi_edge;
-/* spans: hemicube_raster.c's edge_span of the three edges for rows y0..y1 (py = y + 0.5),
- * starting from x0..x1, four (AVX2) or eight (AVX-512) rows at a time: span[2(y − y0)],
- * span[2(y − y0) + 1] get the row's pixels (first > last: none) where edge_span's test-free
- * cases settle every edge, else span[2(y − y0)] = INT32_MIN (the caller runs edge_span).
- * Returns whether any row was left to the caller (a row loop per triangle saved: ~1 in 1500
- * rows of a Cornell R 64 hemicube is).
- * depth_span: the rasteriser's depth test for pixels L..R of the row at py of one triangle
- * (raster_tri): abc holds the edge functions A, B, C of the weights of the three vertices, iz
- * their 1/depth; depth and item point at the row. Bit-identical to the scalar loop. */
-/* What depth_rows needs to write a triangle's leaf codes where it wins the depth
- * test: its barycentric plane on the face (hemicube_raster.h's lrr__bary_plane), the face's sx and sy
+/* What depth_rows needs to write a triangle's leaf codes where it wins the depth test: its
+ * barycentric plane on the face (hemicube_raster.h's lrr__bary_plane), the face's sx and sy
  * per column and row, its leaf depth (1..LRR__LEAF_TABLE_DEPTH) and the face's code buffer
  * (W a row). */
 typedef struct {
@@ -112,26 +94,46 @@ typedef struct {
     unsigned depth;
     uint32_t *code;
 } lrr__hemi_codes;
-/* depth_rows: depth_span of rows y0..y1 at py = y + 0.5, row y's pixels span[2(y − y0)] ..
- * span[2(y − y0) + 1] (none when the first is greater); depth and item point at the face
- * (W pixels a row). With lc, also code[pixel] for the pixels it wins: the code leaves_run
- * gives that pixel (with the cell table), so the integration needs no per-run leaf pass (a
- * fit of its time at R 64 and 128, Cornell, puts that pass's set-up at ~150 cycles a run of
- * a triangle against ~2.6 a pixel).
- * breaks2: lrr__hemi_breaks of two rows of n in one pass, v's into mv, and where v or u
- * changes into mu (inside a run of one v, u's breaks): 16 (AVX-512) or 8 (AVX2) lanes a
- * step, a 64-pixel word in registers. */
+
+/* The rasteriser's SIMD steps of one instruction set: four lanes (hemicube_avx2.c) or eight
+ * (hemicube_avx512.c), each bit-identical to the scalar path, chosen once per build
+ * (lrr__hemi_simd_pick into hemi_ctx.simd). */
 struct lrr__hemi_simd {
     const char *name; /* "avx2", "avx512" */
+    /* hemicube_raster.c's edge_span of the three edges for rows y0..y1 (py = y + 0.5) from
+     * x0..x1, four or eight rows at a time: span[2(y − y0)], span[2(y − y0) + 1] get the
+     * row's pixels (first > last: none) where edge_span's test-free cases settle every edge,
+     * else span[2(y − y0)] = INT32_MIN (the caller runs edge_span). Returns whether any row
+     * was left to the caller (a row loop per triangle saved: ~1 in 1500 rows of a Cornell
+     * R 64 hemicube is one). */
     int (*spans)(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span);
+    /* depth_span of rows y0..y1 at py = y + 0.5, row y's pixels span[2(y − y0)] ..
+     * span[2(y − y0) + 1] (none when the first is greater); depth and item point at the face
+     * (W pixels a row). With lc, also code[pixel] for the pixels it wins: the code
+     * leaves_run gives that pixel (with the cell table), so the integration needs no per-run
+     * leaf pass (a fit of its time at R 64 and 128, Cornell, puts that pass's set-up at ~150
+     * cycles a run of a triangle against ~2.6 a pixel). */
     void (*depth_rows)(const double abc[9], const double iz[3], double inv_area, int y0,
                        int y1, const int32_t *span, int W, float *depth, int32_t *item,
                        int32_t id, const lrr__hemi_codes *lc);
+    /* The rasteriser's depth test for pixels L..R of the row at py of one triangle
+     * (raster_tri's scalar loop): abc holds the edge functions A, B, C of the weights of
+     * the three vertices, iz their 1/depth; depth and item point at the row. */
     void (*depth_span)(const double abc[9], const double iz[3], double inv_area, double py,
                        int L, int R, float *depth, int32_t *item, int32_t id);
+    /* The leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of pixels a..b
+     * of a row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
+     * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]: codes for
+     * lrr__hemi_leaf_of, the leaves of hemicube_integrate.c's leaf_at. cells: the leaf
+     * table of this depth, or NULL to descend. brk gets lrr__hemi_breaks of the b − a + 1
+     * codes (made as they are: a pass over them per run costs 4% of a Cornell R 64
+     * profile). */
     void (*leaves_run)(const double b1k[3], const double b2k[3], const double denk[3],
                        const double *sxt, double sy, int a, int b, unsigned depth,
                        const uint16_t *cells, uint32_t *leaf, uint64_t *brk);
+    /* lrr__hemi_breaks of two rows of n in one pass: v's into mv, and where v or u changes
+     * into mu (inside a run of one v, u's breaks); 8 or 16 lanes a step, a 64-pixel word in
+     * registers. */
     void (*breaks2)(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu);
 };
 extern const lrr__hemi_simd lrr__hemi_simd_avx2, lrr__hemi_simd_avx512; /* x86 only */
