@@ -5,7 +5,7 @@
  * the solver's kernels need AVX2 with FMA and F16C (the 16-bit rows), the hemicube's
  * eight-lane steps AVX-512 F with VL (256-bit masked integer stores). Without LRR_SIMD the
  * widest level runs: AVX-512 with 8-row groups beats AVX2 in the solver at every size
- * measured (k = 216 and 864, n = 3456 to 221184; realtime_kernel.c's ROWS_AVX512), and
+ * measured (k = 216 and 864, n = 3456 to 221184; realtime_avx2.c's ROWS_AVX2), and
  * eight hemicube lanes beat four (Cornell 216/2, one thread, R 64 0.370 against 0.394 s,
  * docs/METHOD.md "Form factors"). */
 #include "config.h"

@@ -7,8 +7,8 @@
  * channels are the dot products themselves. Panels against rows (AMD EPYC, AVX-512, 2
  * threads, medians of 40, interleaved with a read loop over the same 191 MB): n = 221184,
  * k = 216: panels 3.98 ms (0.84× the read loop), rows 9.3 ms (1.96×); f16 2.2 against
- * 6.4 ms. The row kernels in realtime_kernel.c serve the last n % 32 rows and F̄ held as
- * rows.
+ * 6.4 ms. The row kernels (realtime_kernel.c, realtime_avx2.c, realtime_avx512.c) serve
+ * the last n % 32 rows and F̄ held as rows.
  */
 #include "config.h"
 #include "solve/solve.h"
