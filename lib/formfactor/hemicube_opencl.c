@@ -1,6 +1,6 @@
 /* Hemicube integration on an OpenCL device (lrr_build_options.backend = LRR_BACKEND_OPENCL),
  * as in GPU texture-space radiosity: the CPU rasterises a batch of hemicubes and resolves each
- * pixel to a patch id (that needs the hierarchy, lib/formfactor/hemicube.c); the ids go to the device,
+ * pixel to a patch id (that needs the hierarchy, hemicube_integrate.c); the ids go to the device,
  * where `multiply` applies the multiplier map (uploaded once) and `reduce` sums per patch into
  * the batch's rows of F̄ (lib/formfactor/hemicube.cl, embedded as lrr__kernel_hemicube_cl).
  *

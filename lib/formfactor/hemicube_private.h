@@ -1,11 +1,13 @@
-/* What hemicube.c (the rasteriser) and raycast.c (Embree rays through the same pixels) share:
- * the per-triangle table, a face of one receiver's hemicube and the build's constants. The
- * frame, the per-receiver rotation, the pixel centres, the multiplier map and the turning of
- * an item buffer (triangle ids) into a row stay in hemicube.c; raycast.c only fills the item
+/* What the rasteriser (hemicube.c, hemicube_raster.c, hemicube_integrate.c and its SIMD
+ * steps) and raycast.c (Embree rays through the same pixels) share: the per-triangle table, a
+ * face of one receiver's hemicube and the build's constants. The frame, the per-receiver
+ * rotation, the pixel centres and the multiplier map stay in hemicube.c, the turning of an
+ * item buffer (triangle ids) into a row in hemicube_integrate.c; raycast.c only fills the item
  * buffer. */
 #ifndef LRR_FORMFACTOR_HEMICUBE_PRIVATE_H
 #define LRR_FORMFACTOR_HEMICUBE_PRIVATE_H
 
+#include "core/cpu.h"
 #include "formfactor/formfactor.h"
 
 typedef struct lrr__tri_info {
@@ -29,7 +31,7 @@ typedef struct lrr__hemi_face {
                               (rasteriser) or already its patch (ray caster); else
                               LRR__ITEM_NONE or LRR__ITEM_BACK */
     uint32_t *code;        /* per pixel where the item is a triangle with codes (SIMD
-                              rasteriser, lrr__hemi_depth_rows): its leaf code */
+                              rasteriser, lrr__hemi_simd.depth_rows): its leaf code */
 } lrr__hemi_face;
 
 /* Item-buffer markers: nothing seen (or a triangle edge-on), or the back of a triangle,
@@ -38,6 +40,7 @@ typedef struct lrr__hemi_face {
 enum { LRR__ITEM_NONE = -1, LRR__ITEM_BACK = -2 };
 
 typedef struct lrr__raycaster lrr__raycaster;
+typedef struct lrr__hemi_simd lrr__hemi_simd;
 
 typedef struct lrr__hemi_ctx {
     const lrr__geometry *g;
@@ -46,10 +49,10 @@ typedef struct lrr__hemi_ctx {
     double near, eps;      /* near plane and "on the plane" distance, scene units */
     int by_subpatch;       /* 1: columns are subpatches (full F, n wide); 0: patches (F̄) */
     const lrr__raycaster *rc; /* non-NULL: pixels by ray casting (raycast.c), else raster */
-    int simd;              /* lrr__hemi_simd(): 0, or four (1) or eight (2) pixels at a time
-                              (hemicube_simd.c) */
-    const uint16_t *cells; /* the rasteriser's leaves of the regular grids (hemicube.c's
-                              cell_table) */
+    const lrr__hemi_simd *simd; /* the SIMD steps (lrr__hemi_simd_pick), chosen once per
+                                   build; NULL: the scalar path */
+    const uint16_t *cells; /* the rasteriser's leaves of the regular grids
+                              (lrr__hemi_cell_table, hemicube_integrate.c) */
     const double *sx;      /* per pixel column x: (x + 0.5)/(R/2) − 1, as the faces have it */
     const double *sy_top, *sy_side; /* per pixel row y: sy of the top face and of the sides */
     const double *pre_top, *pre_side; /* the multiplier maps' prefix sums per row (R + 1
@@ -58,40 +61,22 @@ typedef struct lrr__hemi_ctx {
                               random point of the receiver (raycast.c) */
 } lrr__hemi_ctx;
 
-/* What lrr__hemi_leaves_run and lrr__hemi_depth_span may use here: 0 none (or the
- * environment's LRR_SIMD=c), 1 AVX2 (or LRR_SIMD=avx2), 2 AVX-512 (F and VL). Their `simd`
- * argument is this level, at least 1. */
-int lrr__hemi_simd(void);
-/* The leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of pixels a..b of a
- * row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
- * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]: codes for
- * lrr__hemi_leaf_of, whose leaves are bit-identical to the scalar path's (hemicube.c's
- * leaf_at). cells: hemicube.c's leaf table of this depth, or NULL to descend (the codes are
- * then the leaves). brk gets lrr__hemi_breaks of the b − a + 1 codes (made as they are:
- * a pass over them per run was 4% of a Cornell R 64 profile). */
-/* With a table, lrr__hemi_leaves_run's code of a pixel is its cell (a table slot, the
- * lookup left to the caller: once per run of equal codes) or its leaf | LRR__LEAF_DESCENT
- * (descended; depth <= 6, so leaves < 2^12). Equal leaves may have two codes. */
+/* A SIMD leaf code (lrr__hemi_simd's leaves_run and depth_rows): with the cell table, a
+ * pixel's cell (a table slot, the lookup left to the caller: once per run of equal codes) or
+ * its leaf | LRR__LEAF_DESCENT (descended; depth <= 6, so leaves < 2^12); without, the leaf.
+ * Equal leaves may have two codes. */
 #define LRR__LEAF_DESCENT 0x80000000u
 static inline uint32_t lrr__hemi_leaf_of(uint32_t code, const uint16_t *cells)
 {
     return !cells ? code : code & LRR__LEAF_DESCENT ? code & ~LRR__LEAF_DESCENT : cells[code];
 }
-void lrr__hemi_leaves_run(const double b1k[3], const double b2k[3], const double denk[3],
-                          const double *sxt, double sy, int a, int b, unsigned depth,
-                          const uint16_t *cells, uint32_t *leaf, uint64_t *brk, int simd);
 /* Where a row changes: bit x of mask ((n + 63)/64 words, all written) is set when x == 0 or
- * v[x] != v[x − 1], for x < n; the scalar loop (finding runs pixel by pixel was a fifth of a
- * Cornell R 64 profile). */
+ * v[x] != v[x − 1], for x < n; the scalar path's loop (finding runs pixel by pixel costs a
+ * fifth of a Cornell R 64 profile). */
 void lrr__hemi_breaks(const int32_t *v, int n, uint64_t *mask);
-/* lrr__hemi_breaks of two rows of n in one pass: v's into mv, and where v or u changes into
- * mu (inside a run of one v, u's breaks); simd as for lrr__hemi_leaves_run (16 or 8 lanes a
- * step, a 64-pixel word in registers), or 0 for the scalar loop */
-void lrr__hemi_breaks2(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu,
-                       int simd);
-#define LRR__LEAF_TABLE_DEPTH 6 /* hemicube.c's cell table: leaf depths 0..6 */
-/* Edge function coefficients A·px + B·py + C of one edge of a screen triangle (hemicube.c's
- * edge_setup, edge_span). */
+#define LRR__LEAF_TABLE_DEPTH 6 /* hemicube_integrate.c's cell table: leaf depths 0..6 */
+/* Edge function coefficients A·px + B·py + C of one edge of a screen triangle
+ * (hemicube_raster.c's edge_setup, edge_span). */
 typedef struct {
     double A, B, C;
     int owns_ties;   /* top-left rule: this triangle owns pixel centres exactly on the edge */
@@ -99,21 +84,8 @@ typedef struct {
     double tol;      /* how far (pixels) that estimate may be from where the computed edge
                         function changes sign (edge_span); +inf for A = 0 */
 } lrr__hemi_edge;
-/* hemicube.c's edge_span of the three edges for rows y0..y1 (py = y + 0.5), starting from
- * x0..x1, four (simd 1, AVX2) or eight (simd 2, AVX-512) rows at a time: span[2(y − y0)],
- * span[2(y − y0) + 1] get the row's pixels (first > last: none) where edge_span's test-free
- * cases settle every edge, else span[2(y − y0)] = INT32_MIN (the caller runs edge_span).
- * Returns whether any row was left to the caller (a row loop per triangle saved: ~1 in 1500
- * rows of a Cornell R 64 hemicube is). */
-int lrr__hemi_spans(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span,
-                     int simd);
-/* The rasteriser's depth test for pixels L..R of the row at py of one triangle (raster_tri):
- * abc holds the edge functions A, B, C of the weights of the three vertices, iz their 1/depth;
- * depth and item point at the row. Bit-identical to the scalar loop. */
-void lrr__hemi_depth_span(const double abc[9], const double iz[3], double inv_area, double py,
-                          int L, int R, float *depth, int32_t *item, int32_t id, int simd);
-/* What lrr__hemi_depth_rows needs to write a triangle's leaf codes where it wins the depth
- * test: its barycentric plane on the face (hemicube.c's bary_plane), the face's sx and sy
+/* What depth_rows needs to write a triangle's leaf codes where it wins the depth test: its
+ * barycentric plane on the face (hemicube_raster.h's lrr__bary_plane), the face's sx and sy
  * per column and row, its leaf depth (1..LRR__LEAF_TABLE_DEPTH) and the face's code buffer
  * (W a row). */
 typedef struct {
@@ -122,15 +94,51 @@ typedef struct {
     unsigned depth;
     uint32_t *code;
 } lrr__hemi_codes;
-/* lrr__hemi_depth_span of rows y0..y1 at py = y + 0.5, row y's pixels span[2(y − y0)] ..
- * span[2(y − y0) + 1] (none when the first is greater); depth and item point at the face
- * (W pixels a row). With lc, also code[pixel] for the pixels it wins: the code
- * lrr__hemi_leaves_run gives that pixel (with the cell table), so the integration needs no
- * per-run leaf pass (a fit of its time at R 64 and 128, Cornell, put its set-up at ~150
- * cycles a run of a triangle against ~2.6 a pixel). */
-void lrr__hemi_depth_rows(const double abc[9], const double iz[3], double inv_area, int y0,
-                          int y1, const int32_t *span, int W, float *depth, int32_t *item,
-                          int32_t id, const lrr__hemi_codes *lc, int simd);
+
+/* The rasteriser's SIMD steps of one instruction set: four lanes (hemicube_avx2.c) or eight
+ * (hemicube_avx512.c), each bit-identical to the scalar path, chosen once per build
+ * (lrr__hemi_simd_pick into hemi_ctx.simd). */
+struct lrr__hemi_simd {
+    const char *name; /* "avx2", "avx512" */
+    /* hemicube_raster.c's edge_span of the three edges for rows y0..y1 (py = y + 0.5) from
+     * x0..x1, four or eight rows at a time: span[2(y − y0)], span[2(y − y0) + 1] get the
+     * row's pixels (first > last: none) where edge_span's test-free cases settle every edge,
+     * else span[2(y − y0)] = INT32_MIN (the caller runs edge_span). Returns whether any row
+     * was left to the caller (a row loop per triangle saved: ~1 in 1500 rows of a Cornell
+     * R 64 hemicube is one). */
+    int (*spans)(const lrr__hemi_edge e[3], int x0, int x1, int y0, int y1, int32_t *span);
+    /* depth_span of rows y0..y1 at py = y + 0.5, row y's pixels span[2(y − y0)] ..
+     * span[2(y − y0) + 1] (none when the first is greater); depth and item point at the face
+     * (W pixels a row). With lc, also code[pixel] for the pixels it wins: the code
+     * leaves_run gives that pixel (with the cell table), so the integration needs no per-run
+     * leaf pass (a fit of its time at R 64 and 128, Cornell, puts that pass's set-up at ~150
+     * cycles a run of a triangle against ~2.6 a pixel). */
+    void (*depth_rows)(const double abc[9], const double iz[3], double inv_area, int y0,
+                       int y1, const int32_t *span, int W, float *depth, int32_t *item,
+                       int32_t id, const lrr__hemi_codes *lc);
+    /* The rasteriser's depth test for pixels L..R of the row at py of one triangle
+     * (raster_tri's scalar loop): abc holds the edge functions A, B, C of the weights of
+     * the three vertices, iz their 1/depth; depth and item point at the row. */
+    void (*depth_span)(const double abc[9], const double iz[3], double inv_area, double py,
+                       int L, int R, float *depth, int32_t *item, int32_t id);
+    /* The leaves (base-4 index after `depth` <= 16 levels of lrr__child_at) of pixels a..b
+     * of a row at height sy showing one triangle whose barycentrics are (b1k·(sx,sy,1),
+     * b2k·(sx,sy,1)) / denk·(sx,sy,1), sx = sxt[x], into leaf[0..b−a]: codes for
+     * lrr__hemi_leaf_of, the leaves of hemicube_integrate.c's leaf_at. cells: the leaf
+     * table of this depth, or NULL to descend. brk gets lrr__hemi_breaks of the b − a + 1
+     * codes (made as they are: a pass over them per run costs 4% of a Cornell R 64
+     * profile). */
+    void (*leaves_run)(const double b1k[3], const double b2k[3], const double denk[3],
+                       const double *sxt, double sy, int a, int b, unsigned depth,
+                       const uint16_t *cells, uint32_t *leaf, uint64_t *brk);
+    /* lrr__hemi_breaks of two rows of n in one pass: v's into mv, and where v or u changes
+     * into mu (inside a run of one v, u's breaks); 8 or 16 lanes a step, a 64-pixel word in
+     * registers. */
+    void (*breaks2)(const int32_t *v, const int32_t *u, int n, uint64_t *mv, uint64_t *mu);
+};
+extern const lrr__hemi_simd lrr__hemi_simd_avx2, lrr__hemi_simd_avx512; /* x86 only */
+/* The table of level isa (core/cpu.h), NULL for LRR__ISA_C: the scalar path. */
+const lrr__hemi_simd *lrr__hemi_simd_pick(lrr__isa isa);
 
 /* An Embree scene (robust, watertight) of g's triangles, built once per form-factor build;
  * diag is the scene's bounding-box diagonal (for the ray origins' offset). */

@@ -8,7 +8,7 @@
  * bfloat16 has float's exponent range and needs no scale (s_i = 1).
  *
  * Conversions round to nearest, ties to even, in portable C; they run once per operator.
- * The kernels decode with F16C/AVX-512 instructions (realtime_kernel.c).
+ * The kernels decode with F16C/AVX-512 instructions (realtime_avx2.c, realtime_avx512.c).
  */
 #include "config.h"
 #include "operator/operator.h"

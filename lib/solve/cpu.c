@@ -44,7 +44,7 @@
 struct lrr_solver {
     const lrr_operator *op;
     lrr_backend backend;
-    const lrr__kernel *kernel; /* SIMD variant, chosen once (environment LRR_SIMD forces one) */
+    const lrr__kernel *kernel; /* SIMD variant, chosen once (lrr__cpu_choose) */
     lrr__cl_solver *cl;        /* LRR_BACKEND_OPENCL: every frame goes there (solve/opencl.c) */
     float *w;      /* 3×k, channel-major */
     float *z;      /* 3×k, channel-major: the right-hand sides of the n×k product */
@@ -98,10 +98,14 @@ static size_t fbar_bytes(const lrr_operator *op)
 lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_solver **out)
 {
     *out = NULL;
+    /* LRR_SIMD is checked for every backend: one set of names, refused alike everywhere */
+    lrr__cpu_choice simd;
+    lrr_status st = lrr__cpu_choose(op->ctx, &simd);
+    if (st)
+        return st;
     if (backend == LRR_BACKEND_OPENCL) {
         lrr__cl_solver *cl;
-        lrr_status st = lrr__cl_create(op, &cl);
-        if (st)
+        if ((st = lrr__cl_create(op, &cl)))
             return st;
         lrr_solver *s = lrr__zalloc(op->ctx, sizeof *s);
         if (!s) {
@@ -117,10 +121,7 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
     }
     if (backend != LRR_BACKEND_CPU)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown backend %d", (int)backend);
-    const lrr__kernel *kernel;
-    lrr_status st = lrr__kernel_select(op->ctx, getenv("LRR_SIMD"), op->k, &kernel);
-    if (st)
-        return st;
+    const lrr__kernel *kernel = lrr__kernel_select(&simd, op->k);
     lrr_solver *s = lrr__zalloc(op->ctx, sizeof *s);
     if (!s)
         return lrr__error(op->ctx, LRR_ERR_NOMEM, "cannot allocate a solver");

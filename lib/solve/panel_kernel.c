@@ -4,10 +4,11 @@
  * A panel's column q is LRR__PANEL consecutive entries: one or two vector loads, multiplied
  * by the broadcast z_r[q], z_g[q], z_b[q] into per-row accumulators. No horizontal sums, no
  * tail per row, one sequential stream per thread, and the accumulators of 32 rows × 3
- * channels are the dot products themselves. Why it replaced rows (AMD EPYC, AVX-512, 2
+ * channels are the dot products themselves. Panels against rows (AMD EPYC, AVX-512, 2
  * threads, medians of 40, interleaved with a read loop over the same 191 MB): n = 221184,
- * k = 216: rows 9.3 ms (1.96× the read loop), panels 3.98 ms (0.84×); f16 6.4 → 2.2 ms.
- * The row kernels in realtime_kernel.c still serve the last n % 32 rows and F̄ held as rows.
+ * k = 216: panels 3.98 ms (0.84× the read loop), rows 9.3 ms (1.96×); f16 2.2 against
+ * 6.4 ms. The row kernels (realtime_kernel.c, realtime_avx2.c, realtime_avx512.c) serve
+ * the last n % 32 rows and F̄ held as rows.
  */
 #include "config.h"
 #include "solve/solve.h"
@@ -18,9 +19,9 @@
 #endif
 
 #define P LRR__PANEL
-/* The accumulators must live in registers: gcc -O2 left the 2×2×3 array of the AVX-512
- * loop in memory (an FMA with a memory operand and a store per step, 5.1 against 4.6 ms
- * for the same loop written out, 191 MB f32) until the small loops were unrolled. */
+/* The accumulators must live in registers: gcc -O2 leaves the 2×2×3 array of the AVX-512
+ * loop in memory unless the small loops are unrolled (an FMA with a memory operand and a
+ * store per step, 5.1 against 4.6 ms for the same loop written out, 191 MB f32). */
 #define UNROLL _Pragma("GCC unroll 4")
 
 /* B of one panel from its dot products t[c][r] (scale: per row, or NULL) */
@@ -74,12 +75,12 @@ void lrr__panels_f32_c(const float *fbar, size_t i0, size_t i1, size_t k, const 
 #ifdef LRR_X86
 /* Software prefetch PF bytes ahead of the stream, one per cache line of a step (PF = 0: none;
  * prefetches do not fault, so reading past the end is harmless). The _pf variants serve CPUs
- * whose hardware prefetcher leaves the stream short of lines in flight (realtime_kernel.c's
- * dispatch says which). Measured on an Intel Xeon (Emerald Rapids, 2 threads, AVX-512,
- * medians of 15 interleaved with a read loop over the same 191 MB): n = 221184, k = 216, f32
- * 1.15 → 0.95× the read loop, f16 1.47 → 1.01× its half; 2 KiB ahead 0.96/1.03, 6 KiB
- * 0.94/1.00 (n = 55296, k = 864 alike). The AMD EPYC of stop 21 ran the panels at 0.84× the
- * read loop without it. */
+ * whose hardware prefetcher leaves the stream short of lines in flight (core/cpu.c says
+ * which: Intel). Measured on an Intel Xeon (Emerald Rapids, 2 threads, AVX-512, medians of
+ * 15 interleaved with a read loop over the same 191 MB): n = 221184, k = 216, 4 KiB ahead
+ * f32 0.95× the read loop (1.15× without), f16 1.01× its half (1.47× without); 2 KiB ahead
+ * 0.96/1.03, 6 KiB 0.94/1.00 (n = 55296, k = 864 alike). An AMD EPYC runs the panels at
+ * 0.84× the read loop without it. */
 #define PREFETCH_DISTANCE 4096
 #define PREFETCH_AHEAD(p, bytes, PF)                                                          \
     do {                                                                                     \

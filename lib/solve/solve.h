@@ -3,12 +3,15 @@
 #ifndef LRR_SOLVE_H
 #define LRR_SOLVE_H
 
+#include "core/cpu.h"
 #include "operator/operator.h"
 
 /* ------------------------------------------------------------ real-time kernels */
 /* One instruction-set variant of the two row kernels (realtime_kernel.c). */
 typedef struct lrr__kernel {
-    const char *name; /* "c", "avx2", "avx512" */
+    const char *name; /* its LRR_SIMD name (core/cpu.h): "c", "avx2", "avx512+prefetch", … */
+    lrr__isa isa;
+    int prefetch;     /* the panels' software prefetch (panel_kernel.c) */
     /* rows [i0, i1): B_c = E_c + rho_c ∘ (F̄ z_c), z 3×k channel-major */
     void (*fbar_rows)(const float *fbar, size_t i0, size_t i1, size_t k, const float *z,
                       const float *E, const float *rho, float *B);
@@ -43,10 +46,9 @@ LRR__DECLARE_PANELS(avx512)
 LRR__DECLARE_PANELS(avx2_pf)
 LRR__DECLARE_PANELS(avx512_pf)
 
-/* The fastest variant this CPU runs for rows of k entries, or the one named by force
- * (LRR_SIMD: c, avx2, avx2+prefetch, avx512, avx512+prefetch). */
-lrr_status lrr__kernel_select(lrr_context *ctx, const char *force, size_t k,
-                              const lrr__kernel **out);
+/* The variant of choice (lrr__cpu_choose: LRR_SIMD, else the widest this CPU runs) for
+ * rows of k entries. */
+const lrr__kernel *lrr__kernel_select(const lrr__cpu_choice *choice, size_t k);
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
 void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z);
 /* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ read once, in the operator's storage and layout;

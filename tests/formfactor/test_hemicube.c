@@ -3,6 +3,7 @@
 #include "testutil.h"
 #include "formfactor/formfactor.h"
 #include "formfactor/hemicube_private.h"
+#include "core/cpu.h"
 #include "operator/operator.h"
 #include "closed_forms.h"
 
@@ -279,7 +280,18 @@ static void test_back_face_share(void **state)
 }
 
 
-/* lrr__hemi_leaves_run (four or eight lanes, the cell table where its margin allows) gives
+/* The SIMD tables this CPU runs (lrr__hemi_simd_pick), four lanes first; returns how many. */
+static int simd_tables(const lrr__hemi_simd *tab[2])
+{
+    int n = 0;
+    if (lrr__cpu_supports(LRR__ISA_AVX2))
+        tab[n++] = lrr__hemi_simd_pick(LRR__ISA_AVX2);
+    if (lrr__cpu_supports(LRR__ISA_AVX512))
+        tab[n++] = lrr__hemi_simd_pick(LRR__ISA_AVX512);
+    return n;
+}
+
+/* leaves_run (lrr__hemi_simd: four or eight lanes, the cell table where its margin allows) gives
  * every pixel the leaf of the scalar path (clamp, then lrr__descend), also for barycentrics
  * on the grid's lines (dyadic coefficients with den = 1 put whole rows on them), outside the
  * triangle (clamped), with den crossing 0 and over runs whose ends leave lanes unused. The
@@ -288,7 +300,9 @@ static void test_back_face_share(void **state)
 static void test_leaves_run_exact(void **state)
 {
     (void)state;
-    if (!lrr__hemi_simd())
+    const lrr__hemi_simd *tab[2];
+    const int ntab = simd_tables(tab);
+    if (!ntab)
         skip();
     enum { W = 64, D = 6 };
     double sxt[W];
@@ -331,12 +345,12 @@ static void test_leaves_run_exact(void **state)
                 den[2] = 1 + 0.2 * b2k[1];
             }
             const double sy = (trial % 7) / 3.5 - 1 + 0.5 / W;
-            const int level = 1 + (trial / 4) % lrr__hemi_simd(), a = trial % 5,
-                      b = W - 1 - trial % 7;
+            const lrr__hemi_simd *simd = tab[(trial / 4) % ntab];
+            const int a = trial % 5, b = W - 1 - trial % 7;
             uint32_t leaf[W], leaf_nt[W];
             uint64_t brk[(W + 63) / 64], brk_nt[(W + 63) / 64], want_brk[(W + 63) / 64];
-            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, cells, leaf, brk, level);
-            lrr__hemi_leaves_run(b1k, b2k, den, sxt, sy, a, b, d, NULL, leaf_nt, brk_nt, level);
+            simd->leaves_run(b1k, b2k, den, sxt, sy, a, b, d, cells, leaf, brk);
+            simd->leaves_run(b1k, b2k, den, sxt, sy, a, b, d, NULL, leaf_nt, brk_nt);
             /* the change masks: those of the codes as made */
             lrr__hemi_breaks((const int32_t *)leaf, b - a + 1, want_brk);
             assert_memory_equal(brk, want_brk, (size_t)(b - a + 64) / 64 * sizeof *brk);
@@ -363,20 +377,22 @@ static void test_leaves_run_exact(void **state)
     assert_true(on_lines > checked / 20); /* the lines were exercised */
 }
 
-/* lrr__hemi_depth_span (four or eight lanes) writes exactly the scalar loop's depths and
+/* depth_span (four or eight lanes) writes exactly the scalar loop's depths and
  * ids (raster_tri): spans with unused lanes at their ends, pixels outside left alone, and
  * stored depths equal to the span's (a tie keeps the old) or one float below (it wins). One
  * edge function cancels to ~1e-9 of its terms, so a multiply and add fused into one rounding
  * (what gcc does to intrinsics when FMA is on) changes the float depth. */
-/* lrr__hemi_depth_rows with leaf codes (lrr__hemi_codes): where it wins the depth test it
- * writes the code lrr__hemi_leaves_run gives that pixel (same plane, the face's sx and sy,
+/* depth_rows with leaf codes (lrr__hemi_codes): where it wins the depth test it
+ * writes the code leaves_run gives that pixel (same plane, the face's sx and sy,
  * the cell table), and nothing where it loses; the integration's runs, hence F̄, depend on
  * those codes being the per-pixel ones. Random depths (about half the pixels won), planes
  * with perspective, leaf depths 1..6, top and side faces. */
 static void test_depth_codes_exact(void **state)
 {
     (void)state;
-    if (!lrr__hemi_simd())
+    const lrr__hemi_simd *tab[2];
+    const int ntab = simd_tables(tab);
+    if (!ntab)
         skip();
     enum { W = 48, H = 12, D = 6 };
     double sxt[W], syt[2][H];
@@ -398,7 +414,8 @@ static void test_depth_codes_exact(void **state)
     size_t won = 0, lost = 0, descended = 0;
     for (int trial = 0; trial < 600; trial++) {
         const unsigned d = 1 + trial % D;
-        const int level = 1 + (trial / D) % lrr__hemi_simd(), side = trial % 2;
+        const lrr__hemi_simd *simd = tab[(trial / D) % ntab];
+        const int side = trial % 2;
         lrr__hemi_codes lc;
         for (int j = 0; j < 3; j++) {
             const double slope = trial % 3 == 0 ? 1 : 0.1;
@@ -428,7 +445,7 @@ static void test_depth_codes_exact(void **state)
             span[2 * y] = (int)(NEXT_U() * 12);
             span[2 * y + 1] = W - 1 - (int)(NEXT_U() * 12) - (y == 3 ? W : 0); /* an empty row */
         }
-        lrr__hemi_depth_rows(abc, iz, 1.0, 0, H - 1, span, W, depth, item, 7, &lc, level);
+        simd->depth_rows(abc, iz, 1.0, 0, H - 1, span, W, depth, item, 7, &lc);
         for (int y = 0; y < H; y++)
             for (int x = 0; x < W; x++) {
                 const size_t j = (size_t)y * W + x;
@@ -439,8 +456,8 @@ static void test_depth_codes_exact(void **state)
                 }
                 uint32_t want;
                 uint64_t brk;
-                lrr__hemi_leaves_run(lc.b1, lc.b2, lc.den, sxt, syt[side][y], x, x, d, cells[d],
-                                     &want, &brk, level);
+                simd->leaves_run(lc.b1, lc.b2, lc.den, sxt, syt[side][y], x, x, d, cells[d],
+                                 &want, &brk);
                 assert_int_equal(code[j], want);
                 descended += (want & LRR__LEAF_DESCENT) != 0;
                 won++;
@@ -449,18 +466,20 @@ static void test_depth_codes_exact(void **state)
 #undef NEXT_U
     for (unsigned d = 1; d <= D; d++)
         free(cells[d]);
-    print_message("depth codes: %zu pixels won as lrr__hemi_leaves_run codes them (%zu "
+    print_message("depth codes: %zu pixels won as leaves_run codes them (%zu "
                   "descended), %zu lost\n", won, descended, lost);
     assert_true(won > 10000 && lost > 10000 && descended > 0);
 }
 
-/* lrr__hemi_breaks, and lrr__hemi_breaks2 at every level, against the definition: lengths
+/* lrr__hemi_breaks, and every SIMD table's breaks2, against the definition: lengths
  * across word boundaries, changes at every position (random ids from a small set, so runs of
  * all lengths; codes that change inside runs and across them). */
 static void test_breaks_exact(void **state)
 {
     (void)state;
     enum { N = 300 };
+    const lrr__hemi_simd *tab[2];
+    const int ntab = simd_tables(tab);
     int32_t v[N];
     uint64_t rng = 99;
     for (int n = 1; n <= N; n += (n < 140 ? 1 : 37)) {
@@ -469,7 +488,7 @@ static void test_breaks_exact(void **state)
                 rng = rng * 6364136223846793005ull + 1442695040888963407ull;
                 v[x] = (int32_t)(rng >> 61) - 2; /* -2..5: markers too */
             }
-            for (int level = 0; level <= lrr__hemi_simd(); level++) {
+            for (int level = 0; level <= ntab; level++) { /* 0: the scalar loop alone */
                 uint64_t mask[(N + 63) / 64 + 1];
                 const int words = (n + 63) / 64;
                 mask[words] = 0x5a5a; /* must stay: the function writes (n + 63)/64 words */
@@ -479,13 +498,15 @@ static void test_breaks_exact(void **state)
                     const int want = x < n && (x == 0 || v[x] != v[x - 1]);
                     assert_int_equal((int)(mask[x >> 6] >> (x & 63) & 1), want);
                 }
-                /* lrr__hemi_breaks2: v's breaks, and where v or u (codes) change */
+                if (level == 0)
+                    continue;
+                /* breaks2: v's breaks, and where v or u (codes) change */
                 int32_t u[N];
                 for (int x = 0; x < n; x++)
                     u[x] = (int32_t)((uint32_t)(v[x] * 7 + (x / 3) % 2) * 2654435761u);
                 uint64_t mv[(N + 63) / 64 + 1], mu[(N + 63) / 64 + 1];
                 mv[words] = mu[words] = 0x5a5a;
-                lrr__hemi_breaks2(v, u, n, mv, mu, level);
+                tab[level - 1]->breaks2(v, u, n, mv, mu);
                 assert_int_equal(mv[words], 0x5a5a);
                 assert_int_equal(mu[words], 0x5a5a);
                 for (int x = 0; x < words * 64; x++) {
@@ -499,8 +520,8 @@ static void test_breaks_exact(void **state)
     }
 }
 
-/* hemicube.c's edge_setup (the canonical-order edge of a→b), copied: the edges
- * lrr__hemi_spans gets. */
+/* hemicube_raster.c's edge_setup (the canonical-order edge of a→b), copied: the edges
+ * lrr__hemi_simd.spans gets. */
 static void edge_of(const double a[2], const double b[2], int W, int H, lrr__hemi_edge *e)
 {
     const int swap = (b[0] < a[0]) || (b[0] == a[0] && b[1] < a[1]);
@@ -517,14 +538,16 @@ static void edge_of(const double a[2], const double b[2], int W, int H, lrr__hem
     e->tol = A != 0 ? 16 * 0x1p-53 * S * fabs(r) + 0x1p-30 : INFINITY;
 }
 
-/* lrr__hemi_spans against the per-pixel test (every edge function > 0, or 0 on an edge the
+/* spans (lrr__hemi_simd) against the per-pixel test (every edge function > 0, or 0 on an edge the
  * triangle owns) at every pixel of the range, on rows it settles: random triangles, some
  * with vertices on the half-pixel grid (pixel centres on edges, horizontal edges: A = 0) and
  * beyond the screen (the guard band). */
 static void test_spans_exact(void **state)
 {
     (void)state;
-    if (!lrr__hemi_simd())
+    const lrr__hemi_simd *tab[2];
+    const int ntab = simd_tables(tab);
+    if (!ntab)
         skip();
     enum { W = 64, H = 64 };
     uint64_t rng = 777;
@@ -556,7 +579,7 @@ static void test_spans_exact(void **state)
         const int x0 = trial % 4, x1 = W - 1 - trial % 3, y0 = trial % 7, y1 = H - 1 - trial % 5;
         int32_t span[2 * H];
         /* every SIMD level: AVX2 four rows at a time, AVX-512 eight */
-        const int left = lrr__hemi_spans(e, x0, x1, y0, y1, span, 1 + trial % lrr__hemi_simd());
+        const int left = tab[trial % ntab]->spans(e, x0, x1, y0, y1, span);
         int any = 0; /* it says whether it left rows to the caller */
         for (int y = y0; y <= y1; y++)
             any |= span[2 * (y - y0)] == INT32_MIN;
@@ -589,7 +612,9 @@ static void test_spans_exact(void **state)
 static void test_depth_span_exact(void **state)
 {
     (void)state;
-    if (!lrr__hemi_simd())
+    const lrr__hemi_simd *tab[2];
+    const int ntab = simd_tables(tab);
+    if (!ntab)
         skip();
     enum { W = 40 };
     uint64_t rng = 777;
@@ -610,7 +635,8 @@ static void test_depth_span_exact(void **state)
             iz[2] = 0.2 + u[11];
         }
         const double inv_area = 1 / (0.5 + u[11]);
-        const int level = 1 + (trial / 2) % lrr__hemi_simd(), L = trial % 9, R = W - 1 - trial % 11;
+        const lrr__hemi_simd *simd = tab[(trial / 2) % ntab];
+        const int L = trial % 9, R = W - 1 - trial % 11;
         float depth[W], want_d[W];
         int32_t item[W], want_i[W];
         for (int x = 0; x < W; x++) {
@@ -630,7 +656,7 @@ static void test_depth_span_exact(void **state)
             }
             ties += x >= L && x <= R && x % 3 == 0;
         }
-        /* the same row through lrr__hemi_depth_rows, at its height in a face, with an empty
+        /* the same row through depth_rows, at its height in a face, with an empty
          * row after it that must stay as it is */
         const int y = trial % 16;
         float fd[17 * W];
@@ -640,8 +666,8 @@ static void test_depth_span_exact(void **state)
         memcpy(fd + y * W, depth, sizeof depth);
         memcpy(fi + y * W, item, sizeof item);
         const int32_t span[4] = {L, R, 1, 0};
-        lrr__hemi_depth_rows(abc, iz, inv_area, y, y + 1, span, W, fd, fi, 7, NULL, level);
-        lrr__hemi_depth_span(abc, iz, inv_area, py, L, R, depth, item, 7, level);
+        simd->depth_rows(abc, iz, inv_area, y, y + 1, span, W, fd, fi, 7, NULL);
+        simd->depth_span(abc, iz, inv_area, py, L, R, depth, item, 7);
         assert_memory_equal(depth, want_d, sizeof depth);
         assert_memory_equal(item, want_i, sizeof item);
         assert_memory_equal(fd + y * W, want_d, sizeof depth);

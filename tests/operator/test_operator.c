@@ -324,14 +324,15 @@ static void test_realtime_kernels(void **state)
 #define RND() ((x = x * 6364136223846793005ull + 1442695040888963407ull), (double)(x >> 40) / (1 << 24))
     int ran = 0;
     for (int v = 0; v < 5; v++) {
-        const lrr__kernel *kn;
-        lrr_status st = lrr__kernel_select(ctx, variants[v], 17, &kn);
+        lrr__cpu_choice choice;
+        lrr_status st = lrr__cpu_parse(ctx, variants[v], &choice);
         if (st == LRR_ERR_UNSUPPORTED) {
             print_message("kernel %s: not supported by this CPU, skipped\n", variants[v]);
             lrr_context_last_error(ctx, NULL, 0);
             continue;
         }
         assert_int_equal(st, LRR_OK);
+        const lrr__kernel *kn = lrr__kernel_select(&choice, 17);
         assert_string_equal(kn->name, variants[v]);
         ran++;
         for (size_t t = 0; t < sizeof ks / sizeof ks[0]; t++)
@@ -404,17 +405,19 @@ static void test_realtime_kernels(void **state)
     }
 #undef RND
     assert_true(ran >= 1);
-    /* a name that is not a variant is an argument error */
-    const lrr__kernel *kn;
-    assert_int_equal(lrr__kernel_select(ctx, "sse9", 17, &kn), LRR_ERR_INVALID_ARG);
+    /* a name that is not a variant is an argument error (tests/core/test_cpu.c: the message) */
+    lrr__cpu_choice choice;
+    assert_int_equal(lrr__cpu_parse(ctx, "sse9", &choice), LRR_ERR_INVALID_ARG);
+    lrr_context_last_error(ctx, NULL, 0);
     /* unforced: the widest variant the CPU runs, with the panels' prefetch on Intel */
-    assert_int_equal(lrr__kernel_select(ctx, NULL, 216, &kn), LRR_OK);
+    assert_int_equal(lrr__cpu_parse(ctx, NULL, &choice), LRR_OK);
+    const lrr__kernel *kn = lrr__kernel_select(&choice, 216);
     const char *pf = __builtin_cpu_is("intel") ? "+prefetch" : "";
     char want[32];
-    if (__builtin_cpu_supports("avx512f")) {
+    if (lrr__cpu_supports(LRR__ISA_AVX512)) {
         snprintf(want, sizeof want, "avx512%s", pf);
         assert_string_equal(kn->name, want);
-    } else if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+    } else if (lrr__cpu_supports(LRR__ISA_AVX2)) {
         snprintf(want, sizeof want, "avx2%s", pf);
         assert_string_equal(kn->name, want);
     }
