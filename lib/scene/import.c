@@ -30,7 +30,9 @@
  * assimp keeps its last error string in a global; with several threads importing at once the
  * message may belong to another import. That is assimp's, and only affects message text. */
 #include "config.h"
+#include "core/path.h"
 #include "scene/scene.h"
+#include "scene/assimp_io.h"
 #include "scene/gltf_ext.h"
 #include "scene/texture.h"
 #ifdef LRR_HAVE_ASSIMP
@@ -86,22 +88,20 @@ static bool has_extension(const char *path, const char *ext)
     return dot && (!slash || dot > slash) && strcasecmp(dot + 1, ext) == 0;
 }
 
-/* assimp's own message for a missing file is vague ("Unable to open file"), so check first. */
+/* assimp's own message for a missing file is vague ("Unable to open file"), so check first;
+ * it would also block in its own fopen of a FIFO, hence lrr__open_regular (core/path.h). */
 static lrr_status check_readable(lrr_context *ctx, const char *path)
 {
-    struct stat st;
-    if (stat(path, &st) != 0) {
-        char eb[128];
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
-                          lrr__errno_text(errno, eb, sizeof eb));
-    }
-    if (S_ISDIR(st.st_mode))
+    FILE *f = NULL;
+    int e = lrr__open_regular(path, &f, NULL);
+    if (e == EISDIR)
         return lrr__error(ctx, LRR_ERR_IO, "file %s: is a directory, not a scene file", path);
-    FILE *f = fopen(path, "rb");
-    if (!f) {
+    if (e == LRR__NOT_REGULAR)
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: " LRR__NOT_REGULAR_TEXT, path);
+    if (e) {
         char eb[128];
         return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
-                          lrr__errno_text(errno, eb, sizeof eb));
+                          lrr__errno_text(e, eb, sizeof eb));
     }
     fclose(f);
     return LRR_OK;
@@ -116,8 +116,8 @@ static lrr_status check_if_ply(lrr_context *ctx, const char *path)
                  has_extension(path, "glb");
     if (other)
         return LRR_OK;
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    FILE *f = NULL;
+    if (lrr__open_regular(path, &f, NULL) != 0)
         return LRR_OK; /* check_readable has reported it */
     char magic[4] = "";
     size_t got = fread(magic, 1, 4, f);
@@ -165,15 +165,13 @@ static lrr_status read_whole(lrr_context *ctx, const char *name, const char *wha
     *data = NULL;
     *len = 0;
     char eb[128];
-    FILE *f = fopen(name, "rb");
+    FILE *f = NULL;
     struct stat st;
-    int e = f ? (fstat(fileno(f), &st) != 0 ? errno : S_ISDIR(st.st_mode) ? EISDIR : 0) : errno;
-    if (e) {
-        if (f)
-            fclose(f);
+    int e = lrr__open_regular(name, &f, &st);
+    if (e)
         return lrr__error(ctx, LRR_ERR_IO, "%s: cannot open %s: %s", what, name,
-                          lrr__errno_text(e, eb, sizeof eb));
-    }
+                          e == LRR__NOT_REGULAR ? LRR__NOT_REGULAR_TEXT
+                                                : lrr__errno_text(e, eb, sizeof eb));
     if (st.st_size <= 0 || (uint64_t)st.st_size > MAX_TEXTURE_FILE) {
         fclose(f);
         return lrr__error(ctx, LRR_ERR_FORMAT, "%s: %s has %lld bytes (not an image)", what,
@@ -718,7 +716,13 @@ static lrr_status import_file(lrr_context *ctx, const char *path, import_state *
     if (st != LRR_OK)
         return st;
     /* No post-processing: triangulation, normals and winding are ours (see the top). */
-    const struct aiScene *scene = aiImportFile(path, 0);
+    char refused[512];
+    const struct aiScene *scene = lrr__assimp_import(path, 0, refused, sizeof refused);
+    if (refused[0]) {
+        aiReleaseImport(scene);
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: %s: " LRR__NOT_REGULAR_TEXT, path,
+                          refused);
+    }
     if (!scene) {
         const char *why = aiGetErrorString();
         return lrr__error(ctx, LRR_ERR_FORMAT, "file %s: cannot import: %s", path,

@@ -1,0 +1,46 @@
+/* Regular files only, checked before anything can block (path.h says why). */
+#include "config.h"
+#include "core/path.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <unistd.h>
+
+static int classify(const struct stat *st)
+{
+    if (S_ISREG(st->st_mode))
+        return 0;
+    return S_ISDIR(st->st_mode) ? EISDIR : LRR__NOT_REGULAR;
+}
+
+int lrr__stat_regular(const char *path, struct stat *st)
+{
+    struct stat local;
+    if (!st)
+        st = &local;
+    if (stat(path, st) != 0)
+        return errno ? errno : EIO;
+    return classify(st);
+}
+
+int lrr__open_regular(const char *path, FILE **f, struct stat *st)
+{
+    struct stat local;
+    if (!st)
+        st = &local;
+    *f = NULL;
+    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
+    if (fd < 0)
+        return errno ? errno : EIO;
+    int e = fstat(fd, st) != 0 ? errno : classify(st);
+    int flags = e ? 0 : fcntl(fd, F_GETFL);
+    if (!e && (flags < 0 || fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0))
+        e = errno;
+    if (!e && !(*f = fdopen(fd, "rb")))
+        e = errno ? errno : ENOMEM;
+    if (e) {
+        close(fd);
+        return e;
+    }
+    return 0;
+}
