@@ -23,24 +23,33 @@ int lrr__stat_regular(const char *path, struct stat *st)
     return classify(st);
 }
 
-int lrr__open_regular(const char *path, FILE **f, struct stat *st)
+int lrr__open_regular_fd(const char *path, int *fd, struct stat *st)
 {
     struct stat local;
     if (!st)
         st = &local;
-    *f = NULL;
-    int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
-    if (fd < 0)
+    *fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
+    if (*fd < 0)
         return errno ? errno : EIO;
-    int e = fstat(fd, st) != 0 ? errno : classify(st);
-    int flags = e ? 0 : fcntl(fd, F_GETFL);
-    if (!e && (flags < 0 || fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) != 0))
+    int e = fstat(*fd, st) != 0 ? errno : classify(st);
+    int flags = e ? 0 : fcntl(*fd, F_GETFL);
+    if (!e && (flags < 0 || fcntl(*fd, F_SETFL, flags & ~O_NONBLOCK) != 0))
         e = errno;
-    if (!e && !(*f = fdopen(fd, "rb")))
-        e = errno ? errno : ENOMEM;
     if (e) {
-        close(fd);
-        return e;
+        close(*fd);
+        *fd = -1;
     }
-    return 0;
+    return e;
+}
+
+int lrr__open_regular(const char *path, FILE **f, struct stat *st)
+{
+    *f = NULL;
+    int fd;
+    int e = lrr__open_regular_fd(path, &fd, st);
+    if (!e && !(*f = fdopen(fd, "rb"))) {
+        e = errno ? errno : ENOMEM;
+        close(fd);
+    }
+    return e;
 }

@@ -30,6 +30,9 @@ extern "C" {
  * or, with *f = NULL: the errno of open/fstat, EISDIR for a directory, LRR__NOT_REGULAR for
  * anything else that is not a regular file. st may be NULL. */
 int lrr__open_regular(const char *path, FILE **f, struct stat *st);
+/* The same as a descriptor (O_RDONLY | O_CLOEXEC, blocking): 0 with *fd open, or the same
+ * codes with *fd = -1. */
+int lrr__open_regular_fd(const char *path, int *fd, struct stat *st);
 /* The same check by stat() without opening: 0, an errno, EISDIR or LRR__NOT_REGULAR. */
 int lrr__stat_regular(const char *path, struct stat *st);
 
