@@ -56,21 +56,13 @@ static void *field_at(void *target, size_t field)
     return (char *)target + (field - 1);
 }
 
-/* "X,Y,Z": three finite numbers; 0 or -1 (reported, naming opt). */
+/* cli_parse_vec3, reported naming opt; 0 or -1. */
 static int parse_vec3(const char *prog, const char *opt, const char *arg, double v[3])
 {
-    const char *p = arg;
-    for (int j = 0; j < 3; j++) {
-        char *end = NULL;
-        errno = 0;
-        v[j] = strtod(p, &end);
-        if (end == p || errno == ERANGE || !isfinite(v[j]) || *end != (j < 2 ? ',' : '\0')) {
-            cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
-            return -1;
-        }
-        p = end + 1;
-    }
-    return 0;
+    if (cli_parse_vec3(arg, v) == 0)
+        return 0;
+    cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
+    return -1;
 }
 
 /* "--NAME: 'ARG' is not one of a, b, c" lists each value once (aliases are left out). */
