@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 #include "commands.h"
@@ -65,6 +66,26 @@ static int parse_vec3(const char *prog, const char *opt, const char *arg, double
     return -1;
 }
 
+/* The words of ch without its aliases, each after prefix, joined by sep and the last by
+ * last_sep ("png|exr", ".glb or .ply"), into list. */
+static void choice_list(const cli_choice *ch, const char *prefix, const char *sep,
+                        const char *last_sep, char *list, size_t size)
+{
+    const char *word[CLI_MAX_OPTS];
+    size_t n = 0, len = 0;
+    for (size_t i = 0; ch[i].word && n < CLI_MAX_OPTS; i++) {
+        int alias = 0;
+        for (size_t j = 0; j < i; j++)
+            alias |= ch[j].value == ch[i].value;
+        if (!alias)
+            word[n++] = ch[i].word;
+    }
+    list[0] = '\0';
+    for (size_t i = 0; i < n && len < size; i++)
+        len += (size_t)snprintf(list + len, size - len, "%s%s%s",
+                                i == 0 ? "" : i + 1 == n ? last_sep : sep, prefix, word[i]);
+}
+
 /* "--NAME: 'ARG' is not one of a, b, c" lists each value once (aliases are left out). */
 static int parse_choice(const char *prog, const char *opt, const cli_choice *ch, const char *arg,
                         int *out)
@@ -74,17 +95,28 @@ static int parse_choice(const char *prog, const char *opt, const cli_choice *ch,
             *out = ch[i].value;
             return 0;
         }
-    char list[256] = "";
-    size_t len = 0;
-    for (size_t i = 0; ch[i].word; i++) {
-        int alias = 0;
-        for (size_t j = 0; j < i; j++)
-            alias |= ch[j].value == ch[i].value;
-        if (!alias && len < sizeof list)
-            len += (size_t)snprintf(list + len, sizeof list - len, "%s%s", len ? ", " : "",
-                                    ch[i].word);
-    }
+    char list[256];
+    choice_list(ch, "", ", ", ", ", list, sizeof list);
     cli_usage_error(prog, "%s: '%s' is not one of %s", opt, arg, list);
+    return -1;
+}
+
+int cli_output_format(const char *prog, const char *path, const cli_choice *exts,
+                      const char *kind, const cli_choice *formats, int *format)
+{
+    if (*format != 0)
+        return 0;
+    const char *dot = strrchr(path, '.');
+    for (size_t i = 0; dot && !strchr(dot, '/') && exts[i].word; i++)
+        if (strcasecmp(dot + 1, exts[i].word) == 0) {
+            *format = exts[i].value;
+            return 0;
+        }
+    char names[256], words[256];
+    choice_list(exts, ".", ", ", " or ", names, sizeof names);
+    choice_list(formats, "", "|", "|", words, sizeof words);
+    cli_usage_error(prog, "-o %s: unknown %s format (name it %s, or give --format %s)", path,
+                    kind, names, words);
     return -1;
 }
 
