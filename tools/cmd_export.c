@@ -93,7 +93,9 @@ static int parse_export(export_args *a, int argc, char *argv[])
     const cli_opt_group groups[] = {{export_opts, a}, {probe_opts, &a->pa}, {NULL, NULL}};
     const cli_command cmd = {prog, export_help, "FILE.lrr", groups};
     int rc = cli_parse_command(&cmd, argc, argv, &a->file);
-    if (rc == CLI_RUN && (cli_output_format(prog, a->output, extensions, "mesh", formats, &a->format) != 0 || probe_finish(&a->pa, prog) != 0))
+    if (rc == CLI_RUN &&
+        (cli_output_format(prog, a->output, extensions, "mesh", formats, &a->format) != 0 ||
+         probe_finish(&a->pa, prog) != 0))
         return CLI_EXIT_USAGE;
     return rc;
 }

@@ -72,8 +72,9 @@ static int parse_render(render_args *a, int argc, char *argv[])
         {render_opts, a}, {view_opts, &a->view}, {probe_opts, &a->pa}, {NULL, NULL}};
     const cli_command cmd = {prog, render_help, "FILE.lrr", groups};
     int rc = cli_parse_command(&cmd, argc, argv, &a->file);
-    if (rc == CLI_RUN && (probe_finish(&a->pa, prog) != 0 || view_finish(&a->view, prog) != 0 ||
-                          cli_output_format(prog, a->output, extensions, "picture", formats, &a->format) != 0))
+    if (rc == CLI_RUN &&
+        (probe_finish(&a->pa, prog) != 0 || view_finish(&a->view, prog) != 0 ||
+         cli_output_format(prog, a->output, extensions, "picture", formats, &a->format) != 0))
         return CLI_EXIT_USAGE;
     return rc;
 }
