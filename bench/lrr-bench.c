@@ -23,7 +23,8 @@
  *                       against a path-traced reference per region and facing, beside
  *                       lrr_operator_verify's figure (scenes.c, scenes_run.c,
  *                       scenes_out.c, judge.c)
- * What they share (messages, options, timing, bandwidth, the baselines) is in common.c.
+ * What they share (messages, options, timing, bandwidth, the baselines) is in
+ * bench_*.c (bench.h).
  *
  * Results go to stdout ('key: value' lines and aligned tables), progress to stderr. Exit
  * status: 0 success, 1 a failure (library error, I/O, a check that did not hold), 2 a
