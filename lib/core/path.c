@@ -29,8 +29,13 @@ int lrr__open_regular_fd(const char *path, int *fd, struct stat *st)
     if (!st)
         st = &local;
     *fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
-    if (*fd < 0)
-        return errno ? errno : EIO;
+    if (*fd < 0) {
+        /* a socket fails here (ENXIO): said as for any other file that is not regular */
+        int e = errno ? errno : EIO;
+        return stat(path, st) == 0 && !S_ISREG(st->st_mode) && !S_ISDIR(st->st_mode)
+                   ? LRR__NOT_REGULAR
+                   : e;
+    }
     int e = fstat(*fd, st) != 0 ? errno : classify(st);
     int flags = e ? 0 : fcntl(*fd, F_GETFL);
     if (!e && (flags < 0 || fcntl(*fd, F_SETFL, flags & ~O_NONBLOCK) != 0))

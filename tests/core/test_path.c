@@ -9,7 +9,9 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 /* A test that blocks more than this is killed by SIGALRM; each one takes milliseconds. */
@@ -60,7 +62,7 @@ static int teardown(void **state)
     alarm(0);
     static const char *const names[] = {"f.obj", "f.lrr", "f.hdr", "f.exr", "f.gltf",
                                         "m.obj", "m.mtl", "t.obj", "t.mtl", "t.png",
-                                        "b.gltf", "b.bin", "r.txt", "d"};
+                                        "b.gltf", "b.bin", "r.txt", "d", "sock"};
     for (size_t i = 0; i < sizeof names / sizeof *names; i++) {
         char p[640];
         at(s, names[i], p, sizeof p);
@@ -101,6 +103,19 @@ static void test_helper(void **state)
     assert_int_equal(mkdir(p, 0700), 0);
     assert_int_equal(lrr__open_regular(p, &f, NULL), EISDIR);
     assert_int_equal(lrr__stat_regular(p, NULL), EISDIR);
+    /* a socket: open() fails (ENXIO), the same words all the same */
+    at(s, "sock", p, sizeof p);
+    int sk = socket(AF_UNIX, SOCK_STREAM, 0);
+    assert_true(sk >= 0);
+    struct sockaddr_un sa = {.sun_family = AF_UNIX};
+    if (strlen(p) < sizeof sa.sun_path) {
+        memcpy(sa.sun_path, p, strlen(p) + 1);
+        assert_int_equal(bind(sk, (const struct sockaddr *)&sa, sizeof sa), 0);
+        assert_int_equal(lrr__open_regular(p, &f, NULL), LRR__NOT_REGULAR);
+        assert_int_equal(lrr__stat_regular(p, NULL), LRR__NOT_REGULAR);
+        remove(p);
+    }
+    close(sk);
     at(s, "missing", p, sizeof p);
     assert_int_equal(lrr__open_regular(p, &f, NULL), ENOENT);
     /* a regular file opens, blocking reads (O_NONBLOCK cleared), its size in st */
