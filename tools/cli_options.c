@@ -7,7 +7,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <strings.h>
 #include <unistd.h>
 
 #include "commands.h"
@@ -106,9 +105,8 @@ int cli_output_format(const char *prog, const char *path, const cli_choice *exts
 {
     if (*format != 0)
         return 0;
-    const char *dot = strrchr(path, '.');
-    for (size_t i = 0; dot && !strchr(dot, '/') && exts[i].word; i++)
-        if (strcasecmp(dot + 1, exts[i].word) == 0) {
+    for (size_t i = 0; exts[i].word; i++)
+        if (lrr__path_has_extension(path, exts[i].word)) {
             *format = exts[i].value;
             return 0;
         }

@@ -4,6 +4,8 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <string.h>
+#include <strings.h>
 #include <unistd.h>
 
 static int classify(const struct stat *st)
@@ -57,4 +59,11 @@ int lrr__open_regular(const char *path, FILE **f, struct stat *st)
         close(fd);
     }
     return e;
+}
+
+int lrr__path_has_extension(const char *path, const char *ext)
+{
+    const char *dot = strrchr(path, '.');
+    const char *slash = strrchr(path, '/');
+    return dot && (!slash || dot > slash) && strcasecmp(dot + 1, ext) == 0;
 }

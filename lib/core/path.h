@@ -36,6 +36,9 @@ int lrr__open_regular_fd(const char *path, int *fd, struct stat *st);
 /* The same check by stat() without opening: 0, an errno, EISDIR or LRR__NOT_REGULAR. */
 int lrr__stat_regular(const char *path, struct stat *st);
 
+/* Whether path's extension (after the last '.' of its last component) is ext, any case. */
+int lrr__path_has_extension(const char *path, const char *ext);
+
 #ifdef __cplusplus
 }
 #endif
