@@ -192,14 +192,14 @@ static int write_adaptive_csv(const char *path, const adaptive_args *a, const ad
                             r->selection_s, r->selection_share, r->rt.median,
                             r->rt.min,     r->rt.max};
         for (size_t j = 0; j < sizeof v / sizeof v[0]; j++)
-            csv_num(out.f, v[j], 0);
+            bench_csv_num(out.f, v[j], 0);
         fprintf(out.f, "%zu,", r->rt.runs);
-        csv_num(out.f, r->cond_max, 0);
-        csv_num(out.f, r->mem_mb, 0);
+        bench_csv_num(out.f, r->cond_max, 0);
+        bench_csv_num(out.f, r->mem_mb, 0);
         fprintf(out.f, "%u,%zu,%llu,", a->hemicube, a->samples, (unsigned long long)a->seed);
-        csv_num(out.f, r->reference_s, 0);
-        csv_num(out.f, r->reference_residual, 0);
-        csv_num(out.f, r->rel_l2_plain, 1);
+        bench_csv_num(out.f, r->reference_s, 0);
+        bench_csv_num(out.f, r->reference_residual, 0);
+        bench_csv_num(out.f, r->rel_l2_plain, 1);
     }
     if (cli_outfile_commit(&out) != 0)
         return bench_fail("cannot write '%s': %s", path, strerror(errno));
@@ -289,7 +289,7 @@ static int adaptive_parse(int argc, char *argv[], adaptive_args *a)
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     size_t mib = DEFAULT_BUDGET_MIB;
-    start_getopt();
+    bench_start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
         switch (c) {
@@ -348,10 +348,10 @@ static int adaptive_parse(int argc, char *argv[], adaptive_args *a)
             a->plot = optarg;
             break;
         default:
-            return bad_option(prog, c, argv);
+            return bench_bad_option(prog, c, argv);
         }
     }
-    if (no_positional(prog, argc, argv))
+    if (bench_no_positional(prog, argc, argv))
         return CLI_EXIT_USAGE;
     if ((a->csv && !a->csv[0]) || (a->plot && !a->plot[0])) {
         cli_usage_error(prog, "--csv/--plot: the file name is empty");
@@ -364,7 +364,7 @@ static int adaptive_parse(int argc, char *argv[], adaptive_args *a)
 static void adaptive_print_setup(const adaptive_args *a)
 {
     printf("benchmark: adaptive\n");
-    print_machine();
+    bench_print_machine();
     printf("scenes:");
     for (size_t i = 0; i < a->n_scenes; i++)
         printf(" %s", a->scenes[i]);
@@ -437,11 +437,11 @@ static int adaptive_run(const adaptive_args *a)
     lrr_context *ctx = NULL;
     lrr_status st = lrr_context_create(&ctx);
     if (st != LRR_OK)
-        return lib_fail(NULL, st, "context");
+        return bench_lib_fail(NULL, st, "context");
     /* every scene must be readable before the long measurements */
     for (size_t i = 0; i < a->n_scenes; i++) {
         lrr_scene *probe = NULL;
-        int rc = open_scene(ctx, a->scenes[i], &probe);
+        int rc = bench_open_scene(ctx, a->scenes[i], &probe);
         lrr_scene_destroy(probe);
         if (rc) {
             lrr_context_destroy(ctx);

@@ -93,13 +93,13 @@ static int scene_setup(lrr_context *ctx, const adaptive_args *a, const char *nam
 {
     memset(s, 0, sizeof *s);
     s->reference_s = s->reference_residual = NAN;
-    int rc = open_scene(ctx, name, &s->scene);
+    int rc = bench_open_scene(ctx, name, &s->scene);
     if (rc)
         return rc;
     lrr_subdivision sub = {.target_patches = a->subpatches};
     lrr_status st = lrr_scene_subdivide(s->scene, &sub);
     if (st != LRR_OK)
-        return lib_fail(ctx, st, "subdivision");
+        return bench_lib_fail(ctx, st, "subdivision");
     lrr_scene_info si;
     lrr_scene_get_info(s->scene, &si, sizeof si);
     s->n = si.subpatches;
@@ -118,22 +118,23 @@ static int scene_setup(lrr_context *ctx, const adaptive_args *a, const char *nam
         return bench_fail("%s: out of memory", label);
     if ((st = lrr_scene_subpatches(s->scene, s->centre, s->normal, s->area, NULL, s->eref)) !=
         LRR_OK)
-        return lib_fail(ctx, st, "subpatches");
+        return bench_lib_fail(ctx, st, "subpatches");
 
     size_t need = lrr_reference_bytes(s->n);
     if (need == SIZE_MAX || need > a->memory_budget) {
         char nb[32], bb[32];
         snprintf(s->note, sizeof s->note, "n×n needs %s > budget %s",
-                 need == SIZE_MAX ? "more than SIZE_MAX bytes" : fmt_bytes(nb, sizeof nb, need),
-                 fmt_bytes(bb, sizeof bb, a->memory_budget));
-        note("%s: no reference: %s", label, s->note);
+                 need == SIZE_MAX ? "more than SIZE_MAX bytes"
+                                  : bench_fmt_bytes(nb, sizeof nb, need),
+                 bench_fmt_bytes(bb, sizeof bb, a->memory_budget));
+        bench_note("%s: no reference: %s", label, s->note);
         return CLI_EXIT_OK;
     }
-    note("%s: %zu triangles, n = %zu subpatches; reference: n×n form factors (%.1f MB)",
-         label, s->triangles, s->n, (double)need / MB);
+    bench_note("%s: %zu triangles, n = %zu subpatches; reference: n×n form factors (%.1f MB)",
+               label, s->triangles, s->n, (double)need / MB);
     lrr_build_options bo = {.hemicube_resolution = a->hemicube, .seed = a->seed};
     cli_progress bar;
-    progress_begin(&bar, "n×n hemicubes", &bo);
+    bench_progress_begin(&bar, "n×n hemicubes", &bo);
     lrr_reference *ref = NULL;
     double t0 = cli_now();
     st = lrr_reference_build(s->scene, &bo, a->memory_budget, &ref);
@@ -142,11 +143,11 @@ static int scene_setup(lrr_context *ctx, const adaptive_args *a, const char *nam
         char msg[256] = "";
         lrr_context_last_error(ctx, msg, sizeof msg);
         snprintf(s->note, sizeof s->note, "reference refused: %s", msg);
-        note("%s: %s", label, s->note);
+        bench_note("%s: %s", label, s->note);
         return CLI_EXIT_OK;
     }
     if (st != LRR_OK)
-        return lib_fail(ctx, st, "reference build");
+        return bench_lib_fail(ctx, st, "reference build");
     lrr_reference_stats rs = {0};
     st = lrr_reference_solve(ref, LRR_METHOD_GAUSS_SEIDEL, REFERENCE_TOL, 0,
                              lrr_reference_emission(ref), s->bref, &rs, sizeof rs);
@@ -155,14 +156,14 @@ static int scene_setup(lrr_context *ctx, const adaptive_args *a, const char *nam
     memcpy(s->eref, lrr_reference_emission(ref), 3 * s->n * sizeof *s->eref);
     lrr_reference_destroy(ref);
     if (st != LRR_OK && st != LRR_NOT_CONVERGED)
-        return lib_fail(ctx, st, "Gauss-Seidel reference solve");
+        return bench_lib_fail(ctx, st, "Gauss-Seidel reference solve");
     if (st == LRR_NOT_CONVERGED) {
         lrr_context_last_error(ctx, NULL, 0);
         snprintf(s->note, sizeof s->note, "Gauss-Seidel stopped at residual %.2g after %zu",
                  rs.residual, rs.iterations);
     }
-    note("%s: reference: Gauss-Seidel %zu sweeps, residual %.2g, %.1f s with F", label,
-         rs.iterations, rs.residual, s->reference_s);
+    bench_note("%s: reference: Gauss-Seidel %zu sweeps, residual %.2g, %.1f s with F", label,
+               rs.iterations, rs.residual, s->reference_s);
     s->have_ref = 1;
     return CLI_EXIT_OK;
 }
@@ -192,13 +193,13 @@ static int measure(lrr_context *ctx, const adaptive_args *a, const scene_ref *s,
     size_t *perm = NULL;
     int rc = CLI_EXIT_OK;
     cli_progress bar;
-    progress_begin(&bar, "hemicubes", &bo);
+    bench_progress_begin(&bar, "hemicubes", &bo);
     double t0 = cli_now();
     lrr_status st = lrr_operator_build(scene, &bo, &op);
     r->preprocess_s = cli_now() - t0;
     cli_progress_finish(&bar);
     if (st != LRR_OK)
-        return lib_fail(ctx, st, "operator build");
+        return bench_lib_fail(ctx, st, "operator build");
     lrr_operator_info oi;
     lrr_operator_get_info(op, &oi, sizeof oi);
     r->k = oi.k;
@@ -221,8 +222,8 @@ static int measure(lrr_context *ctx, const adaptive_args *a, const scene_ref *s,
                         label, oi.k, budget);
         goto done;
     }
-    note("%s: k = %zu (d %zu..%zu), built in %.2f s (selection %.3f s); timing", label, oi.k,
-         oi.d_min, oi.d_max, r->preprocess_s, r->selection_s);
+    bench_note("%s: k = %zu (d %zu..%zu), built in %.2f s (selection %.3f s); timing", label, oi.k,
+               oi.d_min, oi.d_max, r->preprocess_s, r->selection_s);
 
     const float *e = lrr_operator_emission(op);
     b = cli_alloc_rgb(s->n);
@@ -234,12 +235,12 @@ static int measure(lrr_context *ctx, const adaptive_args *a, const scene_ref *s,
     }
     if ((st = lrr_solver_create(op, LRR_BACKEND_CPU, &solver)) != LRR_OK ||
         (st = lrr_solver_set_path(solver, LRR_PATH_FULL)) != LRR_OK) {
-        rc = lib_fail(ctx, st, "solver");
+        rc = bench_lib_fail(ctx, st, "solver");
         goto done;
     }
     ours_frame of = {solver, e, NULL, b, LRR_OK, 0};
-    if (time_frames(ours_step, &of, a->repeat, &r->rt)) {
-        rc = of.status != LRR_OK ? lib_fail(ctx, of.status, "lrr_solve") : CLI_EXIT_FAIL;
+    if (bench_time_frames(bench_ours_step, &of, a->repeat, &r->rt)) {
+        rc = of.status != LRR_OK ? bench_lib_fail(ctx, of.status, "lrr_solve") : CLI_EXIT_FAIL;
         goto done;
     }
     for (size_t i = 0; i < 3 * s->n; i++)
@@ -261,9 +262,9 @@ static int measure(lrr_context *ctx, const adaptive_args *a, const scene_ref *s,
     for (size_t i = 0; i < s->n; i++)
         for (int c = 0; c < 3; c++)
             bm[3 * perm[i] + c] = b[3 * i + c];
-    compare_b(s->n, s->area, bm, s->bref, NULL, &r->rel_l2, &r->max_rel);
-    compare_b(s->n, s->area, bm, s->bref, s->eref, &r->rel_l2_reflected, NULL);
-    compare_b(s->n, NULL, bm, s->bref, NULL, &r->rel_l2_plain, NULL);
+    bench_compare_b(s->n, s->area, bm, s->bref, NULL, &r->rel_l2, &r->max_rel);
+    bench_compare_b(s->n, s->area, bm, s->bref, s->eref, &r->rel_l2_reflected, NULL);
+    bench_compare_b(s->n, NULL, bm, s->bref, NULL, &r->rel_l2_plain, NULL);
 done:
     lrr_solver_destroy(solver);
     lrr_operator_destroy(op);
@@ -331,8 +332,8 @@ static void print_row(const adaptive_row *r)
     else
         snprintf(share, sizeof share, "%.1f", 100.0 * r->selection_share);
     char med[32], lo[32];
-    snprintf(rt, sizeof rt, "%s (%s)", fmt_ms(med, sizeof med, r->rt.median),
-             fmt_ms(lo, sizeof lo, r->rt.min));
+    snprintf(rt, sizeof rt, "%s (%s)", bench_fmt_ms(med, sizeof med, r->rt.median),
+             bench_fmt_ms(lo, sizeof lo, r->rt.min));
     printf("| %-10s | %5zu | %6s | %-8s | %5zu | %5zu | %5zu | %9s | %9s | %6s | %7.2f | %7.3f | "
            "%6s | %17s |\n",
            r->scene, r->n, budget, r->split, r->k, r->d_min, r->d_max, e1, e2, ratio,
@@ -383,7 +384,7 @@ static int scene_levels(lrr_context *ctx, adaptive_scene *sc)
     /* the standard uniform operator, where it has the same subpatches */
     for (unsigned L = 1; L <= MAX_LEVELS; L++) {
         lrr_scene *other = NULL;
-        if ((rc = open_scene(ctx, sc->name, &other)))
+        if ((rc = bench_open_scene(ctx, sc->name, &other)))
             break;
         double scale = (double)(1u << (2 * L));
         lrr_subdivision sub = {.max_patch_area = s->max_patch_area * scale, .levels = L};
@@ -469,13 +470,13 @@ static int levels_rows(lrr_context *ctx, const adaptive_args *a, const adaptive_
     for (size_t j = 0; j < sc->n_levels && rc == CLI_EXIT_OK; j++) {
         unsigned L = (unsigned)sc->levels[j];
         lrr_scene *other = NULL;
-        if ((rc = open_scene(ctx, sc->name, &other)))
+        if ((rc = bench_open_scene(ctx, sc->name, &other)))
             break;
         lrr_subdivision sub = {.max_patch_area = s->max_patch_area * (double)(1u << (2 * L)),
                                .levels = L};
         lrr_status st;
         if ((st = lrr_scene_subdivide(other, &sub)) != LRR_OK) {
-            rc = lib_fail(ctx, st, "subdivision");
+            rc = bench_lib_fail(ctx, st, "subdivision");
             lrr_scene_destroy(other);
             break;
         }

@@ -1,8 +1,9 @@
 /*
- * Shared parts of lrr-bench (common.c): messages, option helpers, the machine description,
- * scenes, timing, cache size and read bandwidth, the real-time steps that the benchmarks
- * compare (lrr_solve, the paper's method, plain sgemv), comparison of radiosities and
- * number formatting. One file per command: table.c, stress.c, hemicube.c, realtime.c,
+ * Shared parts of lrr-bench, each name with the prefix bench_: messages, option helpers,
+ * scenes, comparison of radiosities and number formatting (bench_util.c), the machine
+ * description and cache size (bench_machine.c), timing and the lrr_solve and sgemv steps
+ * (bench_timing.c), read bandwidth (bench_bandwidth.c), OpenCL (bench_opencl.c) and the
+ * paper's method (bench_paper.c). One file per command: table.c, stress.c, hemicube.c, realtime.c,
  * probes.c, adaptive.c, scenes.c, lights.c; four of them measure in a second file (table_cell.c,
  * realtime_cell.c, adaptive_scene.c, scenes_run.c; scenes writes its output in scenes_out.c
  * and judges accuracy in judge.c), and what the files of a command share is declared at
@@ -67,38 +68,39 @@ int cmd_probes(int argc, char *argv[]);
 int cmd_adaptive(int argc, char *argv[]);
 int cmd_scenes(int argc, char *argv[]);
 int cmd_lights(int argc, char *argv[]);
+int cmd_raycast(int argc, char *argv[]);
 
 /* ------------------------------------------------------------------ messages */
 /* "lrr-bench: <message>" on stderr; returns CLI_EXIT_FAIL. */
 int bench_fail(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 /* "lrr-bench: <what>: <status>: <library message>"; returns CLI_EXIT_FAIL. */
-int lib_fail(lrr_context *ctx, lrr_status s, const char *what);
+int bench_lib_fail(lrr_context *ctx, lrr_status s, const char *what);
 /* Ends a CSV from cli_outfile_open: committed when rc is CLI_EXIT_OK ("csv: path" on stdout),
  * else discarded. Returns rc, or the failure to write it. */
 int bench_csv_finish(cli_outfile *out, int rc, const char *path);
 /* A progress line on stderr. */
-void note(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+void bench_note(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
 /* ------------------------------------------------------------------ options */
 /* Reports getopt_long's ':' or '?' and returns CLI_EXIT_USAGE. */
-int bad_option(const char *prog, int c, char *const argv[]);
+int bench_bad_option(const char *prog, int c, char *const argv[]);
 /* Resets getopt for a subcommand (opterr off, glibc re-initialised). */
-void start_getopt(void);
+void bench_start_getopt(void);
 /* Non-zero (after a usage message) when positional arguments are left. */
-int no_positional(const char *prog, int argc, char *const argv[]);
+int bench_no_positional(const char *prog, int argc, char *const argv[]);
 /* What a command's option parser returns when the command is to run; any other value is the
  * exit status (CLI_EXIT_OK after --help, CLI_EXIT_USAGE, ...). */
 #define BENCH_RUN (-1)
 
 /* ------------------------------------------------------------------ machine, scenes */
 /* cpu, cores, threads, OpenBLAS, lrr version, date and load as 'key: value' lines. */
-void print_machine(void);
+void bench_print_machine(void);
 /* A scene file, or a built-in name; CLI_EXIT_OK or a reported failure. */
-int open_scene(lrr_context *ctx, const char *name, lrr_scene **scene);
+int bench_open_scene(lrr_context *ctx, const char *name, lrr_scene **scene);
 /* levels with 4^levels = d, or -1 */
-int levels_of(size_t d);
+int bench_levels_of(size_t d);
 /* Progress on stderr: a bar on a terminal, nothing otherwise (phase lines say enough). */
-void progress_begin(cli_progress *bar, const char *label, lrr_build_options *bo);
+void bench_progress_begin(cli_progress *bar, const char *label, lrr_build_options *bo);
 
 /* ------------------------------------------------------------------ timing */
 typedef struct timing {
@@ -110,17 +112,17 @@ typedef int (*frame_fn)(void *user);
 
 /* Two warm-up runs, then `repeat` timed runs (0: adaptive, at least MIN_RUNS and at least
  * MIN_SECONDS in all). Returns 0 or the frame's non-zero status. */
-int time_frames(frame_fn fn, void *user, unsigned repeat, timing *t);
+int bench_time_frames(frame_fn fn, void *user, unsigned repeat, timing *t);
 /* min, max and median of runs ≥ 1 samples (ms); v is reordered. */
-void timing_from_samples(double *v, size_t runs, timing *t);
+void bench_timing_from_samples(double *v, size_t runs, timing *t);
 
 /* Size of the last-level cache in bytes (the highest cache index sysfs lists), 0 if unknown. */
-size_t llc_bytes(void);
+size_t bench_llc_bytes(void);
 /* Bytes of the bandwidth buffer: 4 × the last-level cache, at least 512 MiB, at most 4 GiB. */
-size_t bandwidth_buffer_bytes(void);
+size_t bench_bandwidth_buffer_bytes(void);
 /* Read bandwidth in bytes per second (0 on failure): an OpenMP sum, the best of
  * BANDWIDTH_PASSES passes of each read loop the CPU runs (portable, AVX2, AVX-512). */
-double measure_bandwidth(size_t bytes);
+double bench_measure_bandwidth(size_t bytes);
 
 /* ------------------------------------------------------------------ real-time steps */
 typedef struct ours_frame {
@@ -132,9 +134,9 @@ typedef struct ours_frame {
 } ours_frame;
 
 /* One lrr_solve (a frame_fn on an ours_frame). */
-int ours_step(void *user);
+int bench_ours_step(void *user);
 /* "full", "sparse", "incremental", "auto" */
-const char *path_name(lrr_path p);
+const char *bench_path_name(lrr_path p);
 
 /* The paper's real-time step: B_c = E_c - Y_c (Vᵀ E_c), channels stored planar. */
 typedef struct paper_frame {
@@ -145,13 +147,13 @@ typedef struct paper_frame {
     float *w;        /* k */
 } paper_frame;
 
-int paper_step(void *user);
-void paper_free(paper_frame *f);
+int bench_paper_step(void *user);
+void bench_paper_free(paper_frame *f);
 /* a×b zeroed floats, 64-byte aligned (lrr_aligned_free); NULL on overflow or failure */
-float *alloc_floats(size_t a, size_t b);
+float *bench_alloc_floats(size_t a, size_t b);
 float *bench_fbar_rows(const lrr_operator *op);
 /* Builds the paper's Y_c and V from the operator (sgemm, outside any timing). */
-int paper_setup(const lrr_operator *op, const float *e, paper_frame *f);
+int bench_paper_setup(const lrr_operator *op, const float *e, paper_frame *f);
 
 /* Three sgemv over F̄, one per channel, nothing else. */
 typedef struct sgemv_frame {
@@ -161,11 +163,11 @@ typedef struct sgemv_frame {
     float *rows; /* the row-major copy fbar points to, when owned (bench_fbar_rows) */
 } sgemv_frame;
 
-int sgemv_step(void *user);
+int bench_sgemv_step(void *user);
 
 /* ------------------------------------------------------------------ OpenCL */
 /* --backend cpu|opencl: *opencl = 0 or 1; -1 after a usage message. */
-int parse_backend(const char *prog, const char *text, int *opencl);
+int bench_parse_backend(const char *prog, const char *text, int *opencl);
 /* The context of a table or realtime run, after checking that the scene can be read and,
  * with opencl, that an OpenCL solver can be created (so a bad setup fails before the long
  * measurements). Returns CLI_EXIT_OK or the exit status, having printed why. */
@@ -173,7 +175,7 @@ int bench_start(const char *scene, int opencl, lrr_context **out);
 /* Whether an OpenCL solver can be created (on a one-triangle operator): CLI_EXIT_OK, or
  * "lrr-bench: --backend opencl: <library message>" (e.g. no OpenCL platform) and
  * CLI_EXIT_FAIL. */
-int opencl_probe(lrr_context *ctx);
+int bench_opencl_probe(lrr_context *ctx);
 /* A frame_fn: lrr_solve on an OpenCL solver, then its lrr_solver_timings, appended to
  * kernel_ms/transfer_ms (at most cap frames). */
 typedef struct cl_frame {
@@ -181,24 +183,24 @@ typedef struct cl_frame {
     double *kernel_ms, *transfer_ms;
     size_t cap, count;
 } cl_frame;
-int cl_step(void *user);
+int bench_cl_step(void *user);
 /* Median of the last `runs` recorded timings of a cl_frame (reorders them). */
-void cl_medians(cl_frame *f, size_t runs, double *kernel_ms, double *transfer_ms);
+void bench_cl_medians(cl_frame *f, size_t runs, double *kernel_ms, double *transfer_ms);
 /* The solver's lrr_solver_kernel, commas replaced, into buf. */
-const char *cl_device_name(const lrr_solver *s, char *buf, size_t len);
+const char *bench_cl_device_name(const lrr_solver *s, char *buf, size_t len);
 
 /* ------------------------------------------------------------------ comparison, formatting */
 /* Area-weighted relative L2 over all channels (area NULL: unweighted) and the largest
  * relative error over entries above 1e-3 of the largest reference value (max_rel may be
  * NULL). With e the emission is subtracted from both (the reflected part only). */
-void compare_b(size_t n, const float *area, const float *b, const float *ref, const float *e,
-               double *rel_l2, double *max_rel);
+void bench_compare_b(size_t n, const float *area, const float *b, const float *ref, const float *e,
+                     double *rel_l2, double *max_rel);
 /* 12.2 GB, 4.3 GB, 35.4 MB: decimal units */
-const char *fmt_bytes(char *buf, size_t len, size_t bytes);
+const char *bench_fmt_bytes(char *buf, size_t len, size_t bytes);
 /* milliseconds with 3 significant-ish digits; "-" for NaN */
-const char *fmt_ms(char *buf, size_t len, double v);
+const char *bench_fmt_ms(char *buf, size_t len, double v);
 /* a CSV number (%.6g, nan, inf) followed by ',' or, when last, '\n' */
-void csv_num(FILE *f, double v, int last);
+void bench_csv_num(FILE *f, double v, int last);
 
 /* ------------------------------------------------------------------ table.c, table_cell.c */
 /* Gauss-Seidel tolerance of the n×n references (table and adaptive) */

@@ -139,7 +139,7 @@ static int square_form_factor(lrr_context *ctx, const square_pair *sp, unsigned 
     out->build_s = cli_now() - t0;
     lrr_scene_destroy(scene);
     if (s != LRR_OK)
-        return lib_fail(ctx, s, "squares");
+        return bench_lib_fail(ctx, s, "squares");
     lrr_operator_info oi;
     lrr_operator_get_info(op, &oi, sizeof oi);
     const float *fbar = lrr_operator_fbar(op), *area = lrr_operator_area(op);
@@ -178,7 +178,7 @@ static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, int no_rota
         s = lrr_scene_subdivide(scene, &(lrr_subdivision){.target_patches = 216, .levels = 1});
     lrr_build_options bo = {.hemicube_resolution = R, .seed = seed, .no_rotation = no_rotation};
     cli_progress bar;
-    progress_begin(&bar, "hemicubes", &bo);
+    bench_progress_begin(&bar, "hemicubes", &bo);
     cli_idle_openblas(); /* the last build's SMW left OpenBLAS's workers spinning */
     double t0 = cli_now();
     if (s == LRR_OK)
@@ -188,7 +188,7 @@ static int cornell_fbar(lrr_context *ctx, unsigned R, uint64_t seed, int no_rota
         s = lrr_operator_set_layout(*op, LRR_LAYOUT_ROWS);
     cli_progress_finish(&bar);
     lrr_scene_destroy(scene);
-    return s == LRR_OK ? 0 : lib_fail(ctx, s, "Cornell box");
+    return s == LRR_OK ? 0 : bench_lib_fail(ctx, s, "Cornell box");
 }
 
 typedef struct hemicube_args {
@@ -212,7 +212,7 @@ static int hemicube_parse(int argc, char *argv[], hemicube_args *a)
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
     int have_seeds = 0, have_builds = 0;
-    start_getopt();
+    bench_start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
         switch (c) {
@@ -239,10 +239,10 @@ static int hemicube_parse(int argc, char *argv[], hemicube_args *a)
             have_builds = 1;
             break;
         default:
-            return bad_option(prog, c, argv);
+            return bench_bad_option(prog, c, argv);
         }
     }
-    if (no_positional(prog, argc, argv))
+    if (bench_no_positional(prog, argc, argv))
         return CLI_EXIT_USAGE;
     if (a->csv && !a->csv[0]) {
         cli_usage_error(prog, "--csv: the file name is empty");
@@ -294,17 +294,17 @@ int cmd_hemicube(int argc, char *argv[])
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
-        return lib_fail(NULL, s, "context");
+        return bench_lib_fail(NULL, s, "context");
     double t_start = cli_now();
     const double par_exact = parallel_closed_form(1, 1);
     const double perp_exact = perpendicular_closed_form(1, 1);
     printf("benchmark: hemicube\n");
-    print_machine();
+    bench_print_machine();
     printf("rotation: with (one row per seed) and without (lrr_build_options.no_rotation)\n");
     printf("closed_form_parallel: %.6f\n", par_exact);
     printf("closed_form_perpendicular: %.6f\n", perp_exact);
     printf("square_subpatches: %u per triangle (levels %u)\n", 1u << (2 * levels), levels);
-    note("Cornell box reference build at R = %u", ref_res);
+    bench_note("Cornell box reference build at R = %u", ref_res);
     lrr_operator *ref = NULL;
     double ref_s = 0;
     if (cornell_fbar(ctx, ref_res, 1, 0, &ref, &ref_s)) {
@@ -338,7 +338,7 @@ int cmd_hemicube(int argc, char *argv[])
             /* seeds 1..N with the rotation, then one row without it (its seed is moot) */
             const int norot = sd == seeds + 1;
             unsigned R = res[i];
-            note("R = %u, %s %u", R, norot ? "no rotation, row" : "seed", sd);
+            bench_note("R = %u, %s %u", R, norot ? "no rotation, row" : "seed", sd);
             ff_result par, perp;
             if ((rc = square_form_factor(ctx, &parallel_pair, levels, R, sd, norot, &par)) ||
                 (rc = square_form_factor(ctx, &perpendicular_pair, levels, R, sd, norot, &perp)))

@@ -27,7 +27,7 @@ static int rate_runs(lrr_context *ctx, lrr_scene *scene, unsigned R, int threads
         cli_idle_openblas(); /* the last build's SMW left OpenBLAS's workers spinning */
         lrr_status s = lrr_operator_build(scene, &bo, &op);
         if (s != LRR_OK)
-            return lib_fail(ctx, s, "Cornell box build");
+            return bench_lib_fail(ctx, s, "Cornell box build");
         lrr_operator_info info;
         lrr_operator_get_info(op, &info, sizeof info);
         seconds[b] = info.formfactor_seconds;
@@ -58,8 +58,8 @@ static int rates_table(lrr_context *ctx, lrr_scene *scene, unsigned builds, int 
     for (size_t i = 0; i < n_res; i++)
         for (int t = 0; t < n_threads; t++) {
             size_t n = 0;
-            note("R = %u, %d thread%s, %u builds", res[i], threads[t], threads[t] > 1 ? "s" : "",
-                 builds);
+            bench_note("R = %u, %d thread%s, %u builds", res[i], threads[t],
+                       threads[t] > 1 ? "s" : "", builds);
             int rc = rate_runs(ctx, scene, res[i], threads[t], builds, sec, &n);
             if (rc)
                 return rc;
@@ -82,17 +82,17 @@ int hemicube_rates(const char *csv, unsigned builds, int quick)
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
-        return lib_fail(NULL, s, "context");
+        return bench_lib_fail(NULL, s, "context");
     lrr_scene *scene = NULL;
     if ((s = lrr_scene_builtin(ctx, "cornell", &scene)) == LRR_OK)
         s = lrr_scene_subdivide(scene, &(lrr_subdivision){.target_patches = 216, .levels = 2});
-    int rc = s == LRR_OK ? CLI_EXIT_OK : lib_fail(ctx, s, "Cornell box");
+    int rc = s == LRR_OK ? CLI_EXIT_OK : bench_lib_fail(ctx, s, "Cornell box");
     cli_outfile out;
     if (rc == CLI_EXIT_OK && csv && cli_outfile_open(&out, csv) != 0)
         rc = bench_fail("cannot create a temporary file for '%s': %s", csv, strerror(errno));
     if (rc == CLI_EXIT_OK) {
         printf("benchmark: hemicube rates\n");
-        print_machine();
+        bench_print_machine();
         printf("scene: cornell, 216 patches, levels 2 (as 'lrr preprocess cornell --patches "
                "216 --levels 2 --hemicube R --threads T')\n");
         printf("builds: %u per row; seconds = formfactor_seconds (the hemicubes alone)\n",

@@ -161,7 +161,7 @@ static int parse_lights(int argc, char *argv[], const char **file, size_t *count
                                              {NULL, 0, NULL, 0}};
     const char *prog = "lrr-bench lights";
     size_t rep = 0;
-    start_getopt();
+    bench_start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
         switch (c) {
@@ -176,10 +176,10 @@ static int parse_lights(int argc, char *argv[], const char **file, size_t *count
             *repeat = (unsigned)rep;
             break;
         case 'h': fputs(lights_help, stdout); return CLI_EXIT_OK;
-        default: return bad_option(prog, c, argv);
+        default: return bench_bad_option(prog, c, argv);
         }
     }
-    return no_positional(prog, argc, argv) ? CLI_EXIT_USAGE : BENCH_RUN;
+    return bench_no_positional(prog, argc, argv) ? CLI_EXIT_USAGE : BENCH_RUN;
 }
 
 /* The operator: from the file, or the Cornell box built here. */
@@ -187,10 +187,10 @@ static int get_operator(lrr_context *ctx, const char *file, lrr_operator **op)
 {
     lrr_status s;
     if (file)
-        return (s = lrr_operator_load(ctx, file, op)) ? lib_fail(ctx, s, file) : CLI_EXIT_OK;
+        return (s = lrr_operator_load(ctx, file, op)) ? bench_lib_fail(ctx, s, file) : CLI_EXIT_OK;
     lrr_scene *sc;
     if ((s = lrr_scene_builtin(ctx, "cornell", &sc)))
-        return lib_fail(ctx, s, "cornell");
+        return bench_lib_fail(ctx, s, "cornell");
     lrr_subdivision sd = lrr_subdivision_defaults();
     sd.target_patches = 216;
     sd.levels = 2;
@@ -199,7 +199,7 @@ static int get_operator(lrr_context *ctx, const char *file, lrr_operator **op)
     if (!(s = lrr_scene_subdivide(sc, &sd)))
         s = lrr_operator_build(sc, &bo, op);
     lrr_scene_destroy(sc);
-    return s ? lib_fail(ctx, s, "building the Cornell box") : CLI_EXIT_OK;
+    return s ? bench_lib_fail(ctx, s, "building the Cornell box") : CLI_EXIT_OK;
 }
 
 static void bounds(const lrr_operator *op, size_t n, float lo[3], float hi[3])
@@ -218,7 +218,7 @@ static int measure(lights_run *r, size_t moving, unsigned repeat, const char *la
 {
     r->moving = moving;
     timing t;
-    if (time_frames(lights_step, r, repeat, &t) != 0)
+    if (bench_time_frames(lights_step, r, repeat, &t) != 0)
         return bench_fail("%s: lrr_lighting_direct failed (%s)", label, lrr_strerror(r->status));
     double rays = (double)lrr_lighting_rays(r->lt);
     printf("%s_ms: %.4f (min %.4f, max %.4f, %zu frames)\n", label, t.median, t.min, t.max,
@@ -252,9 +252,9 @@ int cmd_lights(int argc, char *argv[])
     }
     lrr_status s = LRR_OK;
     if (rc == CLI_EXIT_OK && (s = lrr_lighting_create(op, &r.lt)))
-        rc = lib_fail(ctx, s, "lrr_lighting_create");
+        rc = bench_lib_fail(ctx, s, "lrr_lighting_create");
     if (rc == CLI_EXIT_OK) {
-        print_machine();
+        bench_print_machine();
         printf("operator: %s\nn: %zu\ntriangles: %zu\nlights: %zu\n",
                file ? file : "cornell (built here)", oi.n, oi.triangles, count);
         bounds(op, oi.n, r.lo, r.hi);

@@ -23,7 +23,8 @@
  *                       against a path-traced reference per region and facing, beside
  *                       lrr_operator_verify's figure (scenes.c, scenes_run.c,
  *                       scenes_out.c, judge.c)
- * What they share (messages, options, timing, bandwidth, the baselines) is in common.c.
+ * What they share (messages, options, timing, bandwidth, the baselines) is in
+ * bench_*.c (bench.h).
  *
  * Results go to stdout ('key: value' lines and aligned tables), progress to stderr. Exit
  * status: 0 success, 1 a failure (library error, I/O, a check that did not hold), 2 a
@@ -59,6 +60,8 @@ static const char main_help[] =
     "             lrr_operator_verify's own error bar\n"
     "  lights     moving point lights: ms per frame of the direct light and its shadow rays\n"
     "             per second, all lights moving or one, against Embree's occlusion rate\n"
+    "  raycast    hemicubes per second of the rasteriser and of the ray caster against the\n"
+    "             number of triangles (the crossover LRR_FORMFACTOR_AUTO uses)\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help (COMMAND --help: help on a command)\n"
@@ -85,7 +88,8 @@ int main(int argc, char *argv[])
                     {"probes", cmd_probes},
                     {"adaptive", cmd_adaptive},
                     {"scenes", cmd_scenes},
-                    {"lights", cmd_lights}};
+                    {"lights", cmd_lights},
+                    {"raycast", cmd_raycast}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;

@@ -210,12 +210,12 @@ static int write_probes_csv(const char *path, const probe_result *res, size_t co
             const probe_row *r = &res[p].rows[i];
             csv_field(out.f, res[p].name);
             fprintf(out.f, ",%s,%zu,", method_names[r->method], r->sources);
-            csv_num(out.f, r->mean_pct, 0);
-            csv_num(out.f, r->max_pct, 0);
+            bench_csv_num(out.f, r->mean_pct, 0);
+            bench_csv_num(out.f, r->max_pct, 0);
             fprintf(out.f, "%zu,", r->iterations);
-            csv_num(out.f, r->seconds, 0);
+            bench_csv_num(out.f, r->seconds, 0);
             fprintf(out.f, "%zu,%zu,%zu,", normals, res[p].width, res[p].height);
-            csv_num(out.f, res[p].truth_seconds, 0);
+            bench_csv_num(out.f, res[p].truth_seconds, 0);
             if (r->converged >= 0)
                 fprintf(out.f, "%d", r->converged);
             fputc(',', out.f);
@@ -321,7 +321,7 @@ static int run_probe(lrr_context *ctx, const char *path, const size_t *sources,
     }
     lrr_status st = lrr_probe_load(ctx, path, &probe);
     if (st != LRR_OK) {
-        rc = lib_fail(ctx, st, path);
+        rc = bench_lib_fail(ctx, st, path);
         goto done;
     }
     lrr_probe_size(probe, &res->width, &res->height);
@@ -329,15 +329,15 @@ static int run_probe(lrr_context *ctx, const char *path, const size_t *sources,
     st = lrr_probe_irradiance(probe, normals, dirs, truth);
     res->truth_seconds = cli_now() - t0;
     if (st != LRR_OK) {
-        rc = lib_fail(ctx, st, "lrr_probe_irradiance");
+        rc = bench_lib_fail(ctx, st, "lrr_probe_irradiance");
         goto done;
     }
     for (int m = M_MEDIAN_CUT; m <= M_IRRADIANCE; m++)
         for (size_t j = 0; j < n_sources; j++) {
             size_t n = sources[j];
             if (n > res->width * res->height) {
-                note("%s: %zu sources is more than the probe's %zu pixels, skipped", res->name,
-                     n, res->width * res->height);
+                bench_note("%s: %zu sources is more than the probe's %zu pixels, skipped",
+                           res->name, n, res->width * res->height);
                 continue;
             }
             probe_row *r = &res->rows[res->n_rows];
@@ -360,13 +360,13 @@ static int run_probe(lrr_context *ctx, const char *path, const size_t *sources,
             if (st == LRR_OK)
                 st = lrr_lights_irradiance(lights, n, normals, dirs, approx);
             if (st != LRR_OK) {
-                rc = lib_fail(ctx, st, method_names[m]);
+                rc = bench_lib_fail(ctx, st, method_names[m]);
                 goto done;
             }
             cli_irradiance_error_pct(normals, truth, approx, &r->mean_pct, &r->max_pct);
             res->n_rows++;
-            note("%s: %s %zu sources: %.3g%% mean, %.3g s", res->name, method_names[m], n,
-                 r->mean_pct, r->seconds);
+            bench_note("%s: %s %zu sources: %.3g%% mean, %.3g s", res->name, method_names[m], n,
+                       r->mean_pct, r->seconds);
         }
     {
         probe_row *r = &res->rows[res->n_rows];
@@ -381,7 +381,7 @@ static int run_probe(lrr_context *ctx, const char *path, const size_t *sources,
         if (st == LRR_OK)
             st = lrr_sh9_irradiance(coeffs, normals, dirs, approx);
         if (st != LRR_OK) {
-            rc = lib_fail(ctx, st, "sh9");
+            rc = bench_lib_fail(ctx, st, "sh9");
             goto done;
         }
         cli_irradiance_error_pct(normals, truth, approx, &r->mean_pct, &r->max_pct);
@@ -455,7 +455,7 @@ static int probes_parse(int argc, char *argv[], probes_args *a)
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     int sources_given = 0, normals_given = 0, quick = 0;
-    start_getopt();
+    bench_start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
         switch (c) {
@@ -487,7 +487,7 @@ static int probes_parse(int argc, char *argv[], probes_args *a)
             quick = 1;
             break;
         default:
-            return bad_option(prog, c, argv);
+            return bench_bad_option(prog, c, argv);
         }
     }
     if ((a->csv && !a->csv[0]) || (a->plot && !a->plot[0])) {

@@ -117,22 +117,22 @@ static int write_rt_csv(const char *path, const rt_args *a, const rt_cell *cells
                                 w->floor_ms,       w->ratio_to_floor, w->ratio_to_paper,
                                 w->rel_l2};
             for (size_t q = 0; q < sizeof v / sizeof v[0]; q++)
-                csv_num(out.f, v[q], 0);
+                bench_csv_num(out.f, v[q], 0);
             fprintf(out.f, "%zu,%zu,%s,%s,%zu,", r->d, w->t.runs, w->kernel, w->path,
                     w->other_path);
-            csv_num(out.f, w->floor_ms_full, 0);
+            bench_csv_num(out.f, w->floor_ms_full, 0);
             const int wide = strcmp(w->storage, "f32") == 0;
-            csv_num(out.f, (wide ? r->bw : r->bw16) / 1e9, 0);
+            bench_csv_num(out.f, (wide ? r->bw : r->bw16) / 1e9, 0);
             fprintf(out.f, "%s,%zu,%d,%d,%zu,%zu,%zu,", wide ? r->bw_source : r->bw16_source,
                     a->llc >> 20,
                     omp_get_max_threads(), openblas_get_num_threads(), r->target.n,
                     r->target.k, r->target.d);
-            csv_num(out.f, r->preprocess_s, 0);
+            bench_csv_num(out.f, r->preprocess_s, 0);
             fprintf(out.f, "%u,%s,", a->hemicube, w->backend);
-            csv_num(out.f, w->kernel_ms, 0);
-            csv_num(out.f, w->transfer_ms, 0);
+            bench_csv_num(out.f, w->kernel_ms, 0);
+            bench_csv_num(out.f, w->transfer_ms, 0);
             fprintf(out.f, "%s,", w->device);
-            csv_num(out.f, w->ratio_to_cpu, 1);
+            bench_csv_num(out.f, w->ratio_to_cpu, 1);
         }
     }
     if (cli_outfile_commit(&out) != 0)
@@ -170,9 +170,9 @@ static void print_rt_cell(const rt_args *a, const rt_cell *r)
     printf("preprocess_s: %.2f (hemicube %u)\n", r->preprocess_s, a->hemicube);
     printf("fbar_bytes: f32 %s, f16/bf16 %s; M %s; fits in the last-level cache (%zu MiB): "
            "%s\n",
-           fmt_bytes(b1, sizeof b1, (size_t)f32_bytes),
-           fmt_bytes(b2, sizeof b2, (size_t)(f32_bytes / 2)),
-           fmt_bytes(b3, sizeof b3, (size_t)12 * r->k * r->k), a->llc >> 20,
+           bench_fmt_bytes(b1, sizeof b1, (size_t)f32_bytes),
+           bench_fmt_bytes(b2, sizeof b2, (size_t)(f32_bytes / 2)),
+           bench_fmt_bytes(b3, sizeof b3, (size_t)12 * r->k * r->k), a->llc >> 20,
            a->llc ? yes_no(r->fits_llc) : "unknown");
     printf("bandwidth_gbs: %.2f (%s; read kernel %.2f, sgemv3 effective 3·n·k·4 B / "
            "median %.2f, read kernel over F̄'s own bytes, cache-resident %.2f)\n",
@@ -182,21 +182,21 @@ static void print_rt_cell(const rt_args *a, const rt_cell *r)
            r->bw16 / 1e9, bw_source_name(r->bw16_source), r->bw_resident16 / 1e9);
     char f1[32], f2[32], f3[32], f4[32];
     printf("floor_ms: f32 %s, f16/bf16 %s; floor_ms_full (F̄ + M): f32 %s, f16/bf16 %s\n",
-           fmt_ms(f1, sizeof f1, r->rows[RT_FUSED_F32].floor_ms),
-           fmt_ms(f2, sizeof f2, r->rows[RT_FUSED_F16].floor_ms),
-           fmt_ms(f3, sizeof f3, r->rows[RT_FUSED_F32].floor_ms_full),
-           fmt_ms(f4, sizeof f4, r->rows[RT_FUSED_F16].floor_ms_full));
+           bench_fmt_ms(f1, sizeof f1, r->rows[RT_FUSED_F32].floor_ms),
+           bench_fmt_ms(f2, sizeof f2, r->rows[RT_FUSED_F16].floor_ms),
+           bench_fmt_ms(f3, sizeof f3, r->rows[RT_FUSED_F32].floor_ms_full),
+           bench_fmt_ms(f4, sizeof f4, r->rows[RT_FUSED_F16].floor_ms_full));
     printf("\n%-12s %-7s %-8s %28s %7s %9s %14s %14s %13s  %s\n", "impl", "storage", "kernel",
            "ms median (min-max)", "runs", "floor_ms", "ratio_to_floor", "ratio_to_paper",
            "rel_l2_vs_f32", "path");
     for (int i = 0; i < RT_COUNT; i++) {
         const rt_row *w = &r->rows[i];
         char med[32], lo[32], hi[32], t[128], fl[32], rf[32], rp[32], el[32], pth[96];
-        fmt_ms(med, sizeof med, w->t.median);
-        fmt_ms(lo, sizeof lo, w->t.min);
-        fmt_ms(hi, sizeof hi, w->t.max);
+        bench_fmt_ms(med, sizeof med, w->t.median);
+        bench_fmt_ms(lo, sizeof lo, w->t.min);
+        bench_fmt_ms(hi, sizeof hi, w->t.max);
         snprintf(t, sizeof t, "%s (%s-%s)", med, lo, hi);
-        fmt_ms(fl, sizeof fl, w->floor_ms);
+        bench_fmt_ms(fl, sizeof fl, w->floor_ms);
         fmt_ratio(rf, sizeof rf, w->ratio_to_floor);
         fmt_ratio(rp, sizeof rp, w->ratio_to_paper);
         if (isnan(w->rel_l2))
@@ -220,9 +220,9 @@ static void print_rt_cell(const rt_args *a, const rt_cell *r)
         for (int i = 0; i < 3; i++) {
             const rt_row *w = &r->cl_rows[i];
             char med[32], lo[32], hi[32], t[128], km[32], tm[32], sm[32], rc[32], el[32];
-            fmt_ms(med, sizeof med, w->t.median);
-            fmt_ms(lo, sizeof lo, w->t.min);
-            fmt_ms(hi, sizeof hi, w->t.max);
+            bench_fmt_ms(med, sizeof med, w->t.median);
+            bench_fmt_ms(lo, sizeof lo, w->t.min);
+            bench_fmt_ms(hi, sizeof hi, w->t.max);
             snprintf(t, sizeof t, "%s (%s-%s)", med, lo, hi);
             if (isnan(w->rel_l2))
                 snprintf(el, sizeof el, "-");
@@ -240,8 +240,8 @@ static void print_rt_cell(const rt_args *a, const rt_cell *r)
     char bm[32], fm[32];
     printf("\nbatch: lrr_solve_batch %d frames: %s ms per frame (median %s ms per batch, %zu "
            "runs); speed-up vs fused f32: %.2f; rel_l2_vs_f32 %.3g\n",
-           RT_BATCH, fmt_ms(bm, sizeof bm, r->batch_ms_per_frame),
-           fmt_ms(fm, sizeof fm, r->batch.median), r->batch.runs,
+           RT_BATCH, bench_fmt_ms(bm, sizeof bm, r->batch_ms_per_frame),
+           bench_fmt_ms(fm, sizeof fm, r->batch.median), r->batch.runs,
            f32->t.median / r->batch_ms_per_frame, r->batch_rel_l2);
     for (int i = 0; i < RT_COUNT; i++) {
         const rt_row *w = &r->rows[i];
@@ -253,14 +253,14 @@ static void print_rt_cell(const rt_args *a, const rt_cell *r)
                    "last-level cache (%zu MiB); it ran faster than a read loop over F̄'s "
                    "bytes alone\n",
                    w->impl, w->storage, w->ratio_to_floor,
-                   fmt_bytes(by, sizeof by, (size_t)w->bytes), a->llc >> 20);
+                   bench_fmt_bytes(by, sizeof by, (size_t)w->bytes), a->llc >> 20);
         else
             printf("warning: %s %s: ratio_to_floor %.2f < 1: the floor was measured too low "
                    "(bandwidth %.2f GB/s from the %s; it reads %s, more than the last-level "
                    "cache)\n",
                    w->impl, w->storage, w->ratio_to_floor, r->bw / 1e9,
                    bw_source_name(r->bw_source),
-                   fmt_bytes(by, sizeof by, (size_t)w->bytes));
+                   bench_fmt_bytes(by, sizeof by, (size_t)w->bytes));
     }
     const rt_row *b16 = &r->rows[RT_FUSED_BF16];
     printf("target: fused f32 ≤ %.2f × floor: %s; ≥ %g× paper: %s; f16 ≤ %.2f × f16 floor: %s; "
@@ -311,7 +311,7 @@ static int rt_parse(int argc, char *argv[], rt_args *a, char *nk_name, size_t nk
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     size_t opt_n = 0, opt_k = 0;
-    start_getopt();
+    bench_start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
         switch (c) {
@@ -349,14 +349,14 @@ static int rt_parse(int argc, char *argv[], rt_args *a, char *nk_name, size_t nk
             a->csv = optarg;
             break;
         case OPT_BACKEND:
-            if (parse_backend(prog, optarg, &a->opencl) != 0)
+            if (bench_parse_backend(prog, optarg, &a->opencl) != 0)
                 return CLI_EXIT_USAGE;
             break;
         default:
-            return bad_option(prog, c, argv);
+            return bench_bad_option(prog, c, argv);
         }
     }
-    if (no_positional(prog, argc, argv))
+    if (bench_no_positional(prog, argc, argv))
         return CLI_EXIT_USAGE;
     if (a->csv && !a->csv[0]) {
         cli_usage_error(prog, "--csv: the file name is empty");
@@ -399,7 +399,7 @@ static int rt_parse(int argc, char *argv[], rt_args *a, char *nk_name, size_t nk
 static void rt_print_setup(rt_args *a)
 {
     printf("benchmark: realtime\n");
-    print_machine();
+    bench_print_machine();
     printf("omp_wait_policy: %s\n", env_or_unset("OMP_WAIT_POLICY"));
     printf("omp_proc_bind: %s\n", env_or_unset("OMP_PROC_BIND"));
     printf("omp_num_threads: %s\n", env_or_unset("OMP_NUM_THREADS"));
@@ -418,12 +418,12 @@ static void rt_print_setup(rt_args *a)
     else
         printf("repeat: adaptive (at least %d runs and %.1f s)\n", MIN_RUNS, RT_MIN_SECONDS);
     fflush(stdout);
-    a->llc = llc_bytes();
-    size_t bw_bytes = bandwidth_buffer_bytes();
+    a->llc = bench_llc_bytes();
+    size_t bw_bytes = bench_bandwidth_buffer_bytes();
     printf("llc_mib: %zu\n", a->llc >> 20);
-    note("measuring the read bandwidth (%d passes over %zu MiB)", BANDWIDTH_PASSES,
-         bw_bytes >> 20);
-    a->bandwidth = measure_bandwidth(bw_bytes);
+    bench_note("measuring the read bandwidth (%d passes over %zu MiB)", BANDWIDTH_PASSES,
+               bw_bytes >> 20);
+    a->bandwidth = bench_measure_bandwidth(bw_bytes);
     if (a->bandwidth > 0)
         printf("read_bandwidth_gbs: %.2f (tuned read kernels: OpenMP sums, 128-bit, AVX2 and "
                "AVX-512 where present, the last two also with a software prefetch, over %zu "

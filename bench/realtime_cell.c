@@ -31,7 +31,7 @@ typedef struct path_frame {
 static int path_step(void *user)
 {
     path_frame *p = user;
-    int rc = ours_step(&p->of);
+    int rc = bench_ours_step(&p->of);
     if (!rc && p->count < p->cap)
         p->paths[p->count++] = (unsigned char)lrr_solver_last_path(p->of.solver);
     return rc;
@@ -95,7 +95,7 @@ static int rt_time(frame_fn fn, void *user, unsigned repeat, timing *t)
         v[runs++] = 1e3 * s;
         total += s;
     }
-    timing_from_samples(v, runs, t);
+    bench_timing_from_samples(v, runs, t);
     free(v);
     return 0;
 }
@@ -107,7 +107,7 @@ static int time_solver(lrr_context *ctx, lrr_solver *solver, lrr_path want, cons
 {
     lrr_status s = lrr_solver_set_path(solver, want);
     if (s != LRR_OK)
-        return lib_fail(ctx, s, "lrr_solver_set_path");
+        return bench_lib_fail(ctx, s, "lrr_solver_set_path");
     snprintf(row->kernel, sizeof row->kernel, "%s", lrr_solver_kernel(solver));
     path_frame pf = {{solver, e, e_alt, b, LRR_OK, 0}, NULL, 0, 0};
     pf.cap = RT_WARMUPS + (repeat ? repeat : MAX_RUNS) + 1;
@@ -116,7 +116,7 @@ static int time_solver(lrr_context *ctx, lrr_solver *solver, lrr_path want, cons
         return bench_fail("cannot allocate %zu path records", pf.cap);
     if (rt_time(path_step, &pf, repeat, &row->t)) {
         free(pf.paths);
-        return pf.of.status != LRR_OK ? lib_fail(ctx, pf.of.status, "lrr_solve")
+        return pf.of.status != LRR_OK ? bench_lib_fail(ctx, pf.of.status, "lrr_solve")
                                       : CLI_EXIT_FAIL;
     }
     /* the timed runs are the last t.runs frames */
@@ -130,10 +130,10 @@ static int time_solver(lrr_context *ctx, lrr_solver *solver, lrr_path want, cons
     free(pf.paths);
     size_t timed = pf.count - first;
     snprintf(row->path, sizeof row->path, "%s",
-             path_name(2 * other > timed ? other_path : want));
+             bench_path_name(2 * other > timed ? other_path : want));
     row->other_path = 2 * other > timed ? timed - other : other;
     snprintf(row->other_name, sizeof row->other_name, "%s",
-             path_name(2 * other > timed ? want : other_path));
+             bench_path_name(2 * other > timed ? want : other_path));
     return 0;
 }
 
@@ -145,9 +145,9 @@ static int time_cl(lrr_context *ctx, const lrr_operator *op, const float *e, flo
     lrr_solver *sv = NULL;
     lrr_status s = lrr_solver_create(op, LRR_BACKEND_OPENCL, &sv);
     if (s != LRR_OK)
-        return lib_fail(ctx, s, "OpenCL solver");
+        return bench_lib_fail(ctx, s, "OpenCL solver");
     snprintf(row->kernel, sizeof row->kernel, "opencl");
-    cl_device_name(sv, row->device, sizeof row->device);
+    bench_cl_device_name(sv, row->device, sizeof row->device);
     snprintf(row->path, sizeof row->path, "full");
     cl_frame cf = {{sv, e, NULL, b, LRR_OK, 0}, NULL, NULL, 0, 0};
     cf.cap = RT_WARMUPS + (repeat ? repeat : MAX_RUNS) + 1;
@@ -156,11 +156,11 @@ static int time_cl(lrr_context *ctx, const lrr_operator *op, const float *e, flo
     int rc = 0;
     if (!cf.kernel_ms || !cf.transfer_ms)
         rc = bench_fail("cannot allocate %zu timings", cf.cap);
-    else if (rt_time(cl_step, &cf, repeat, &row->t))
-        rc = cf.of.status != LRR_OK ? lib_fail(ctx, cf.of.status, "lrr_solve (OpenCL)")
+    else if (rt_time(bench_cl_step, &cf, repeat, &row->t))
+        rc = cf.of.status != LRR_OK ? bench_lib_fail(ctx, cf.of.status, "lrr_solve (OpenCL)")
                                     : CLI_EXIT_FAIL;
     else
-        cl_medians(&cf, row->t.runs, &row->kernel_ms, &row->transfer_ms);
+        bench_cl_medians(&cf, row->t.runs, &row->kernel_ms, &row->transfer_ms);
     free(cf.kernel_ms);
     free(cf.transfer_ms);
     lrr_solver_destroy(sv);
@@ -211,11 +211,11 @@ static int load_copy(lrr_context *ctx, const char *path, lrr_storage storage, lr
 {
     lrr_status s = lrr_operator_load(ctx, path, op);
     if (s != LRR_OK)
-        return lib_fail(ctx, s, "reloading the operator");
+        return bench_lib_fail(ctx, s, "reloading the operator");
     if ((s = lrr_operator_set_storage(*op, storage)) != LRR_OK) {
         lrr_operator_destroy(*op);
         *op = NULL;
-        return lib_fail(ctx, s, lrr_storage_name(storage));
+        return bench_lib_fail(ctx, s, lrr_storage_name(storage));
     }
     return 0;
 }
@@ -266,23 +266,23 @@ static int rt_build(rt_work *wk, const cell *c, rt_cell *r)
     const rt_args *a = wk->a;
     lrr_scene *scene = NULL;
     lrr_operator *op = NULL;
-    int rc = open_scene(wk->ctx, a->scene, &scene);
+    int rc = bench_open_scene(wk->ctx, a->scene, &scene);
     if (rc)
         return rc;
-    lrr_subdivision sub = {.target_patches = c->k, .levels = (unsigned)levels_of(c->d)};
+    lrr_subdivision sub = {.target_patches = c->k, .levels = (unsigned)bench_levels_of(c->d)};
     lrr_status s = lrr_scene_subdivide(scene, &sub);
     if (s != LRR_OK) {
         lrr_scene_destroy(scene);
-        return lib_fail(wk->ctx, s, "subdivision");
+        return bench_lib_fail(wk->ctx, s, "subdivision");
     }
     lrr_scene_info si;
     lrr_scene_get_info(scene, &si, sizeof si);
     const size_t n = si.subpatches, k = si.patches, d = si.d;
-    note("%s: %zu patches, %zu subpatches; building the operator (hemicube %u)", wk->label, k,
-         n, a->hemicube);
+    bench_note("%s: %zu patches, %zu subpatches; building the operator (hemicube %u)", wk->label, k,
+               n, a->hemicube);
     lrr_build_options bo = {.hemicube_resolution = a->hemicube, .seed = DEFAULT_SEED};
     cli_progress bar;
-    progress_begin(&bar, "hemicubes", &bo);
+    bench_progress_begin(&bar, "hemicubes", &bo);
     double t0 = cli_now();
     s = lrr_operator_build(scene, &bo, &op);
     r->preprocess_s = cli_now() - t0;
@@ -290,7 +290,7 @@ static int rt_build(rt_work *wk, const cell *c, rt_cell *r)
     lrr_scene_destroy(scene);
     wk->op = op;
     if (s != LRR_OK)
-        return lib_fail(wk->ctx, s, "operator build");
+        return bench_lib_fail(wk->ctx, s, "operator build");
     r->n = wk->n = n;
     r->k = wk->k = k;
     r->d = wk->d = d;
@@ -314,9 +314,9 @@ static int rt_copies(rt_work *wk, const rt_cell *r)
     int rc;
     lrr_status s = lrr_operator_save(wk->op, path);
     if (s != LRR_OK)
-        rc = lib_fail(wk->ctx, s, "saving the operator to a temporary file");
+        rc = bench_lib_fail(wk->ctx, s, "saving the operator to a temporary file");
     else {
-        note("%s: operator built in %.2f s; f16 and bf16 copies", wk->label, r->preprocess_s);
+        bench_note("%s: operator built in %.2f s; f16 and bf16 copies", wk->label, r->preprocess_s);
         if (!(rc = load_copy(wk->ctx, path, LRR_STORAGE_F16, &wk->op16[0])))
             rc = load_copy(wk->ctx, path, LRR_STORAGE_BF16, &wk->op16[1]);
     }
@@ -344,10 +344,10 @@ static int rt_buffers(rt_work *wk)
 /* fused f32: the reference B of every comparison */
 static int rt_fused_f32(rt_work *wk, rt_cell *r)
 {
-    note("%s: fused f32", wk->label);
+    bench_note("%s: fused f32", wk->label);
     lrr_status s = lrr_solver_create(wk->op, LRR_BACKEND_CPU, &wk->solver);
     if (s != LRR_OK)
-        return lib_fail(wk->ctx, s, "solver");
+        return bench_lib_fail(wk->ctx, s, "solver");
     int rc = time_solver(wk->ctx, wk->solver, LRR_PATH_FULL, wk->e, NULL, wk->b32, wk->a->repeat,
                          &r->rows[RT_FUSED_F32]);
     if (rc)
@@ -355,10 +355,10 @@ static int rt_fused_f32(rt_work *wk, rt_cell *r)
     if (!finite_all(wk->b32, 3 * wk->n))
         return bench_fail("%s: fused f32 gave a non-finite B", wk->label);
     if (wk->a->opencl) {
-        note("%s: fused f32 (OpenCL)", wk->label);
+        bench_note("%s: fused f32 (OpenCL)", wk->label);
         if ((rc = time_cl(wk->ctx, wk->op, wk->e, wk->b, wk->a->repeat, &r->cl_rows[0])))
             return rc;
-        compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->cl_rows[0].rel_l2, NULL);
+        bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->cl_rows[0].rel_l2, NULL);
         r->have_cl = 1;
     }
     return 0;
@@ -369,23 +369,23 @@ static int rt_fused_16bit(rt_work *wk, rt_cell *r)
 {
     for (int j = 0; j < 2; j++) {
         rt_row *row = &r->rows[RT_FUSED_F16 + j];
-        note("%s: fused %s", wk->label, row->storage);
+        bench_note("%s: fused %s", wk->label, row->storage);
         lrr_solver *sv = NULL;
         lrr_status s = lrr_solver_create(wk->op16[j], LRR_BACKEND_CPU, &sv);
         if (s != LRR_OK)
-            return lib_fail(wk->ctx, s, "solver");
+            return bench_lib_fail(wk->ctx, s, "solver");
         int rc = time_solver(wk->ctx, sv, LRR_PATH_FULL, wk->e, NULL, wk->b, wk->a->repeat, row);
         if (!rc)
-            compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &row->rel_l2, NULL);
+            bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &row->rel_l2, NULL);
         lrr_solver_destroy(sv);
         if (rc)
             return rc;
         if (wk->a->opencl) {
-            note("%s: fused %s (OpenCL)", wk->label, row->storage);
+            bench_note("%s: fused %s (OpenCL)", wk->label, row->storage);
             if ((rc = time_cl(wk->ctx, wk->op16[j], wk->e, wk->b, wk->a->repeat,
                               &r->cl_rows[1 + j])))
                 return rc;
-            compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->cl_rows[1 + j].rel_l2, NULL);
+            bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->cl_rows[1 + j].rel_l2, NULL);
         }
         lrr_operator_destroy(wk->op16[j]);
         wk->op16[j] = NULL;
@@ -396,15 +396,15 @@ static int rt_fused_16bit(rt_work *wk, rt_cell *r)
 /* sparse: the scene's emission from cached columns */
 static int rt_sparse(rt_work *wk, rt_cell *r)
 {
-    note("%s: sparse path", wk->label);
+    bench_note("%s: sparse path", wk->label);
     lrr_solver *sv = NULL;
     lrr_status s = lrr_solver_create(wk->op, LRR_BACKEND_CPU, &sv);
     if (s != LRR_OK)
-        return lib_fail(wk->ctx, s, "solver");
+        return bench_lib_fail(wk->ctx, s, "solver");
     int rc = time_solver(wk->ctx, sv, LRR_PATH_SPARSE, wk->e, NULL, wk->b, wk->a->repeat,
                          &r->rows[RT_SPARSE]);
     if (!rc)
-        compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->rows[RT_SPARSE].rel_l2, NULL);
+        bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->rows[RT_SPARSE].rel_l2, NULL);
     lrr_solver_destroy(sv);
     return rc;
 }
@@ -412,11 +412,11 @@ static int rt_sparse(rt_work *wk, rt_cell *r)
 /* incremental: x1 and x0.5 on alternate frames; B of an x1 frame against fused f32 */
 static int rt_incremental(rt_work *wk, rt_cell *r)
 {
-    note("%s: incremental path", wk->label);
+    bench_note("%s: incremental path", wk->label);
     lrr_solver *sv = NULL;
     lrr_status s = lrr_solver_create(wk->op, LRR_BACKEND_CPU, &sv);
     if (s != LRR_OK)
-        return lib_fail(wk->ctx, s, "solver");
+        return bench_lib_fail(wk->ctx, s, "solver");
     int rc = time_solver(wk->ctx, sv, LRR_PATH_INCREMENTAL, wk->e, wk->e_half, wk->b,
                          wk->a->repeat, &r->rows[RT_INCREMENTAL]);
     if (rc)
@@ -424,17 +424,18 @@ static int rt_incremental(rt_work *wk, rt_cell *r)
     for (int tries = 0; tries < 4; tries++) {
         if ((s = lrr_solve(sv, wk->e_half, wk->tmp)) != LRR_OK ||
             (s = lrr_solve(sv, wk->e, wk->b)) != LRR_OK) {
-            rc = lib_fail(wk->ctx, s, "lrr_solve (incremental)");
+            rc = bench_lib_fail(wk->ctx, s, "lrr_solve (incremental)");
             goto done;
         }
         if (lrr_solver_last_path(sv) == LRR_PATH_INCREMENTAL)
             break;
     }
     if (lrr_solver_last_path(sv) == LRR_PATH_INCREMENTAL)
-        compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->rows[RT_INCREMENTAL].rel_l2, NULL);
+        bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->rows[RT_INCREMENTAL].rel_l2,
+                        NULL);
     else
-        note("%s: the incremental path never served an x1 frame: rel_l2_vs_f32 is nan",
-             wk->label);
+        bench_note("%s: the incremental path never served an x1 frame: rel_l2_vs_f32 is nan",
+                   wk->label);
 done:
     lrr_solver_destroy(sv);
     return rc;
@@ -444,11 +445,11 @@ done:
 static int rt_baselines(rt_work *wk, rt_cell *r)
 {
     const size_t n = wk->n, k = wk->k;
-    note("%s: sgemv3, sgemm3", wk->label);
+    bench_note("%s: sgemv3, sgemm3", wk->label);
     sgemv_frame sf = {0};
-    float *z = alloc_floats(3, k), *zt = alloc_floats(k, 3);
+    float *z = bench_alloc_floats(3, k), *zt = bench_alloc_floats(k, 3);
     for (int ch = 0; ch < 3; ch++)
-        sf.out[ch] = alloc_floats(n, 1);
+        sf.out[ch] = bench_alloc_floats(n, 1);
     int rc = 0;
     if (!z || !zt || !sf.out[0] || !sf.out[1] || !sf.out[2]) {
         rc = bench_fail("cannot allocate the sgemv vectors");
@@ -467,7 +468,7 @@ static int rt_baselines(rt_work *wk, rt_cell *r)
     }
     for (int ch = 0; ch < 3; ch++)
         sf.z[ch] = z + (size_t)ch * k;
-    if ((rc = rt_time(sgemv_step, &sf, wk->a->repeat, &r->rows[RT_SGEMV3].t)))
+    if ((rc = rt_time(bench_sgemv_step, &sf, wk->a->repeat, &r->rows[RT_SGEMV3].t)))
         goto done;
     sgemm_frame gf = {(blasint)n, (blasint)k, sf.rows, zt, wk->b};
     rc = rt_time(sgemm_step, &gf, wk->a->repeat, &r->rows[RT_SGEMM3].t);
@@ -483,18 +484,18 @@ done:
 /* the paper's method */
 static int rt_paper(rt_work *wk, rt_cell *r)
 {
-    note("%s: the paper's method", wk->label);
+    bench_note("%s: the paper's method", wk->label);
     paper_frame pf = {0};
-    int rc = paper_setup(wk->op, wk->e, &pf);
+    int rc = bench_paper_setup(wk->op, wk->e, &pf);
     if (!rc)
-        rc = rt_time(paper_step, &pf, wk->a->repeat, &r->rows[RT_PAPER].t);
+        rc = rt_time(bench_paper_step, &pf, wk->a->repeat, &r->rows[RT_PAPER].t);
     if (!rc) {
         for (size_t i = 0; i < wk->n; i++)
             for (int ch = 0; ch < 3; ch++)
                 wk->b[3 * i + ch] = pf.b[ch][i];
-        compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->rows[RT_PAPER].rel_l2, NULL);
+        bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &r->rows[RT_PAPER].rel_l2, NULL);
     }
-    paper_free(&pf);
+    bench_paper_free(&pf);
     return rc;
 }
 
@@ -502,7 +503,7 @@ static int rt_paper(rt_work *wk, rt_cell *r)
 static int rt_batch(rt_work *wk, rt_cell *r)
 {
     const size_t n = wk->n;
-    note("%s: lrr_solve_batch (%d frames)", wk->label, RT_BATCH);
+    bench_note("%s: lrr_solve_batch (%d frames)", wk->label, RT_BATCH);
     float *be = cli_alloc_rgb(n * RT_BATCH), *bb = cli_alloc_rgb(n * RT_BATCH);
     int rc = 0;
     if (!be || !bb) {
@@ -514,12 +515,13 @@ static int rt_batch(rt_work *wk, rt_cell *r)
             be[f * 3 * n + i] = wk->e[i] * (float)(f + 1) / (float)RT_BATCH;
     batch_frame bf = {wk->solver, be, bb, LRR_OK};
     if (rt_time(batch_step, &bf, wk->a->repeat, &r->batch)) {
-        rc = bf.status != LRR_OK ? lib_fail(wk->ctx, bf.status, "lrr_solve_batch")
+        rc = bf.status != LRR_OK ? bench_lib_fail(wk->ctx, bf.status, "lrr_solve_batch")
                                  : CLI_EXIT_FAIL;
         goto done;
     }
     r->batch_ms_per_frame = r->batch.median / RT_BATCH;
-    compare_b(n, wk->area, bb + (RT_BATCH - 1) * 3 * n, wk->b32, NULL, &r->batch_rel_l2, NULL);
+    bench_compare_b(n, wk->area, bb + (RT_BATCH - 1) * 3 * n, wk->b32, NULL, &r->batch_rel_l2,
+                    NULL);
 done:
     free(be);
     free(bb);
@@ -555,8 +557,8 @@ static void rt_floors(const rt_args *a, size_t n, size_t k, rt_cell *r)
      * low). */
     r->bw_resident = r->bw_resident16 = NAN;
     if (r->fits_llc) {
-        r->bw_resident = measure_bandwidth((size_t)f32_bytes);
-        r->bw_resident16 = measure_bandwidth((size_t)(f32_bytes / 2));
+        r->bw_resident = bench_measure_bandwidth((size_t)f32_bytes);
+        r->bw_resident16 = bench_measure_bandwidth((size_t)(f32_bytes / 2));
         take_faster(&r->bw, &r->bw_source, r->bw_resident, "resident-read");
     }
     r->bw16 = r->bw;

@@ -238,7 +238,7 @@ static int parse_scenes(const char *prog, const char *opt, const char *list, con
 }
 
 
-/* The CPU model for the CSV and the report (print_machine prints it for the text). */
+/* The CPU model for the CSV and the report (bench_print_machine prints it for the text). */
 static void cpu_name(char *buf, size_t len)
 {
     snprintf(buf, len, "unknown");
@@ -339,7 +339,7 @@ static int parse_one(const char *prog, int c, sc_args *a, sc_parse_state *st, ch
         a->plot = optarg;
         return 0;
     default:
-        return bad_option(prog, c, argv) ? -1 : -1;
+        return bench_bad_option(prog, c, argv) ? -1 : -1;
     }
 }
 
@@ -384,7 +384,7 @@ static int sc_parse(int argc, char *argv[], sc_args *a)
     static sc_parse_state st;
     memset(&st, 0, sizeof st);
     int c;
-    start_getopt();
+    bench_start_getopt();
     while ((c = getopt_long(argc, argv, ":h", sc_longopts, NULL)) != -1) {
         if (c == 'h') {
             fputs(scenes_help, stdout);
@@ -393,7 +393,7 @@ static int sc_parse(int argc, char *argv[], sc_args *a)
         if (parse_one(prog, c, a, &st, argv) != 0)
             return CLI_EXIT_USAGE;
     }
-    if (no_positional(prog, argc, argv))
+    if (bench_no_positional(prog, argc, argv))
         return CLI_EXIT_USAGE;
     if ((a->csv && !a->csv[0]) || (a->plot && !a->plot[0]) || (a->md && !a->md[0])) {
         cli_usage_error(prog, "--csv/--md/--plot: the file name is empty");
@@ -418,7 +418,7 @@ static int sc_parse(int argc, char *argv[], sc_args *a)
 static void sc_print_setup(const sc_args *a, double bw)
 {
     printf("benchmark: scenes\n");
-    print_machine();
+    bench_print_machine();
     printf("scenes:");
     for (size_t i = 0; i < a->n_scenes; i++)
         printf(" %s", a->scenes[i]);
@@ -432,7 +432,7 @@ static void sc_print_setup(const sc_args *a, double bw)
         printf("verify_samples: automatic (lrr_operator_verify's default)\n");
     if (bw > 0)
         printf("read_bandwidth_gbs: %.2f (tuned read kernel, %zu MiB, best of %d)\n", bw / 1e9,
-               bandwidth_buffer_bytes() >> 20, BANDWIDTH_PASSES);
+               bench_bandwidth_buffer_bytes() >> 20, BANDWIDTH_PASSES);
     else
         printf("read_bandwidth_gbs: nan (the measurement failed: no floors)\n");
     fflush(stdout);
@@ -470,8 +470,8 @@ static int sc_run(const sc_args *a, const char *cmdline)
     char cpu[256];
     cpu_name(cpu, sizeof cpu);
     double t_start = cli_now(), bw = 0;
-    note("measuring the read bandwidth (%d passes over %zu MiB)", BANDWIDTH_PASSES,
-         bandwidth_buffer_bytes() >> 20);
+    bench_note("measuring the read bandwidth (%d passes over %zu MiB)", BANDWIDTH_PASSES,
+               bench_bandwidth_buffer_bytes() >> 20);
     int rc = sc_measure_bandwidth(a, &bw);
     sc_print_setup(a, bw);
     static sc_result rows[SC_MAX_SCENES];

@@ -38,7 +38,7 @@ static const char sc_csv_header[] =
 static void csv_nums(FILE *f, const double *v, size_t count)
 {
     for (size_t i = 0; i < count; i++)
-        csv_num(f, v[i], 0);
+        bench_csv_num(f, v[i], 0);
 }
 
 static void csv_row(FILE *f, const sc_args *a, const char *cpu, const sc_result *r)
@@ -68,7 +68,7 @@ static void csv_row(FILE *f, const sc_args *a, const char *cpu, const sc_result 
     csv_nums(f, v4, sizeof v4 / sizeof v4[0]);
     fprintf(f, "%zu,%zu,%s,%zu,%zu,%zu,", r->f32.runs, r->f16.runs, r->kernel, r->emitters,
             r->d_min, r->d_max);
-    csv_num(f, r->back_face_share, 0);
+    bench_csv_num(f, r->back_face_share, 0);
     fprintf(f, "%s,%s,%s\n", a->split == LRR_SPLIT_AREA ? "area" : "variance",
             r->receiver_sampling == LRR_RECEIVER_AREA     ? "area"
             : r->receiver_sampling == LRR_RECEIVER_CENTRE ? "centre"
@@ -96,8 +96,8 @@ static const char *fmt_q(char *buf, size_t len, const sc_quart *q)
     char m[32], w[32];
     if (isnan(q->median))
         return snprintf(buf, len, "-"), buf;
-    snprintf(buf, len, "%s (IQR %s)", fmt_ms(m, sizeof m, q->median),
-             fmt_ms(w, sizeof w, q->q3 - q->q1));
+    snprintf(buf, len, "%s (IQR %s)", bench_fmt_ms(m, sizeof m, q->median),
+             bench_fmt_ms(w, sizeof w, q->q3 - q->q1));
     return buf;
 }
 

@@ -138,7 +138,7 @@ static int bw_child(int fd, void *arg)
 {
     const sc_args *a = arg;
     child_threads(a->threads);
-    double bw = measure_bandwidth(bandwidth_buffer_bytes());
+    double bw = bench_measure_bandwidth(bench_bandwidth_buffer_bytes());
     return write_all(fd, &bw, sizeof bw);
 }
 
@@ -168,7 +168,7 @@ typedef struct sc_child {
 static int step_fail(sc_child *c, lrr_status s, const char *step)
 {
     snprintf(c->what, sizeof c->what, "%s: %s", c->r->label, step);
-    return lib_fail(c->ctx, s, c->what);
+    return bench_lib_fail(c->ctx, s, c->what);
 }
 
 /* Loads and subdivides: levels 0, target T + 16 K patches, so that the scene's patches (the
@@ -177,8 +177,8 @@ static int sc_open(sc_child *c)
 {
     lrr_status s = lrr_context_create(&c->ctx);
     if (s != LRR_OK)
-        return lib_fail(NULL, s, "context");
-    int rc = open_scene(c->ctx, c->scene, &c->sc);
+        return bench_lib_fail(NULL, s, "context");
+    int rc = bench_open_scene(c->ctx, c->scene, &c->sc);
     if (rc)
         return rc;
     lrr_scene_info si;
@@ -254,7 +254,7 @@ static int sc_make(sc_child *c, lrr_operator **op)
     cli_progress bar;
     char label[96];
     snprintf(label, sizeof label, "%s: build", c->r->label);
-    progress_begin(&bar, label, &o);
+    bench_progress_begin(&bar, label, &o);
     lrr_status s = lrr_operator_build(c->sc, &o, op);
     cli_progress_finish(&bar);
     return s == LRR_OK ? 0 : step_fail(c, s, "lrr_operator_build");
@@ -420,8 +420,8 @@ static int op_child(int fd, void *arg)
     if (!rc)
         rc = sc_verify(c, op);
     size_t n = c->r->n;
-    if (!rc && (!(b = alloc_floats(n, 3)) || !(out[0] = alloc_floats(n, 3)) ||
-                !(out[1] = alloc_floats(n, 3))))
+    if (!rc && (!(b = bench_alloc_floats(n, 3)) || !(out[0] = bench_alloc_floats(n, 3)) ||
+                !(out[1] = bench_alloc_floats(n, 3))))
         rc = bench_fail("%s: out of memory for B (n = %zu)", c->r->label, n);
     if (!rc)
         rc = op_frames(c, op, b, out);
@@ -439,7 +439,7 @@ static int op_child(int fd, void *arg)
 /* The judge's per-subpatch geometry (SC_GEO floats each, the scene's order). */
 static int ref_geometry(sc_child *c, size_t n, float *geo)
 {
-    float *f = alloc_floats(n, SC_GEO); /* planar: centre 3, normal 3, area 1, ρ 3, E 3 */
+    float *f = bench_alloc_floats(n, SC_GEO); /* planar: centre 3, normal 3, area 1, ρ 3, E 3 */
     if (!f)
         return bench_fail("%s: out of memory for the geometry (n = %zu)", c->r->label, n);
     float *centre = f, *normal = f + 3 * n, *area = f + 6 * n, *rho = f + 7 * n,
@@ -487,8 +487,9 @@ static int ref_child(int fd, void *arg)
         lrr_scene_get_info(c->sc, &si, sizeof si);
         n = si.subpatches;
     }
-    float *geo = rc ? NULL : alloc_floats(n, SC_GEO), *p = rc ? NULL : alloc_floats(n, 3);
-    float *se = rc ? NULL : alloc_floats(n, 3);
+    float *geo = rc ? NULL : bench_alloc_floats(n, SC_GEO);
+    float *p = rc ? NULL : bench_alloc_floats(n, 3);
+    float *se = rc ? NULL : bench_alloc_floats(n, 3);
     if (!rc && (!geo || !p || !se))
         rc = bench_fail("%s: out of memory for the reference (n = %zu)", c->r->label, n);
     if (!rc)
@@ -564,7 +565,7 @@ static int run_reference(const sc_args *a, sc_child *c, sc_result *r, float *ref
     sc_buf b = {0};
     sc_result scratch = *r;
     c->r = &scratch;
-    note("%s: path-traced reference (%zu samples per subpatch)", r->label, a->samples);
+    bench_note("%s: path-traced reference (%zu samples per subpatch)", r->label, a->samples);
     int rc = run_child(r->label, ref_child, c, &b, &r->reference_peak_mib);
     if (!rc && take_ref(&b, r, ref) != 0)
         rc = bench_fail("%s: the reference child sent too little, or for another n than "
@@ -592,8 +593,8 @@ int sc_run_scene(const sc_args *a, const char *scene, sc_result *r)
     sc_child c = {a, scene, r, NULL, NULL, ""};
     sc_buf b = {0};
     float *op[2] = {NULL, NULL}, *ref[3] = {NULL, NULL, NULL};
-    note("%s: operator (K %zu, hemicube %u), verify, frames", r->label, a->patches,
-         a->hemicube);
+    bench_note("%s: operator (K %zu, hemicube %u), verify, frames", r->label, a->patches,
+               a->hemicube);
     double peak = NAN;
     int rc = run_child(r->label, op_child, &c, &b, &peak);
     r->peak_mib = peak;

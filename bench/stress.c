@@ -165,13 +165,13 @@ static int write_stress_csv(const char *path, const stress_row *rows, size_t cou
     for (size_t i = 0; i < count; i++) {
         const stress_row *r = &rows[i];
         fprintf(out.f, "%s,%zu,%zu,%zu,%g,%s,", r->scene, r->n, r->k, r->d, r->rho, r->method);
-        csv_num(out.f, r->max_rel, 0);
-        csv_num(out.f, r->rel_l2, 0);
+        bench_csv_num(out.f, r->max_rel, 0);
+        bench_csv_num(out.f, r->rel_l2, 0);
         fprintf(out.f, "%zu,", r->iterations);
-        csv_num(out.f, r->seconds, 0);
-        csv_num(out.f, r->residual, 0);
+        bench_csv_num(out.f, r->seconds, 0);
+        bench_csv_num(out.f, r->residual, 0);
         fprintf(out.f, "%s,%zu,", r->status, r->nonfinite);
-        csv_num(out.f, r->cond_max, 0);
+        bench_csv_num(out.f, r->cond_max, 0);
         fprintf(out.f, "%.9g,%.9g\n", r->row_min, r->row_max);
     }
     if (cli_outfile_commit(&out) != 0)
@@ -204,13 +204,13 @@ static int room_scene(lrr_context *ctx, const voxel_room *room, int quick, doubl
         em[i] = 1.0f;
     }
     if ((s = lrr_scene_create(ctx, ntri, v, rh, em, room->name, scene)) != LRR_OK) {
-        rc = lib_fail(ctx, s, room->name);
+        rc = bench_lib_fail(ctx, s, room->name);
         goto done;
     }
     lrr_subdivision sub = {.target_patches = quick ? room->quick_patches : room->target_patches,
                            .levels = quick ? room->quick_levels : room->levels};
     if ((s = lrr_scene_subdivide(*scene, &sub)) != LRR_OK)
-        rc = lib_fail(ctx, s, "subdivision");
+        rc = bench_lib_fail(ctx, s, "subdivision");
 done:
     free(v);
     free(rh);
@@ -228,7 +228,7 @@ static int operator_row(lrr_context *ctx, const voxel_room *room, double rho,
     size_t n = oi.n, k = oi.k, d = oi.d;
     *r = (stress_row){room->name, n, k, d, rho, "lrr", 0, 0, 0, 0, NAN, "", 0, 0, INFINITY,
                       -INFINITY};
-    float *row = alloc_floats(k, 1);
+    float *row = bench_alloc_floats(k, 1);
     if (!row)
         return bench_fail("cannot allocate a row of F̄");
     for (size_t i = 0; i < n; i++) {
@@ -247,7 +247,7 @@ static int operator_row(lrr_context *ctx, const voxel_room *room, double rho,
     if ((s = lrr_solver_create(op, LRR_BACKEND_CPU, &solver)) != LRR_OK ||
         (s = lrr_solver_set_path(solver, LRR_PATH_FULL)) != LRR_OK) {
         lrr_solver_destroy(solver);
-        return lib_fail(ctx, s, "solver");
+        return bench_lib_fail(ctx, s, "solver");
     }
     double t0 = cli_now();
     s = lrr_solve(solver, e, b);
@@ -256,7 +256,8 @@ static int operator_row(lrr_context *ctx, const voxel_room *room, double rho,
     if (s != LRR_OK) {
         char msg[256] = "";
         lrr_context_last_error(ctx, msg, sizeof msg);
-        note("%s rho %g lrr_solve: %s%s%s", room->name, rho, lrr_strerror(s), msg[0] ? ": " : "",
+        bench_note("%s rho %g lrr_solve: %s%s%s", room->name, rho, lrr_strerror(s),
+                   msg[0] ? ": " : "",
              msg);
         r->max_rel = r->rel_l2 = NAN;
     } else {
@@ -282,7 +283,7 @@ static int reference_rows(lrr_context *ctx, const voxel_room *room, double rho,
     lrr_reference *ref = NULL;
     lrr_status s;
     if ((s = lrr_reference_build(scene, bo, 0, &ref)) != LRR_OK)
-        return lib_fail(ctx, s, "reference build");
+        return bench_lib_fail(ctx, s, "reference build");
     const float *F = lrr_reference_f(ref);
     double fmin_ = INFINITY, fmax_ = -INFINITY;
     for (size_t i = 0; i < n; i++) {
@@ -310,7 +311,7 @@ static int reference_rows(lrr_context *ctx, const voxel_room *room, double rho,
             char msg[256] = "";
             lrr_context_last_error(ctx, msg, sizeof msg);
             if (msg[0])
-                note("%s rho %g %s: %s", room->name, rho, q.method, msg);
+                bench_note("%s rho %g %s: %s", room->name, rho, q.method, msg);
         }
         rows[(*count)++] = q;
         print_stress_row(&q);
@@ -333,7 +334,7 @@ static int stress_case(lrr_context *ctx, const voxel_room *room, int quick, unsi
     lrr_build_options bo = {.hemicube_resolution = R, .seed = DEFAULT_SEED};
     double t0 = cli_now();
     if ((s = lrr_operator_build(scene, &bo, &op)) != LRR_OK) {
-        rc = lib_fail(ctx, s, "operator build");
+        rc = bench_lib_fail(ctx, s, "operator build");
         goto done;
     }
     double build_s = cli_now() - t0;
@@ -353,8 +354,8 @@ static int stress_case(lrr_context *ctx, const voxel_room *room, int quick, unsi
         goto done;
     rows[(*count)++] = r;
     print_stress_row(&r);
-    note("%s rho %g: operator n %zu built in %.2f s; reference solvers", room->name, rho, n,
-         build_s);
+    bench_note("%s rho %g: operator n %zu built in %.2f s; reference solvers", room->name, rho, n,
+               build_s);
     rc = reference_rows(ctx, room, rho, scene, &bo, op, e, b, rows, count);
 done:
     lrr_operator_destroy(op);
@@ -375,7 +376,7 @@ int cmd_stress(int argc, char *argv[])
     const char *csv = NULL;
     unsigned R = 0;
     int quick = 0;
-    start_getopt();
+    bench_start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
         switch (c) {
@@ -397,10 +398,10 @@ int cmd_stress(int argc, char *argv[])
             quick = 1;
             break;
         default:
-            return bad_option(prog, c, argv);
+            return bench_bad_option(prog, c, argv);
         }
     }
-    if (no_positional(prog, argc, argv))
+    if (bench_no_positional(prog, argc, argv))
         return CLI_EXIT_USAGE;
     if (csv && !csv[0]) {
         cli_usage_error(prog, "--csv: the file name is empty");
@@ -419,11 +420,11 @@ int cmd_stress(int argc, char *argv[])
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK) {
         free(rows);
-        return lib_fail(NULL, s, "context");
+        return bench_lib_fail(NULL, s, "context");
     }
     double t_start = cli_now();
     printf("benchmark: stress\n");
-    print_machine();
+    bench_print_machine();
     printf("hemicube: %u\n", R);
     printf("exact: B = E/(1 - rho) with E = 1 (valid when the rows of F sum to 1)\n");
     printf("reference_tol: 1e-6\n");

@@ -157,7 +157,7 @@ int parse_cells(const char *prog, const char *text, cell **cells, size_t *n_cell
             p++;
         else if (*p)
             goto bad;
-        if (levels_of((size_t)v[2]) < 0) {
+        if (bench_levels_of((size_t)v[2]) < 0) {
             cli_usage_error(prog, "--cells: d = %llu is not a power of 4 (1, 4, ..., 4^10)",
                             v[2]);
             return -1;
@@ -196,26 +196,26 @@ static int write_table_csv(const char *path, const cell_result *res, size_t coun
                             r->max_rel, r->ours.min, r->ours.max, r->paper.min, r->paper.max,
                             r->sgemv3.min, r->sgemv3.max};
         for (size_t j = 0; j < sizeof v / sizeof v[0]; j++)
-            csv_num(out.f, v[j], 0);
+            bench_csv_num(out.f, v[j], 0);
         fprintf(out.f, "%zu,%zu,%zu,%zu,%zu,%zu,", r->ours.runs, r->paper.runs, r->sgemv3.runs,
                 r->target.n, r->target.k, r->target.d);
         const double w[] = {r->mem_mib_paper, r->bandwidth_gbs, r->reference_s,
                             r->rel_l2_reflected, r->paper_vs_ours, r->cond[0], r->cond[1],
                             r->cond[2]};
         for (size_t j = 0; j < sizeof w / sizeof w[0]; j++)
-            csv_num(out.f, w[j], 0);
+            bench_csv_num(out.f, w[j], 0);
         fprintf(out.f, "%d,", r->threads);
-        csv_num(out.f, r->ours_auto.median, 0);
-        csv_num(out.f, r->ours_auto.min, 0);
-        csv_num(out.f, r->ours_auto.max, 0);
+        bench_csv_num(out.f, r->ours_auto.median, 0);
+        bench_csv_num(out.f, r->ours_auto.min, 0);
+        bench_csv_num(out.f, r->ours_auto.max, 0);
         fprintf(out.f, "%s,%s,", r->auto_path, r->kernel);
-        csv_num(out.f, r->floor_ms_full, 0);
+        bench_csv_num(out.f, r->floor_ms_full, 0);
         fprintf(out.f, "%s,", r->have_cl ? "opencl" : "cpu");
-        csv_num(out.f, r->ocl.median, 0);
-        csv_num(out.f, r->ocl_kernel_ms, 0);
-        csv_num(out.f, r->ocl_transfer_ms, 0);
+        bench_csv_num(out.f, r->ocl.median, 0);
+        bench_csv_num(out.f, r->ocl_kernel_ms, 0);
+        bench_csv_num(out.f, r->ocl_transfer_ms, 0);
         fprintf(out.f, "%s,", r->ocl_device);
-        csv_num(out.f, r->ocl_ratio, 1);
+        bench_csv_num(out.f, r->ocl_ratio, 1);
     }
     if (cli_outfile_commit(&out) != 0)
         return bench_fail("cannot write '%s': %s", path, strerror(errno));
@@ -285,12 +285,12 @@ static void print_table_row(const cell_result *r, int opencl)
     const timing *tm[3] = {&r->ours, &r->paper, &r->sgemv3};
     for (int i = 0; i < 3; i++) {
         char med[32], lo[32], hi[32];
-        fmt_ms(med, sizeof med, tm[i]->median);
-        fmt_ms(lo, sizeof lo, tm[i]->min);
-        fmt_ms(hi, sizeof hi, tm[i]->max);
+        bench_fmt_ms(med, sizeof med, tm[i]->median);
+        bench_fmt_ms(lo, sizeof lo, tm[i]->min);
+        bench_fmt_ms(hi, sizeof hi, tm[i]->max);
         snprintf(t[i], sizeof t[i], "%s (%s-%s)", med, lo, hi);
     }
-    fmt_ms(fl, sizeof fl, r->floor_ms);
+    bench_fmt_ms(fl, sizeof fl, r->floor_ms);
     if (isnan(r->rel_l2)) {
         snprintf(e1, sizeof e1, "n/a");
         snprintf(e2, sizeof e2, "n/a");
@@ -299,14 +299,14 @@ static void print_table_row(const cell_result *r, int opencl)
         snprintf(e2, sizeof e2, "%.3g", r->max_rel);
     }
     char am[32], au[64];
-    fmt_ms(am, sizeof am, r->ours_auto.median);
+    bench_fmt_ms(am, sizeof am, r->ours_auto.median);
     snprintf(au, sizeof au, "%s (%s)", am, r->auto_path);
     printf("%7zu %5zu %5zu %8.1f %8.1f %7.2f %26s %26s %26s %8s %9s %9s %18s", r->n, r->k,
            r->d, r->mem_mb, r->mem_mb_paper, r->preprocess_s, t[0], t[1], t[2], fl, e1, e2, au);
     if (opencl) {
         char med[32], lo[32], hi[32], oc[128], km[32], tx[32], ra[32];
-        snprintf(oc, sizeof oc, "%s (%s-%s)", fmt_ms(med, sizeof med, r->ocl.median),
-                 fmt_ms(lo, sizeof lo, r->ocl.min), fmt_ms(hi, sizeof hi, r->ocl.max));
+        snprintf(oc, sizeof oc, "%s (%s-%s)", bench_fmt_ms(med, sizeof med, r->ocl.median),
+                 bench_fmt_ms(lo, sizeof lo, r->ocl.min), bench_fmt_ms(hi, sizeof hi, r->ocl.max));
         if (isnan(r->ocl_ratio))
             snprintf(ra, sizeof ra, "-");
         else
@@ -337,7 +337,7 @@ static int table_parse(int argc, char *argv[], table_args *a)
         {"help", no_argument, NULL, 'h'},
         {NULL, 0, NULL, 0}};
     size_t budget_mib = DEFAULT_BUDGET_MIB;
-    start_getopt();
+    bench_start_getopt();
     int c;
     while ((c = getopt_long(argc, argv, ":h", longopts, NULL)) != -1) {
         switch (c) {
@@ -380,14 +380,14 @@ static int table_parse(int argc, char *argv[], table_args *a)
                 return CLI_EXIT_USAGE;
             break;
         case OPT_BACKEND:
-            if (parse_backend(prog, optarg, &a->opencl) != 0)
+            if (bench_parse_backend(prog, optarg, &a->opencl) != 0)
                 return CLI_EXIT_USAGE;
             break;
         default:
-            return bad_option(prog, c, argv);
+            return bench_bad_option(prog, c, argv);
         }
     }
-    if (no_positional(prog, argc, argv))
+    if (bench_no_positional(prog, argc, argv))
         return CLI_EXIT_USAGE;
     if ((a->csv && !a->csv[0]) || (a->plot && !a->plot[0])) {
         cli_usage_error(prog, "--csv/--plot: the file name is empty");
@@ -403,18 +403,18 @@ static int table_parse(int argc, char *argv[], table_args *a)
 static double table_print_setup(const table_args *a)
 {
     printf("benchmark: table\n");
-    print_machine();
+    bench_print_machine();
     printf("scene: %s\n", a->scene);
     printf("cells: %s (%zu)\n", a->cells_name ? a->cells_name : "paper", a->n_cells);
     printf("hemicube: %u\n", a->hemicube);
     printf("seed: %llu\n", (unsigned long long)a->seed);
     printf("memory_budget_mib: %zu\n", a->budget >> 20);
     fflush(stdout);
-    size_t llc = llc_bytes(), bw_bytes = bandwidth_buffer_bytes();
+    size_t llc = bench_llc_bytes(), bw_bytes = bench_bandwidth_buffer_bytes();
     printf("llc_mib: %zu\n", llc >> 20);
-    note("measuring the read bandwidth (%d passes over %zu MiB)", BANDWIDTH_PASSES,
-         bw_bytes >> 20);
-    double bw = measure_bandwidth(bw_bytes);
+    bench_note("measuring the read bandwidth (%d passes over %zu MiB)", BANDWIDTH_PASSES,
+               bw_bytes >> 20);
+    double bw = bench_measure_bandwidth(bw_bytes);
     if (bw > 0)
         printf("read_bandwidth_gbs: %.2f (OpenMP sum over %zu MiB, best of %d, %d threads)\n",
                bw / 1e9, bw_bytes >> 20, BANDWIDTH_PASSES, omp_get_max_threads());

@@ -21,15 +21,16 @@ static int reference_error(lrr_context *ctx, const lrr_scene *scene,
     if (need == SIZE_MAX || need > budget) {
         char nb[32], bb[32];
         snprintf(r->note, sizeof r->note, "n×n needs %s > budget %s",
-                 need == SIZE_MAX ? "more than SIZE_MAX bytes" : fmt_bytes(nb, sizeof nb, need),
-                 fmt_bytes(bb, sizeof bb, budget));
+                 need == SIZE_MAX ? "more than SIZE_MAX bytes"
+                                  : bench_fmt_bytes(nb, sizeof nb, need),
+                 bench_fmt_bytes(bb, sizeof bb, budget));
         return 0;
     }
     lrr_reference *ref = NULL;
     cli_progress bar;
     lrr_build_options o = *bo;
-    note("%s: reference: n×n form factors (%.1f MB)", label, (double)need / MB);
-    progress_begin(&bar, "n×n hemicubes", &o);
+    bench_note("%s: reference: n×n form factors (%.1f MB)", label, (double)need / MB);
+    bench_progress_begin(&bar, "n×n hemicubes", &o);
     double t0 = cli_now();
     lrr_status s = lrr_reference_build(scene, &o, budget, &ref);
     cli_progress_finish(&bar);
@@ -40,7 +41,7 @@ static int reference_error(lrr_context *ctx, const lrr_scene *scene,
         return 0;
     }
     if (s != LRR_OK)
-        return lib_fail(ctx, s, "reference build");
+        return bench_lib_fail(ctx, s, "reference build");
     float *bref = cli_alloc_rgb(r->n);
     if (!bref) {
         lrr_reference_destroy(ref);
@@ -54,7 +55,7 @@ static int reference_error(lrr_context *ctx, const lrr_scene *scene,
     if (s != LRR_OK && s != LRR_NOT_CONVERGED) {
         free(bref);
         lrr_reference_destroy(ref);
-        return lib_fail(ctx, s, "Gauss-Seidel reference solve");
+        return bench_lib_fail(ctx, s, "Gauss-Seidel reference solve");
     }
     if (s == LRR_NOT_CONVERGED) {
         char msg[256] = "";
@@ -62,11 +63,11 @@ static int reference_error(lrr_context *ctx, const lrr_scene *scene,
         snprintf(r->note, sizeof r->note, "Gauss-Seidel stopped at residual %.2g after %zu",
                  st.residual, st.iterations);
     }
-    note("%s: reference: Gauss-Seidel %zu sweeps, residual %.2g, %.2f s (%.1f s with F)",
-         label, st.iterations, st.residual, st.seconds, r->reference_s);
+    bench_note("%s: reference: Gauss-Seidel %zu sweeps, residual %.2g, %.2f s (%.1f s with F)",
+               label, st.iterations, st.residual, st.seconds, r->reference_s);
     const float *area = lrr_reference_area(ref);
-    compare_b(r->n, area, b, bref, NULL, &r->rel_l2, &r->max_rel);
-    compare_b(r->n, area, b, bref, lrr_reference_emission(ref), &r->rel_l2_reflected, NULL);
+    bench_compare_b(r->n, area, b, bref, NULL, &r->rel_l2, &r->max_rel);
+    bench_compare_b(r->n, area, b, bref, lrr_reference_emission(ref), &r->rel_l2_reflected, NULL);
     free(bref);
     lrr_reference_destroy(ref);
     return 0;
@@ -93,22 +94,22 @@ static int cell_build(lrr_context *ctx, const table_args *a, const cell *c, cons
                       lrr_scene *scene, lrr_build_options *bo, lrr_operator **op,
                       cell_result *r)
 {
-    lrr_subdivision sub = {.target_patches = c->k, .levels = (unsigned)levels_of(c->d)};
+    lrr_subdivision sub = {.target_patches = c->k, .levels = (unsigned)bench_levels_of(c->d)};
     lrr_status s = lrr_scene_subdivide(scene, &sub);
     if (s != LRR_OK)
-        return lib_fail(ctx, s, "subdivision");
+        return bench_lib_fail(ctx, s, "subdivision");
     lrr_scene_info si;
     lrr_scene_get_info(scene, &si, sizeof si);
     r->n = si.subpatches;
     r->k = si.patches;
     r->d = si.d;
     snprintf(r->label, sizeof r->label, "%zu×%zu", r->n, r->k);
-    note("%s: %zu patches, %zu subpatches; building the operator (hemicube %u)", label, r->k,
-         r->n, a->hemicube);
+    bench_note("%s: %zu patches, %zu subpatches; building the operator (hemicube %u)", label, r->k,
+               r->n, a->hemicube);
 
     *bo = (lrr_build_options){.hemicube_resolution = a->hemicube, .seed = a->seed};
     cli_progress bar;
-    progress_begin(&bar, "hemicubes", bo);
+    bench_progress_begin(&bar, "hemicubes", bo);
     double t0 = cli_now();
     s = lrr_operator_build(scene, bo, op);
     r->preprocess_s = cli_now() - t0;
@@ -116,7 +117,7 @@ static int cell_build(lrr_context *ctx, const table_args *a, const cell *c, cons
     bo->progress = NULL;
     bo->progress_user = NULL;
     if (s != LRR_OK)
-        return lib_fail(ctx, s, "operator build");
+        return bench_lib_fail(ctx, s, "operator build");
     lrr_operator_info oi;
     lrr_operator_get_info(*op, &oi, sizeof oi);
     memcpy(r->cond, oi.condition, sizeof r->cond);
@@ -142,16 +143,16 @@ static int time_ours(lrr_context *ctx, const table_args *a, const lrr_operator *
 {
     lrr_status s = lrr_solver_create(op, LRR_BACKEND_CPU, solver);
     if (s != LRR_OK)
-        return lib_fail(ctx, s, "solver");
+        return bench_lib_fail(ctx, s, "solver");
     snprintf(r->kernel, sizeof r->kernel, "%s", lrr_solver_kernel(*solver));
     if ((s = lrr_solver_set_path(*solver, LRR_PATH_FULL)) != LRR_OK)
-        return lib_fail(ctx, s, "solver path");
+        return bench_lib_fail(ctx, s, "solver path");
     ours_frame of = {*solver, e, NULL, b, LRR_OK, 0};
-    if (time_frames(ours_step, &of, a->repeat, &r->ours))
-        return of.status != LRR_OK ? lib_fail(ctx, of.status, "lrr_solve") : CLI_EXIT_FAIL;
+    if (bench_time_frames(bench_ours_step, &of, a->repeat, &r->ours))
+        return of.status != LRR_OK ? bench_lib_fail(ctx, of.status, "lrr_solve") : CLI_EXIT_FAIL;
     if (lrr_solver_last_path(*solver) != LRR_PATH_FULL)
         return bench_fail("%s: lrr_solve took the %s path, not the full one it was told to",
-                          label, path_name(lrr_solver_last_path(*solver)));
+                          label, bench_path_name(lrr_solver_last_path(*solver)));
     return 0;
 }
 
@@ -170,16 +171,16 @@ static int time_opencl(lrr_context *ctx, const table_args *a, const lrr_operator
     if (!bcl || !cf.kernel_ms || !cf.transfer_ms)
         rc = bench_fail("cannot allocate the OpenCL timings");
     else if ((s = lrr_solver_create(op, LRR_BACKEND_OPENCL, &cls)) != LRR_OK)
-        rc = lib_fail(ctx, s, "OpenCL solver");
+        rc = bench_lib_fail(ctx, s, "OpenCL solver");
     else {
-        note("%s: ours on %s", label, lrr_solver_kernel(cls));
-        cl_device_name(cls, r->ocl_device, sizeof r->ocl_device);
+        bench_note("%s: ours on %s", label, lrr_solver_kernel(cls));
+        bench_cl_device_name(cls, r->ocl_device, sizeof r->ocl_device);
         cf.of.solver = cls;
-        if (time_frames(cl_step, &cf, a->repeat, &r->ocl))
-            rc = cf.of.status != LRR_OK ? lib_fail(ctx, cf.of.status, "lrr_solve (OpenCL)")
+        if (bench_time_frames(bench_cl_step, &cf, a->repeat, &r->ocl))
+            rc = cf.of.status != LRR_OK ? bench_lib_fail(ctx, cf.of.status, "lrr_solve (OpenCL)")
                                         : CLI_EXIT_FAIL;
         else {
-            cl_medians(&cf, r->ocl.runs, &r->ocl_kernel_ms, &r->ocl_transfer_ms);
+            bench_cl_medians(&cf, r->ocl.runs, &r->ocl_kernel_ms, &r->ocl_transfer_ms);
             r->ocl_ratio = r->ours.median / r->ocl.median;
             r->have_cl = 1;
         }
@@ -207,12 +208,13 @@ static int time_auto(lrr_context *ctx, const table_args *a, lrr_solver *solver,
     lrr_status s;
     if ((s = lrr_solver_set_path(solver, LRR_PATH_AUTO)) != LRR_OK)
         af.status = s;
-    int arc = s != LRR_OK || time_frames(ours_step, &af, a->repeat, &r->ours_auto);
-    snprintf(r->auto_path, sizeof r->auto_path, "%s", path_name(lrr_solver_last_path(solver)));
+    int arc = s != LRR_OK || bench_time_frames(bench_ours_step, &af, a->repeat, &r->ours_auto);
+    snprintf(r->auto_path, sizeof r->auto_path, "%s",
+             bench_path_name(lrr_solver_last_path(solver)));
     free(e_half);
     free(b_auto);
     if (arc)
-        return lib_fail(ctx, af.status, "lrr_solve (auto path)");
+        return bench_lib_fail(ctx, af.status, "lrr_solve (auto path)");
     return 0;
 }
 
@@ -247,7 +249,7 @@ static int time_sgemv3(const table_args *a, const lrr_operator *op, paper_frame 
     if (!sf->rows)
         return bench_fail("cannot allocate a row-major copy of F̄");
     for (int ch = 0; ch < 3; ch++) {
-        sf->z[ch] = alloc_floats(r->k, 1);
+        sf->z[ch] = bench_alloc_floats(r->k, 1);
         sf->out[ch] = pf->b[ch]; /* reuse: the paper's check is done */
         if (!sf->z[ch])
             return bench_fail("cannot allocate z");
@@ -263,7 +265,7 @@ static int time_sgemv3(const table_args *a, const lrr_operator *op, paper_frame 
         lrr_aligned_free(pf->y[ch]);
         pf->y[ch] = NULL;
     }
-    return time_frames(sgemv_step, sf, a->repeat, &r->sgemv3);
+    return bench_time_frames(bench_sgemv_step, sf, a->repeat, &r->sgemv3);
 }
 
 int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t index,
@@ -281,13 +283,13 @@ int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t index,
     paper_frame pf = {0};
     sgemv_frame sf = {0};
     lrr_build_options bo;
-    int rc = open_scene(ctx, a->scene, &scene);
+    int rc = bench_open_scene(ctx, a->scene, &scene);
     if (rc)
         return rc;
     if ((rc = cell_build(ctx, a, c, label, scene, &bo, &op, r)))
         goto done;
     cell_memory(r, bandwidth);
-    note("%s: operator built in %.2f s; timing the real-time step", label, r->preprocess_s);
+    bench_note("%s: operator built in %.2f s; timing the real-time step", label, r->preprocess_s);
 
     /* ours, on OpenCL, the default path */
     const float *e = lrr_operator_emission(op);
@@ -308,9 +310,9 @@ int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t index,
         }
 
     /* the paper's method; a disagreement with ours is reported and the cell carries on */
-    if ((rc = paper_setup(op, e, &pf)))
+    if ((rc = bench_paper_setup(op, e, &pf)))
         goto done;
-    if ((rc = time_frames(paper_step, &pf, a->repeat, &r->paper)))
+    if ((rc = bench_time_frames(bench_paper_step, &pf, a->repeat, &r->paper)))
         goto done;
     rc = paper_check(&pf, b, label, r);
     int rc3 = time_sgemv3(a, op, &pf, &sf, r);
@@ -318,15 +320,15 @@ int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t index,
         rc = rc3;
         goto done;
     }
-    note("%s: ms ours %.3f (auto %.3f, %s), paper %.3f, 3 sgemv %.3f", label, r->ours.median,
-         r->ours_auto.median, r->auto_path, r->paper.median, r->sgemv3.median);
+    bench_note("%s: ms ours %.3f (auto %.3f, %s), paper %.3f, 3 sgemv %.3f", label, r->ours.median,
+               r->ours_auto.median, r->auto_path, r->paper.median, r->sgemv3.median);
 
     /* error against the n×n reference (the paper arrays are freed first) */
     for (int ch = 0; ch < 3; ch++) {
         lrr_aligned_free(sf.z[ch]);
         sf.z[ch] = NULL;
     }
-    paper_free(&pf);
+    bench_paper_free(&pf);
     lrr_solver_destroy(solver);
     solver = NULL;
     int rce = reference_error(ctx, scene, &bo, a->budget, b, r, label);
@@ -336,7 +338,7 @@ done:
     for (int ch = 0; ch < 3; ch++)
         lrr_aligned_free(sf.z[ch]);
     lrr_aligned_free(sf.rows);
-    paper_free(&pf);
+    bench_paper_free(&pf);
     lrr_solver_destroy(solver);
     free(b);
     lrr_operator_destroy(op);

@@ -6,7 +6,7 @@
 # match the --help texts. man/lrr.3 (the C API) is written by hand.
 #   man/gen.sh LRR LRR_BENCH SRCDIR
 # Why not help2man: it turns one --help into one page; lrr has a help text per command
-# (twelve) and lrr-bench eight, whose option tables this converts the same way.
+# (twelve) and lrr-bench nine, whose option tables this converts the same way.
 set -eu
 [ $# -eq 3 ] || { echo "usage: $0 LRR LRR_BENCH SRCDIR" >&2; exit 2; }
 lrr=$1 bench=$2 src=$3

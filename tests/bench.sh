@@ -193,6 +193,17 @@ fi
 run hemicube --builds 3
 if [ "$rc" -eq 2 ]; then pass "hemicube --builds without --rates: exit 2"; else fail "hemicube --builds without --rates: exit $rc"; fi
 
+# raycast --quick: T 36 and 144 at R 16, one and all threads, both rates > 0
+run raycast --quick
+bad=$(awk -F, '/^T,R,threads/ { h = 1; next } h && NF == 6 { rows++; if ($2 != 16 || !($4 > 0) || !($5 > 0)) print "row: " $0 }
+               END { if (!h || (rows != 2 && rows != 4)) print "rows: " rows }' "$T/out" 2>&1)
+if [ "$rc" -eq 0 ] && [ -z "$bad" ]; then
+    pass "raycast --quick: T 36 and 144, raster and raycast rates > 0"
+else
+    fail "raycast --quick: exit $rc $bad"
+    show_err
+fi
+
 # ---------------------------------------------------------------- realtime
 run --help
 if [ "$rc" -eq 0 ] && grep -q 'realtime' "$T/out"; then pass "lrr-bench --help lists realtime"; else fail "lrr-bench --help does not list realtime"; fi

@@ -11,6 +11,7 @@
 
 #include "lrr.h"
 #include "core/atomic_file.h"
+#include "core/path.h"
 
 /* Exit statuses: 1 for a failure while working, 2 for a malformed command line, 3 when an
  * iterative reference solve stopped before its tolerance (its result is still written). */
@@ -38,6 +39,11 @@ int cli_parse_size(const char *prog, const char *opt, const char *text, size_t m
                    size_t max, size_t *out);
 int cli_parse_unsigned(const char *prog, const char *opt, const char *text, unsigned min,
                        unsigned max, unsigned *out);
+/* "X,Y,Z": three finite numbers within float range (|v| <= FLT_MAX: the geometry is
+ * float), separated by single commas, with no spaces and nothing trailing; an overflow or
+ * underflow strtod reports (ERANGE) is refused. Prints nothing: 0, or -1 and the caller's
+ * message names the option, the script line or the light field. */
+int cli_parse_vec3(const char *text, double v[3]);
 /* "cpu" or "opencl" (the --backend option of lrr and lrr-bench). */
 int cli_parse_backend(const char *prog, const char *text, lrr_backend *out);
 /* Finite numbers in [min, max]; min_open != 0 excludes min itself (for "> 0"). */
@@ -171,6 +177,11 @@ int lrr_cli_main(int argc, char *argv[], int parse_only);
 float *cli_alloc_rgb(size_t n);
 /* Sorts v (length n) and returns its median; n must be > 0. */
 double cli_median(double *v, size_t n);
+
+/* A path the tool reads itself (a script, a CSV): lrr__open_regular (core/path.h), so a
+ * FIFO, socket or device is refused before it can block. The stream, or NULL with *why
+ * LRR__NOT_REGULAR_TEXT or strerror's text. */
+FILE *cli_open_regular(const char *path, const char **why);
 
 /* mkdir -p: creates each missing component of dir; CLI_EXIT_OK or CLI_EXIT_FAIL (reported:
  * what cannot be created, or a component that is not a directory). */

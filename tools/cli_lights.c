@@ -4,27 +4,24 @@
 #include "commands.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-/* "x,y,z" (or one value for all three, for rgb) into v; 0 or -1. */
+/* cli_parse_vec3 into v, or (one_ok, for rgb) a single such number for all three; 0 or -1. */
 static int parse_vec(const char *s, int one_ok, float v[3])
 {
-    char *end;
-    for (int j = 0; j < 3; j++) {
-        double x = strtod(s, &end);
-        if (end == s || !isfinite(x) || fabs(x) > 3e38)
-            return -1;
-        v[j] = (float)x;
-        if (j == 0 && *end == '\0' && one_ok) {
-            v[1] = v[2] = v[0];
-            return 0;
-        }
-        if (j < 2 && *end != ',')
-            return -1;
-        s = end + 1;
+    double d[3];
+    char three[3 * 512 + 3];
+    if (one_ok && !strchr(s, ',') && strlen(s) < 512) {
+        snprintf(three, sizeof three, "%s,%s,%s", s, s, s);
+        s = three;
     }
-    return *end == '\0' ? 0 : -1;
+    if (cli_parse_vec3(s, d) != 0)
+        return -1;
+    for (int j = 0; j < 3; j++)
+        v[j] = (float)d[j];
+    return 0;
 }
 
 static int parse_kind(const char *word, int *kind)

@@ -56,21 +56,33 @@ static void *field_at(void *target, size_t field)
     return (char *)target + (field - 1);
 }
 
-/* "X,Y,Z": three finite numbers; 0 or -1 (reported, naming opt). */
+/* cli_parse_vec3, reported naming opt; 0 or -1. */
 static int parse_vec3(const char *prog, const char *opt, const char *arg, double v[3])
 {
-    const char *p = arg;
-    for (int j = 0; j < 3; j++) {
-        char *end = NULL;
-        errno = 0;
-        v[j] = strtod(p, &end);
-        if (end == p || errno == ERANGE || !isfinite(v[j]) || *end != (j < 2 ? ',' : '\0')) {
-            cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
-            return -1;
-        }
-        p = end + 1;
+    if (cli_parse_vec3(arg, v) == 0)
+        return 0;
+    cli_usage_error(prog, "%s: '%s' is not three finite numbers X,Y,Z", opt, arg);
+    return -1;
+}
+
+/* The words of ch without its aliases, each after prefix, joined by sep and the last by
+ * last_sep ("png|exr", ".glb or .ply"), into list. */
+static void choice_list(const cli_choice *ch, const char *prefix, const char *sep,
+                        const char *last_sep, char *list, size_t size)
+{
+    const char *word[CLI_MAX_OPTS];
+    size_t n = 0, len = 0;
+    for (size_t i = 0; ch[i].word && n < CLI_MAX_OPTS; i++) {
+        int alias = 0;
+        for (size_t j = 0; j < i; j++)
+            alias |= ch[j].value == ch[i].value;
+        if (!alias)
+            word[n++] = ch[i].word;
     }
-    return 0;
+    list[0] = '\0';
+    for (size_t i = 0; i < n && len < size; i++)
+        len += (size_t)snprintf(list + len, size - len, "%s%s%s",
+                                i == 0 ? "" : i + 1 == n ? last_sep : sep, prefix, word[i]);
 }
 
 /* "--NAME: 'ARG' is not one of a, b, c" lists each value once (aliases are left out). */
@@ -82,17 +94,27 @@ static int parse_choice(const char *prog, const char *opt, const cli_choice *ch,
             *out = ch[i].value;
             return 0;
         }
-    char list[256] = "";
-    size_t len = 0;
-    for (size_t i = 0; ch[i].word; i++) {
-        int alias = 0;
-        for (size_t j = 0; j < i; j++)
-            alias |= ch[j].value == ch[i].value;
-        if (!alias && len < sizeof list)
-            len += (size_t)snprintf(list + len, sizeof list - len, "%s%s", len ? ", " : "",
-                                    ch[i].word);
-    }
+    char list[256];
+    choice_list(ch, "", ", ", ", ", list, sizeof list);
     cli_usage_error(prog, "%s: '%s' is not one of %s", opt, arg, list);
+    return -1;
+}
+
+int cli_output_format(const char *prog, const char *path, const cli_choice *exts,
+                      const char *kind, const cli_choice *formats, int *format)
+{
+    if (*format != 0)
+        return 0;
+    for (size_t i = 0; exts[i].word; i++)
+        if (lrr__path_has_extension(path, exts[i].word)) {
+            *format = exts[i].value;
+            return 0;
+        }
+    char names[256], words[256];
+    choice_list(exts, ".", ", ", " or ", names, sizeof names);
+    choice_list(formats, "", "|", "|", words, sizeof words);
+    cli_usage_error(prog, "-o %s: unknown %s format (name it %s, or give --format %s)", path,
+                    kind, names, words);
     return -1;
 }
 

@@ -34,26 +34,10 @@ static int fail(const reader *r, const char *fmt, ...)
     return -1;
 }
 
-/* "X,Y,Z": three finite numbers; 0 or -1. */
-static int parse_vec3(const char *s, double v[3])
-{
-    char *end;
-    for (int j = 0; j < 3; j++) {
-        errno = 0;
-        v[j] = strtod(s, &end);
-        if (end == s || errno == ERANGE || !isfinite(v[j]) || fabs(v[j]) > 3e38)
-            return -1;
-        if (j < 2 && *end != ',')
-            return -1;
-        s = end + 1;
-    }
-    return *end == '\0' ? 0 : -1;
-}
-
 static int parse_point(const char *s, float p[3])
 {
     double v[3];
-    if (parse_vec3(s, v) != 0)
+    if (cli_parse_vec3(s, v) != 0)
         return -1;
     for (int j = 0; j < 3; j++)
         p[j] = (float)v[j];
@@ -268,7 +252,8 @@ static int parse_statement(reader *r, char *text, char **w, size_t nw, cli_scrip
     if (strcmp(verb, "camera") == 0) {
         c->kind = CS_CAMERA;
         if (nw != 3 || !field(w[1], "eye") || !field(w[2], "target") ||
-            parse_vec3(field(w[1], "eye"), c->eye) || parse_vec3(field(w[2], "target"), c->target))
+            cli_parse_vec3(field(w[1], "eye"), c->eye) ||
+            cli_parse_vec3(field(w[2], "target"), c->target))
             return fail(r, "camera: eye=X,Y,Z target=X,Y,Z");
         if (c->eye[0] == c->target[0] && c->eye[1] == c->target[1] && c->eye[2] == c->target[2])
             return fail(r, "camera: the target equals the eye (no view direction)");
@@ -339,9 +324,10 @@ int cli_script_load(const char *prog, const char *path, const cli_script_caps *c
                     cli_script *s)
 {
     memset(s, 0, sizeof *s);
-    FILE *f = fopen(path, "r");
+    const char *why = NULL;
+    FILE *f = cli_open_regular(path, &why);
     if (!f) {
-        cli_usage_error(prog, "cannot open the script '%s': %s", path, strerror(errno));
+        cli_usage_error(prog, "cannot open the script '%s': %s", path, why);
         return CLI_EXIT_FAIL;
     }
     reader r = {.prog = prog, .path = path, .caps = caps, .lights = caps->lights};

@@ -4,6 +4,7 @@
 #include <ctype.h>
 #include <dlfcn.h>
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -137,6 +138,23 @@ int cli_parse_double(const char *prog, const char *opt, const char *text, double
         return -1;
     }
     *out = v;
+    return 0;
+}
+
+int cli_parse_vec3(const char *text, double v[3])
+{
+    const char *p = text;
+    for (int j = 0; j < 3; j++) {
+        char *end = NULL;
+        if (*p == '\0' || isspace((unsigned char)*p))
+            return -1;
+        errno = 0;
+        v[j] = strtod(p, &end);
+        if (end == p || errno == ERANGE || !isfinite(v[j]) || fabs(v[j]) > FLT_MAX ||
+            *end != (j < 2 ? ',' : '\0'))
+            return -1;
+        p = end + 1;
+    }
     return 0;
 }
 
@@ -378,6 +396,14 @@ void cli_irradiance_error_pct(size_t m, const float *truth, const float *approx,
 
 /* ------------------------------------------------------------------ directories */
 /* mkdir -p: creates each missing component of dir. */
+FILE *cli_open_regular(const char *path, const char **why)
+{
+    FILE *f = NULL;
+    int e = lrr__open_regular(path, &f, NULL);
+    *why = e == LRR__NOT_REGULAR ? LRR__NOT_REGULAR_TEXT : e ? strerror(e) : "";
+    return f;
+}
+
 int cli_make_dir(const char *dir)
 {
     char *p = strdup(dir);

@@ -118,9 +118,10 @@ int cli_read_radiosity_csv(const char *path, cli_csv_table *out)
 {
     out->n = 0;
     out->rows = NULL;
-    FILE *f = fopen(path, "r");
+    const char *why = NULL;
+    FILE *f = cli_open_regular(path, &why);
     if (!f)
-        return cli_fail(LRR_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+        return cli_fail(LRR_ERR_IO, "cannot open '%s': %s", path, why);
 
     cli_csv_table t = {0, NULL};
     size_t cap = 0, lineno = 0;

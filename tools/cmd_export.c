@@ -83,25 +83,7 @@ static const cli_opt export_opts[] = {
     {.name = NULL}};
 
 /* The output format: --format, else the extension (.glb, .ply, any case). */
-static int format_finish(export_args *a)
-{
-    if (a->format != FORMAT_NONE)
-        return 0;
-    const char *dot = strrchr(a->output, '.');
-    if (dot && strchr(dot, '/') == NULL) {
-        if (strcasecmp(dot, ".glb") == 0)
-            a->format = FORMAT_GLTF;
-        else if (strcasecmp(dot, ".ply") == 0)
-            a->format = FORMAT_PLY;
-    }
-    if (a->format == FORMAT_NONE) {
-        cli_usage_error(prog, "-o %s: unknown mesh format (name it .glb or .ply, or give "
-                        "--format gltf|ply)",
-                        a->output);
-        return -1;
-    }
-    return 0;
-}
+static const cli_choice extensions[] = {{"glb", FORMAT_GLTF}, {"ply", FORMAT_PLY}, {NULL, 0}};
 
 /* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
 static int parse_export(export_args *a, int argc, char *argv[])
@@ -111,7 +93,9 @@ static int parse_export(export_args *a, int argc, char *argv[])
     const cli_opt_group groups[] = {{export_opts, a}, {probe_opts, &a->pa}, {NULL, NULL}};
     const cli_command cmd = {prog, export_help, "FILE.lrr", groups};
     int rc = cli_parse_command(&cmd, argc, argv, &a->file);
-    if (rc == CLI_RUN && (format_finish(a) != 0 || probe_finish(&a->pa, prog) != 0))
+    if (rc == CLI_RUN &&
+        (cli_output_format(prog, a->output, extensions, "mesh", formats, &a->format) != 0 ||
+         probe_finish(&a->pa, prog) != 0))
         return CLI_EXIT_USAGE;
     return rc;
 }

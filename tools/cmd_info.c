@@ -21,12 +21,10 @@ static const char info_help[] =
 static int is_operator_file(const char *path)
 {
     char magic[8] = {0};
-    struct stat sb;
-    if (stat(path, &sb) != 0 || !S_ISREG(sb.st_mode))
-        return 0; /* (a FIFO would block the open) */
-    FILE *f = fopen(path, "rb");
+    const char *why = NULL;
+    FILE *f = cli_open_regular(path, &why); /* a FIFO would block fopen */
     if (!f)
-        return 0;
+        return 0; /* the scene loader reports why */
     size_t got = fread(magic, 1, sizeof magic, f);
     fclose(f);
     return got == sizeof magic && memcmp(magic, "LRROPER", 8) == 0;

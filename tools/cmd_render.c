@@ -60,25 +60,7 @@ static const cli_opt render_opts[] = {
     {.name = NULL}};
 
 /* The output format: --format, else the extension (.png, .exr, any case). */
-static int format_finish(render_args *a)
-{
-    if (a->format != FORMAT_NONE)
-        return 0;
-    const char *dot = strrchr(a->output, '.');
-    if (dot && strchr(dot, '/') == NULL) {
-        if (strcasecmp(dot, ".png") == 0)
-            a->format = FORMAT_PNG;
-        else if (strcasecmp(dot, ".exr") == 0)
-            a->format = FORMAT_EXR;
-    }
-    if (a->format == FORMAT_NONE) {
-        cli_usage_error(prog, "-o %s: unknown picture format (name it .png or .exr, or give "
-                        "--format png|exr)",
-                        a->output);
-        return -1;
-    }
-    return 0;
-}
+static const cli_choice extensions[] = {{"png", FORMAT_PNG}, {"exr", FORMAT_EXR}, {NULL, 0}};
 
 /* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
 static int parse_render(render_args *a, int argc, char *argv[])
@@ -90,8 +72,9 @@ static int parse_render(render_args *a, int argc, char *argv[])
         {render_opts, a}, {view_opts, &a->view}, {probe_opts, &a->pa}, {NULL, NULL}};
     const cli_command cmd = {prog, render_help, "FILE.lrr", groups};
     int rc = cli_parse_command(&cmd, argc, argv, &a->file);
-    if (rc == CLI_RUN && (probe_finish(&a->pa, prog) != 0 || view_finish(&a->view, prog) != 0 ||
-                          format_finish(a) != 0))
+    if (rc == CLI_RUN &&
+        (probe_finish(&a->pa, prog) != 0 || view_finish(&a->view, prog) != 0 ||
+         cli_output_format(prog, a->output, extensions, "picture", formats, &a->format) != 0))
         return CLI_EXIT_USAGE;
     return rc;
 }

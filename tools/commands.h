@@ -152,6 +152,13 @@ typedef struct cli_choice {
     int value;
 } cli_choice;
 
+/* The format of an output file (render, export): *format when --format gave one (!= 0),
+ * else the value of path's extension in exts (words without the dot, any case; the last
+ * '.' after the last '/'). 0, or -1 after "PROG: -o PATH: unknown KIND format (name it .a
+ * or .b, or give --format x|y)", which lists exts and formats without their aliases. */
+int cli_output_format(const char *prog, const char *path, const cli_choice *exts,
+                      const char *kind, const cli_choice *formats, int *format);
+
 /* Where a field is in the group's struct, 0 meaning none (so that a table entry may leave
  * it out). */
 #define CLI_FIELD(type, member) (offsetof(type, member) + 1)

@@ -2,6 +2,7 @@
  * lrr_file.c. Every size is checked against the real file size before anything is allocated,
  * so a corrupted header cannot make the load allocate (or read) more than the file holds. */
 #include "config.h"
+#include "core/path.h"
 #include "file/format.h"
 #include "operator/operator.h"
 
@@ -533,25 +534,14 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
         return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
                           "file %s: .lrr files are little-endian; this host is not", path);
     struct reader r = {ctx, path, -1, 0};
-    /* O_NONBLOCK: opening a FIFO without a writer would otherwise hang; it changes nothing
-     * for the regular files accepted below. */
-    r.fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
-    if (r.fd < 0) {
+    struct stat sb;
+    int e = lrr__open_regular_fd(path, &r.fd, &sb); /* a FIFO would block open() */
+    if (e == LRR__NOT_REGULAR || e == EISDIR)
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: " LRR__NOT_REGULAR_TEXT, path);
+    if (e) {
         char eb[128];
         return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
-                          lrr__errno_text(errno, eb, sizeof eb));
-    }
-    struct stat sb;
-    if (fstat(r.fd, &sb) != 0) {
-        int err = errno;
-        close(r.fd);
-        char eb[128];
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot stat: %s", path,
-                          lrr__errno_text(err, eb, sizeof eb));
-    }
-    if (!S_ISREG(sb.st_mode)) {
-        close(r.fd);
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: not a regular file", path);
+                          lrr__errno_text(e, eb, sizeof eb));
     }
     r.file_size = (uint64_t)sb.st_size;
 

@@ -3,6 +3,7 @@
 #include "config.h"
 #ifdef LRR_HAVE_OPENEXR
 
+#include <cerrno>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -19,6 +20,7 @@
 #include <sys/stat.h>
 
 extern "C" {
+#include "core/path.h"
 #include "probe/probe.h"
 }
 
@@ -269,14 +271,17 @@ extern "C" lrr_status lrr__exr_read_rgb(lrr_context *ctx, const char *path, floa
 {
     *rgb = nullptr;
     *width = *height = 0;
-    std::FILE *f = std::fopen(path, "rb");
-    if (!f)
+    std::FILE *f = nullptr;
+    struct stat sb;
+    int oe = lrr__open_regular(path, &f, &sb);
+    if (oe == LRR__NOT_REGULAR || oe == EISDIR)
+        return lrr__error(ctx, LRR_ERR_IO, "'%s': " LRR__NOT_REGULAR_TEXT, path);
+    if (oe)
         return lrr__error(ctx, LRR_ERR_IO, "'%s': cannot open", path);
     float *pix = nullptr;
     try {
-        struct stat sb;
         std::string bad;
-        if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode) || sb.st_size < 0)
+        if (sb.st_size < 0)
             bad = "not a regular file";
         std::fclose(f);
         f = nullptr;

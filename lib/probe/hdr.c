@@ -13,6 +13,7 @@
  * pixels would cost 1.5 GB on its way to an error (found by fuzzing). A stream that passes
  * holds every pixel, at most 128 per 2 bytes, so the allocation is bounded by the file. */
 #include "config.h"
+#include "core/path.h"
 #include "probe/probe.h"
 
 #include <errno.h>
@@ -91,15 +92,17 @@ lrr_status lrr__hdr_read_rgb(lrr_context *ctx, const char *path, float **rgb, si
 {
     *rgb = NULL;
     *width = *height = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f) {
+    FILE *f = NULL;
+    struct stat sb;
+    int e = lrr__open_regular(path, &f, &sb);
+    if (e == LRR__NOT_REGULAR || e == EISDIR)
+        return lrr__error(ctx, LRR_ERR_IO, "'%s': " LRR__NOT_REGULAR_TEXT, path);
+    if (e) {
         char eb[128];
         return lrr__error(ctx, LRR_ERR_IO, "'%s': cannot open: %s", path,
-                          lrr__errno_text(errno, eb, sizeof eb));
+                          lrr__errno_text(e, eb, sizeof eb));
     }
-    struct stat sb;
-    if (fstat(fileno(f), &sb) != 0 || !S_ISREG(sb.st_mode) || sb.st_size < 0 ||
-        (uint64_t)sb.st_size > (uint64_t)INT_MAX) {
+    if (sb.st_size < 0 || (uint64_t)sb.st_size > (uint64_t)INT_MAX) {
         fclose(f);
         return lrr__error(ctx, LRR_ERR_FORMAT,
                           "'%s': not a regular file of at most 2 GiB (a Radiance .hdr probe)",

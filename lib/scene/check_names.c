@@ -8,6 +8,8 @@
  * number must agree with the walk's; if anything disagrees the names are left out (NULL),
  * never guessed. Costs one more import (about as long as the first). */
 #include "config.h"
+#include "core/path.h"
+#include "scene/assimp_io.h"
 #include "scene/scene.h"
 
 #ifdef LRR_HAVE_ASSIMP
@@ -171,10 +173,11 @@ done:
 lrr_status lrr_check_report_names(lrr_context *ctx, const char *path, lrr_check_report *r)
 {
     lrr__check_names_free(r);
-    struct stat st;
-    if (stat(path, &st) != 0)
-        return LRR_OK; /* a built-in scene (lrr_scene_check read it): no names */
-    const struct aiScene *sc = aiImportFile(path, 0);
+    if (lrr__stat_regular(path, NULL) != 0)
+        return LRR_OK; /* a built-in scene (lrr_scene_check read it): no names; a FIFO or
+                          device lrr_scene_check refused would block assimp */
+    char refused[512];
+    const struct aiScene *sc = lrr__assimp_import(path, 0, refused, sizeof refused);
     if (!sc || !sc->mRootNode || (sc->mNumMaterials && !sc->mMaterials) ||
         (sc->mNumMeshes && !sc->mMeshes)) {
         aiReleaseImport(sc);

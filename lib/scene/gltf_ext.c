@@ -3,6 +3,7 @@
  * to [0,1]), so without it every such lamp would be dimmer than modelled. The JSON is a
  * .gltf file, or a .glb's first chunk (type JSON, glTF 2.0 binary container). */
 #include "config.h"
+#include "core/path.h"
 #include "scene/gltf_ext.h"
 
 #ifdef LRR_HAVE_ASSIMP /* only assimp's import reads glTF (configure --without-assimp) */
@@ -32,10 +33,13 @@ static lrr_status read_json(lrr_context *ctx, const char *path, char **out)
 {
     *out = NULL;
     char eb[128];
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    FILE *f = NULL;
+    int e = lrr__open_regular(path, &f, NULL);
+    if (e == LRR__NOT_REGULAR)
+        return lrr__error(ctx, LRR_ERR_IO, "file %s: " LRR__NOT_REGULAR_TEXT, path);
+    if (e)
         return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
-                          lrr__errno_text(errno, eb, sizeof eb));
+                          lrr__errno_text(e, eb, sizeof eb));
     const char *dot = strrchr(path, '.');
     bool glb = dot && strcasecmp(dot, ".glb") == 0;
     long start = 0;

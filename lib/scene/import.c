@@ -5,9 +5,10 @@
  *
  * Orientation: triangles are one-sided, front = counter-clockwise as stored in the file. We
  * therefore run no assimp post-processing that touches winding or normals, and triangulate
- * polygons ourselves (ear clipping in the polygon's own orientation). Doing our own
- * triangulation also keeps the polygon's index, so errors name the face of the file rather
- * than a triangle that assimp invented.
+ * polygons ourselves (ear clipping in the polygon's own orientation, triangulate.c). Doing
+ * our own triangulation also keeps the polygon's index, so errors name the face of the file
+ * rather than a triangle that assimp invented. What assimp opens is checked first
+ * (assimp_io.c).
  *
  * Materials (checked against Debian 12's assimp 5.2.5):
  *   rho      = glTF base colour factor (AI_MATKEY_BASE_COLOR), otherwise the diffuse colour
@@ -30,7 +31,9 @@
  * assimp keeps its last error string in a global; with several threads importing at once the
  * message may belong to another import. That is assimp's, and only affects message text. */
 #include "config.h"
+#include "core/path.h"
 #include "scene/scene.h"
+#include "scene/assimp_io.h"
 #include "scene/gltf_ext.h"
 #include "scene/texture.h"
 #ifdef LRR_HAVE_ASSIMP
@@ -53,9 +56,6 @@
 #define DEFAULT_RHO 0.5f
 /* Deeper hierarchies than this are treated as malformed rather than risking the stack. */
 #define MAX_NODE_DEPTH 1024
-/* Ear clipping is cubic in the polygon size; larger polygons are fanned (correct for convex
- * ones, which is what huge polygons in practice are) so a hostile file cannot stall us. */
-#define MAX_EAR_CLIP 256
 
 typedef struct import_state {
     lrr_context *ctx;
@@ -76,62 +76,6 @@ typedef struct import_state {
     unsigned *idx; /* max_poly */
     unsigned *tri; /* (max_poly-2)×3 */
 } import_state;
-
-/* ------------------------------------------------------------------ file checks */
-
-static bool has_extension(const char *path, const char *ext)
-{
-    const char *dot = strrchr(path, '.');
-    const char *slash = strrchr(path, '/');
-    return dot && (!slash || dot > slash) && strcasecmp(dot + 1, ext) == 0;
-}
-
-/* assimp's own message for a missing file is vague ("Unable to open file"), so check first. */
-static lrr_status check_readable(lrr_context *ctx, const char *path)
-{
-    struct stat st;
-    if (stat(path, &st) != 0) {
-        char eb[128];
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
-                          lrr__errno_text(errno, eb, sizeof eb));
-    }
-    if (S_ISDIR(st.st_mode))
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: is a directory, not a scene file", path);
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        char eb[128];
-        return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
-                          lrr__errno_text(errno, eb, sizeof eb));
-    }
-    fclose(f);
-    return LRR_OK;
-}
-
-/* ------------------------------------------------------------------ PLY check */
-/* lrr__ply_check (scene/ply.c), when assimp will read path as PLY: by the extension, or by
- * the "ply" signature when the extension is not one of the other formats. */
-static lrr_status check_if_ply(lrr_context *ctx, const char *path)
-{
-    bool other = has_extension(path, "obj") || has_extension(path, "gltf") ||
-                 has_extension(path, "glb");
-    if (other)
-        return LRR_OK;
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return LRR_OK; /* check_readable has reported it */
-    char magic[4] = "";
-    size_t got = fread(magic, 1, 4, f);
-    struct stat st;
-    lrr_status status = LRR_OK;
-    if ((has_extension(path, "ply") ||
-         (got == 4 && memcmp(magic, "ply", 3) == 0 && (magic[3] == '\n' || magic[3] == '\r'))) &&
-        fstat(fileno(f), &st) == 0 && st.st_size >= 0) {
-        rewind(f);
-        status = lrr__ply_check(ctx, path, f, (uint64_t)st.st_size);
-    }
-    fclose(f);
-    return status;
-}
 
 /* ------------------------------------------------------------------ materials */
 
@@ -165,15 +109,13 @@ static lrr_status read_whole(lrr_context *ctx, const char *name, const char *wha
     *data = NULL;
     *len = 0;
     char eb[128];
-    FILE *f = fopen(name, "rb");
+    FILE *f = NULL;
     struct stat st;
-    int e = f ? (fstat(fileno(f), &st) != 0 ? errno : S_ISDIR(st.st_mode) ? EISDIR : 0) : errno;
-    if (e) {
-        if (f)
-            fclose(f);
+    int e = lrr__open_regular(name, &f, &st);
+    if (e)
         return lrr__error(ctx, LRR_ERR_IO, "%s: cannot open %s: %s", what, name,
-                          lrr__errno_text(e, eb, sizeof eb));
-    }
+                          e == LRR__NOT_REGULAR ? LRR__NOT_REGULAR_TEXT
+                                                : lrr__errno_text(e, eb, sizeof eb));
     if (st.st_size <= 0 || (uint64_t)st.st_size > MAX_TEXTURE_FILE) {
         fclose(f);
         return lrr__error(ctx, LRR_ERR_FORMAT, "%s: %s has %lld bytes (not an image)", what,
@@ -300,8 +242,8 @@ static lrr_status read_materials(import_state *s)
     lrr_context *ctx = s->ctx;
     const char *path = s->path;
     const struct aiScene *scene = s->scene;
-    bool ply = has_extension(path, "ply");
-    bool gltf = has_extension(path, "gltf") || has_extension(path, "glb");
+    bool ply = lrr__path_has_extension(path, "ply");
+    bool gltf = lrr__path_has_extension(path, "gltf") || lrr__path_has_extension(path, "glb");
     float *strength = NULL;
     lrr_status st = LRR_OK;
     if (gltf && (st = lrr__gltf_emissive_strength(ctx, path, scene, &strength)))
@@ -389,70 +331,6 @@ static void transform(const struct aiMatrix4x4 *m, struct aiVector3D v, double o
     out[0] = m->a1 * x + m->a2 * y + m->a3 * z + m->a4;
     out[1] = m->b1 * x + m->b2 * y + m->b3 * z + m->b4;
     out[2] = m->c1 * x + m->c2 * y + m->c3 * z + m->c4;
-}
-
-static double cross2(const double *a, const double *b, const double *c, int u, int v)
-{
-    return (b[u] - a[u]) * (c[v] - a[v]) - (b[v] - a[v]) * (c[u] - a[u]);
-}
-
-/* Splits polygon p (n >= 3 points) into n-2 triangles tri[3t..3t+2] (indices into p) with the
- * polygon's own orientation: ear clipping in the plane of its Newell normal. Degenerate,
- * non-planar or self-intersecting polygons fall back to a fan over what is left (their
- * triangles may then be zero-area, which the scene counts and skips). */
-static void triangulate(size_t n, const double *p, unsigned *idx, unsigned *tri)
-{
-    double nrm[3] = {0, 0, 0};
-    for (size_t i = 0; i < n; i++) {
-        const double *a = p + 3 * i, *b = p + 3 * ((i + 1) % n);
-        nrm[0] += (a[1] - b[1]) * (a[2] + b[2]);
-        nrm[1] += (a[2] - b[2]) * (a[0] + b[0]);
-        nrm[2] += (a[0] - b[0]) * (a[1] + b[1]);
-    }
-    int k = fabs(nrm[0]) >= fabs(nrm[1]) ? 0 : 1;
-    if (fabs(nrm[2]) > fabs(nrm[k]))
-        k = 2;
-    int u = (k + 1) % 3, v = (k + 2) % 3; /* (u, v, k) is right-handed */
-    double sign = nrm[k] >= 0 ? 1.0 : -1.0;
-    for (size_t i = 0; i < n; i++)
-        idx[i] = (unsigned)i;
-    size_t m = n, out = 0;
-    bool clip = n <= MAX_EAR_CLIP && isfinite(nrm[0] + nrm[1] + nrm[2]);
-    while (m > 3 && clip) {
-        bool found = false;
-        for (size_t i = 0; i < m && !found; i++) {
-            unsigned ia = idx[(i + m - 1) % m], ib = idx[i], ic = idx[(i + 1) % m];
-            const double *a = p + 3 * ia, *b = p + 3 * ib, *c = p + 3 * ic;
-            if (sign * cross2(a, b, c, u, v) <= 0)
-                continue; /* reflex or flat corner */
-            bool empty = true;
-            for (size_t j = 0; j < m && empty; j++) {
-                unsigned q = idx[j];
-                if (q == ia || q == ib || q == ic)
-                    continue;
-                const double *x = p + 3 * q;
-                if (sign * cross2(a, b, x, u, v) >= 0 && sign * cross2(b, c, x, u, v) >= 0 &&
-                    sign * cross2(c, a, x, u, v) >= 0)
-                    empty = false;
-            }
-            if (!empty)
-                continue;
-            tri[3 * out] = ia;
-            tri[3 * out + 1] = ib;
-            tri[3 * out + 2] = ic;
-            out++;
-            memmove(idx + i, idx + i + 1, (m - i - 1) * sizeof *idx);
-            m--;
-            found = true;
-        }
-        clip = found;
-    }
-    for (size_t i = 1; i + 1 < m; i++) {
-        tri[3 * out] = idx[0];
-        tri[3 * out + 1] = idx[i];
-        tri[3 * out + 2] = idx[i + 1];
-        out++;
-    }
 }
 
 /* Counts the triangles the node tree yields (points and lines are ignored) and the largest
@@ -588,7 +466,7 @@ static lrr_status fill_node(import_state *s, const struct aiNode *node,
                                       "file %s: face %zu: texture coordinate of vertex %u is "
                                       "not finite", s->path, id, vi);
             }
-            triangulate(ni, s->poly, s->idx, s->tri);
+            lrr__triangulate(ni, s->poly, s->idx, s->tri);
             for (unsigned t = 0; t + 2 < ni; t++) {
                 unsigned k[3] = {s->tri[3 * t], s->tri[3 * t + 1], s->tri[3 * t + 2]};
                 if (flip) {
@@ -708,22 +586,10 @@ static lrr_status convert(import_state *s)
 static lrr_status import_file(lrr_context *ctx, const char *path, import_state *s)
 {
     memset(s, 0, sizeof *s);
-    lrr_status st = check_readable(ctx, path);
-    if (st == LRR_OK)
-        st = check_if_ply(ctx, path);
-    float *strength = NULL;
-    if (st == LRR_OK && (has_extension(path, "gltf") || has_extension(path, "glb")))
-        st = lrr__gltf_emissive_strength(ctx, path, NULL, &strength);
-    free(strength);
+    const struct aiScene *scene = NULL;
+    lrr_status st = lrr__assimp_read(ctx, path, &scene);
     if (st != LRR_OK)
         return st;
-    /* No post-processing: triangulation, normals and winding are ours (see the top). */
-    const struct aiScene *scene = aiImportFile(path, 0);
-    if (!scene) {
-        const char *why = aiGetErrorString();
-        return lrr__error(ctx, LRR_ERR_FORMAT, "file %s: cannot import: %s", path,
-                          why && *why ? why : "assimp gave no reason");
-    }
     s->ctx = ctx;
     s->path = path;
     s->scene = scene;

@@ -25,8 +25,6 @@ static bool degenerate(const float *v)
     return !(lrr__tri_area(v) > 1e-10 * l2) || l2 == 0;
 }
 
-bool lrr__triangle_degenerate(const float *v) { return degenerate(v); }
-
 lrr_status lrr__scene_from_arrays(lrr_context *ctx, size_t n_tri, const float *vert,
                                   const float *rho, const float *emission,
                                   const size_t *face_ids, const char *source, int builtin,

@@ -179,11 +179,12 @@ struct lrr_scene {
     lrr__scene_textures *textures; /* NULL: every material is flat (texture.h) */
 };
 
+/* Splits polygon p (n >= 3 points, n×3 doubles) into n-2 triangles tri[3t..3t+2] (indices
+ * into p) with the polygon's own orientation; idx is n scratch entries (triangulate.c). */
+void lrr__triangulate(size_t n, const double *p, unsigned *idx, unsigned *tri);
 /* Checks a PLY file (f at its start, file_size bytes) before assimp reads it: a strict
  * header, and a body that holds what the header declares (scene_ply.c). */
 lrr_status lrr__ply_check(lrr_context *ctx, const char *path, FILE *f, uint64_t file_size);
-/* Whether triangle v (9 floats) is dropped as zero-area by lrr__scene_from_arrays. */
-bool lrr__triangle_degenerate(const float *v);
 /* Validates and takes a copy of the arrays: NaN/Inf coordinates and bad materials are errors
  * naming `source` and the face index face_ids[t] (or t when face_ids is NULL); zero-area
  * triangles are skipped and counted. */
