@@ -38,7 +38,7 @@
         }                                                                                     \
     } while (0)
 
-/* Tolerances (STYLE.md, GSL's tests): a difference that comes from rounding alone gets
+/* Tolerances (as in GSL's tests): a difference that comes from rounding alone gets
  * k·n·ε, with ε the machine epsilon of the precision the value is computed or stored in
  * (DBL_EPSILON, FLT_EPSILON), n the number of roundings that add up (terms of a sum,
  * operations in a chain) and k a small safety factor; each use says why. Statistical and

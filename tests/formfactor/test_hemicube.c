@@ -62,8 +62,7 @@ static lrr_operator *build(lrr_context *ctx, size_t ntri, const float *v, double
 static void test_point_to_disk(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     enum { SEG = 720 };
     const double cases[][2] = {{1, 1}, {1, 0.5}, {1, 3}, {2, 0.7}};
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
@@ -105,8 +104,7 @@ static void test_point_to_disk(void **state)
 static void test_closed_forms(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     ASSERT_NEAR(parallel_closed_form(1, 1), 0.1998, 1e-4, "published X=Y=1\n");
     ASSERT_NEAR(parallel_closed_form(10, 10), 0.827, 1e-3, "published X=Y=10\n");
     ASSERT_NEAR(parallel_closed_form(1 / 0.5, 1.5 / 0.5), 0.4756, 1e-4, "published 1×1.5 at 0.5\n");
@@ -154,10 +152,8 @@ static void test_closed_forms(void **state)
 static void test_reproducible(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_context *ctx = tu_context();
+    lrr_scene *s = tu_cornell(ctx, 0, 0, 0);
     lrr_subdivision sd = {.target_patches = 30, .levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     lrr_operator *a, *b, *c;
@@ -212,8 +208,7 @@ static void test_reproducible(void **state)
 static void test_back_face_share(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     const double F = parallel_closed_form(1, 1);
     const double p0[3] = {0, 0, 0}, p1[3] = {1, 0, 0}, p2[3] = {1, 1, 0}, p3[3] = {0, 1, 0};
     const double q0[3] = {0, 0, 1}, q1[3] = {0, 1, 1}, q2[3] = {1, 1, 1}, q3[3] = {1, 0, 1};

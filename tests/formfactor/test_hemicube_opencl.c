@@ -8,8 +8,7 @@
 
 static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned levels)
 {
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, closed, &s));
+    lrr_scene *s = tu_cornell(ctx, closed, 0, 0);
     lrr_subdivision sd = {.target_patches = K, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
@@ -17,8 +16,7 @@ static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned level
 
 static void compare(int closed)
 {
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, closed, 37, 1);
     lrr_build_options o = {.hemicube_resolution = 32, .seed = 2};
     lrr_operator *cpu, *dev;
@@ -70,8 +68,7 @@ static void test_cornell_closed(void **state)
 static void test_errors(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, 0, 37, 0);
     lrr_build_options o = {.hemicube_resolution = 16, .seed = 1, .backend = LRR_BACKEND_OPENCL};
     lrr_reference *ref = NULL;

@@ -100,8 +100,7 @@ static void assert_clusters(const lrr_operator *op, size_t K)
 static void test_tiling_and_rules(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
     subdivided(ctx, s, 1200);
@@ -124,8 +123,7 @@ static void test_tiling_and_rules(void **state)
 static void test_thin_wall(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[108 + 36], rho[48], em[48];
     tu_box_inward(v, 2, 2, 2);
     const double a[3] = {0.5, 0.2, 1.0}, b[3] = {1.5, 0.2, 1.0}, c[3] = {1.5, 1.8, 1.0},
@@ -160,8 +158,7 @@ static void test_thin_wall(void **state)
 static void test_every_subpatch_is_exact(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
     subdivided(ctx, s, 300);
@@ -236,8 +233,7 @@ static size_t split_triangle(const float *v, int levels, float *out)
 static void test_area_weights(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     enum { T = 10 + 1 + 64 };
     float box[108], v[9 * T], rho[3 * T], em[3 * T];
     tu_box_inward(box, 1, 1, 1);
@@ -278,8 +274,7 @@ static void test_area_weights(void **state)
 static void test_file_round_trip(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
     subdivided(ctx, s, 600);
@@ -324,8 +319,7 @@ static void test_file_round_trip(void **state)
 static void test_opencl_agrees(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
     subdivided(ctx, s, 600);
@@ -382,8 +376,7 @@ static void test_opencl_agrees(void **state)
 static void test_bad_clusters(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
     subdivided(ctx, s, 100);
@@ -421,8 +414,7 @@ static void test_bad_clusters(void **state)
 static void test_errors(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_builtin(ctx, "cornell", &s));
     lrr_subdivision sd = lrr_subdivision_defaults();
@@ -467,8 +459,7 @@ static void test_real_house(void **state)
 {
     (void)state;
     TU_REQUIRE("assimp");
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s;
     LRR_CHECK(ctx, lrr_scene_load(ctx, LRR_DATA_DIR "/scenes/fzk_haus.obj", &s));
     lrr_scene_info si;

@@ -57,8 +57,7 @@ static lrr_light_source point_at(double x, double y, double z, float I)
 static void test_point_inverse_square(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = floor_op(ctx, 2, 200, 0);
     const size_t n = op_n(op);
     const float *ce = lrr_operator_centre(op);
@@ -91,8 +90,7 @@ static void test_point_inverse_square(void **state)
 static void test_spot_cone(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = floor_op(ctx, 2, 400, 0);
     const size_t n = op_n(op);
     const float *ce = lrr_operator_centre(op);
@@ -136,8 +134,7 @@ static void test_spot_cone(void **state)
 static void test_hard_shadow(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = floor_op(ctx, 1.5, 600, 1);
     const size_t n = op_n(op);
     const float *ce = lrr_operator_centre(op);
@@ -183,8 +180,7 @@ static double corner_form_factor(double a, double b, double c)
 static void test_area_light(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = floor_op(ctx, 1, 50, 0);
     const size_t n = op_n(op);
     const float *ce = lrr_operator_centre(op);
@@ -231,8 +227,7 @@ static void test_area_light(void **state)
 static void test_point_in_furnace(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     const float rho[3] = {0.6f, 0.6f, 0.6f};
     lrr_scene *sc = tu_furnace(ctx, 1, 1, 1, rho, 0.0f);
     lrr_subdivision sd = lrr_subdivision_defaults();
@@ -274,8 +269,7 @@ static void test_point_in_furnace(void **state)
 static void test_cache(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = floor_op(ctx, 2, 200, 0);
     const size_t n = op_n(op);
     float *E = malloc(3 * n * sizeof(float)), *A = malloc(3 * n * sizeof(float)),
@@ -307,8 +301,7 @@ static void test_cache(void **state)
 static void test_clustered_operator(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float rho[36], em[36] = {0}, v[108];
     tu_box_inward(v, 2, 1, 2);
     for (int i = 0; i < 36; i++)
@@ -365,8 +358,7 @@ static void expect_bad(lrr_context *ctx, lrr_lighting *lt, lrr_light_source l, f
 static void test_bad_lights(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = floor_op(ctx, 1, 20, 0);
     float *E = malloc(3 * op_n(op) * sizeof(float));
     lrr_lighting *lt;

@@ -5,8 +5,7 @@
 
 static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned levels)
 {
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, closed, &s));
+    lrr_scene *s = tu_cornell(ctx, closed, 0, 0);
     lrr_subdivision sd = {.target_patches = K, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
@@ -32,8 +31,7 @@ static double rel_l2(size_t n, const float *a, const float *b)
 static void test_fbar_is_f_v_over_d(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, 1, 24, 1);
     lrr_build_options o = {.hemicube_resolution = 32, .seed = 9};
     lrr_operator *op;
@@ -75,8 +73,7 @@ static void test_fbar_is_f_v_over_d(void **state)
 static void test_methods_agree(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, 0, 40, 1);
     lrr_build_options o = {.hemicube_resolution = 32, .seed = 3};
     lrr_reference *ref;
@@ -116,8 +113,7 @@ static void test_methods_agree(void **state)
 static void test_direct_equals_operator_at_d1(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, 0, 150, 0);
     lrr_build_options o = {.hemicube_resolution = 64, .seed = 5};
     lrr_operator *op;
@@ -147,8 +143,7 @@ static void test_direct_equals_operator_at_d1(void **state)
 static void test_furnace(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     const float r[3] = {0.5f, 0.9f, 0.99f};
     lrr_scene *s = tu_furnace(ctx, 1.0, 0.8, 1.2, r, 1.0f);
     lrr_subdivision sd = {.target_patches = 48, .levels = 1};
@@ -180,8 +175,7 @@ static void test_furnace(void **state)
 static void test_errors(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, 0, 24, 1);
     lrr_scene_info info;
     lrr_scene_get_info(s, &info, sizeof info);
@@ -246,8 +240,7 @@ static void test_errors(void **state)
     assert_null(lrr_method_name((lrr_method)0));
     lrr_reference_destroy(ref);
     /* not subdivided */
-    lrr_scene *raw;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &raw));
+    lrr_scene *raw = tu_cornell(ctx, 0, 0, 0);
     assert_int_equal(lrr_reference_build(raw, NULL, 0, &ref), LRR_ERR_INVALID_ARG);
     lrr_scene_destroy(raw);
     free(E);

@@ -34,8 +34,7 @@ static void full_solve(lrr_context *ctx, const lrr_operator *op, const float *E,
 static void test_sparse_emitters(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 216, 1);
     const size_t n = op->n;
     float *ref = malloc(3 * n * sizeof *ref), *b = malloc(3 * n * sizeof *b);
@@ -92,8 +91,7 @@ static void test_sparse_emitters(void **state)
 static void test_incremental_animation(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 216, 1);
     const size_t n = op->n;
     float *E = malloc(3 * n * sizeof *E), *ref = malloc(3 * n * sizeof *ref),
@@ -143,8 +141,7 @@ static void test_incremental_animation(void **state)
 static void test_batch(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 37, 1);
     const size_t n = op->n, count = 7;
     float *E = malloc(count * 3 * n * sizeof *E), *B = malloc(count * 3 * n * sizeof *B),
@@ -203,8 +200,7 @@ static void test_batch(void **state)
 static void test_black_rows(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 40, 3);
     const size_t n = op->n;
     float *rho = malloc(3 * n * sizeof *rho), *E = malloc(3 * n * sizeof *E),
@@ -241,8 +237,7 @@ static void test_black_rows(void **state)
 static void test_tiny(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     const float v[18] = {0, 0, 0, 1, 0, 0, 0, 1, 0,      /* facing +z */
                          0, 0, 0.5f, 0, 1, 0.5f, 1, 0, 0.5f}; /* above it, facing -z */
     const float rho[6] = {0.5f, 0.6f, 0.7f, 0.8f, 0.2f, 0.4f};
@@ -299,8 +294,7 @@ static void test_tiny(void **state)
 static void test_emission_check(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     const float bad[] = {-1e-30f, -1.0f, NAN, -NAN, INFINITY, -INFINITY};
     for (unsigned levels = 0; levels <= 2; levels += 2) {
         lrr_operator *op = cornell_op(ctx, 36, levels);
