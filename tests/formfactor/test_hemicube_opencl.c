@@ -6,6 +6,10 @@
 #include "formfactor/formfactor.h"
 #include "operator/operator.h"
 
+/* OpenCL against the CPU: the device rounds the same float terms in another order;
+ * 9 float roundings of the largest value (k = 1, n = 9). */
+#define DEVICE_TOL TU_TOL_FLT(1, 9)
+
 static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned levels)
 {
     lrr_scene *s = tu_cornell(ctx, closed, 0, 0);
@@ -35,7 +39,7 @@ static void compare(int closed)
     print_message("%s: n = %zu, k = %zu, max |F̄_cpu - F̄_cl| = %.3g, d·Σ row 0 = %.6f\n",
                   closed ? "cornell-closed" : "cornell", cpu->n, cpu->k, worst,
                   sum_row0 * (double)dev->d);
-    assert_true(worst <= 1e-6);
+    assert_true(worst <= DEVICE_TOL);
     assert_true(sum_row0 > 0);
     const size_t kk = cpu->k * cpu->k;
     double mnum = 0, mden = 0;

@@ -6,6 +6,10 @@
 #include "operator/operator.h"
 #include "closed_forms.h"
 
+/* OpenCL against the CPU: the device rounds the same float terms in another order;
+ * 9 float roundings of the largest value (k = 1, n = 9). */
+#define DEVICE_TOL TU_TOL_FLT(1, 9)
+
 static lrr_operator *build_receiver(lrr_context *ctx, const lrr_scene *s, unsigned R,
                                     int method, int threads, int receiver)
 {
@@ -286,7 +290,7 @@ static void test_device_integration(void **state)
         for (size_t j = 0; j < cpu->n * cpu->k; j++)
             worst = fmax(worst, fabs((double)cpu->fbar[j] - dev->fbar[j]));
         print_message("raycast: max |F̄_cpu - F̄_cl| = %.3g\n", worst);
-        assert_true(worst <= 1e-6);
+        assert_true(worst <= DEVICE_TOL);
     }
     lrr_operator_destroy(dev);
     lrr_operator_destroy(cpu);

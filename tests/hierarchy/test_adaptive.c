@@ -8,6 +8,10 @@
 
 #include <float.h>
 
+/* OpenCL against the CPU: the device rounds the same float terms in another order;
+ * 9 float roundings of the largest value (k = 1, n = 9). */
+#define DEVICE_TOL TU_TOL_FLT(1, 9)
+
 /* The objective is a double sum over the patches' variances (n <= 1024 terms, k = 8);
  * a running total updated at every split and exchange against one recomputed from
  * scratch: n = 2^20 bounds the updates times the terms each one re-sums, k = 8. */
@@ -371,7 +375,7 @@ static void test_opencl_agrees(void **state)
         double e = rel_max(cl, cpu, 3 * oi.n);
         printf("OpenCL vs CPU on an adaptive operator (k = %zu, d %zu..%zu): %.3g\n", oi.k,
                oi.d_min, oi.d_max, e);
-        assert_true(e <= 1e-6);
+        assert_true(e <= DEVICE_TOL);
         free(cpu);
         free(cl);
         /* the device-side hemicube integration divides by d_p too */

@@ -6,6 +6,10 @@
 #include "hierarchy/hierarchy.h"
 #include "operator/operator.h"
 
+/* OpenCL against the CPU: the device rounds the same float terms in another order;
+ * 9 float roundings of the largest value (k = 1, n = 9). */
+#define DEVICE_TOL TU_TOL_FLT(1, 9)
+
 #define HEMI 32 /* small hemicubes: these tests compare like with like */
 #define CONE_COS 0.8660254037844386 /* the normal rule: 30° */
 
@@ -91,7 +95,7 @@ static void assert_clusters(const lrr_operator *op, size_t K)
         int emits0 = em[3 * first[p]] > 0;
         for (size_t i = first[p]; i < first[p + 1]; i++) {
             double cosv = (m[0] * nrm[3 * i] + m[1] * nrm[3 * i + 1] + m[2] * nrm[3 * i + 2]) / len;
-            assert_true(cosv >= CONE_COS - 1e-6);
+            assert_true(cosv >= CONE_COS - TU_TOL_FLT(2, 5)); /* float normals: 5 roundings */
             assert_int_equal(em[3 * i] > 0, emits0);
         }
     }
@@ -348,7 +352,7 @@ static void test_opencl_agrees(void **state)
         }
         printf("OpenCL vs CPU on clusters (k = %zu, d %zu..%zu): %.3g\n", oi.k, oi.d_min,
                oi.d_max, num / den);
-        assert_true(num / den <= 1e-6);
+        assert_true(num / den <= DEVICE_TOL);
         free(cpu);
         free(cl);
         lrr_operator *dev;

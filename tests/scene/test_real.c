@@ -25,6 +25,7 @@ static void check_scene(lrr_context *ctx, const expect *e)
     assert_int_equal(info.triangles, e->triangles);
     assert_int_equal(info.skipped, e->skipped);
     assert_int_equal(info.emitters, e->emitters);
+    /* not rounding: the expected areas are printed values (%.6f, 7 digits or more) */
     ASSERT_NEAR(info.area, e->area, 1e-6 * e->area, "%s area\n", e->file);
     assert_int_equal(info.subpatches, info.triangles);
     float *rho = calloc(3 * info.triangles, sizeof(float));

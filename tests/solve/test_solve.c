@@ -74,6 +74,7 @@ static void test_sparse_emitters(void **state)
     LRR_CHECK(ctx, lrr_solve(sv, twice, b));
     assert_int_equal(lrr_solver_last_path(sv), LRR_PATH_FULL);
     for (size_t j = 0; j < 3 * n; j++)
+        /* not rounding alone: the float solve amplifies it by the condition of I - rho F */
         ASSERT_NEAR(b[j], 2 * ref[j], 1e-5 * fabs(ref[j]) + 1e-6, "entry %zu\n", j);
     free(twice);
     assert_int_equal(lrr_solver_set_path(sv, (lrr_path)9), LRR_ERR_INVALID_ARG);
@@ -264,6 +265,8 @@ static void test_tiny(void **state)
                 assert_true(ref[3 * (n - 1)] > 0); /* the upper triangle receives light */
             for (int storage = 0; storage < 3; storage++) {
                 LRR_CHECK(ctx, lrr_operator_set_storage(op, (lrr_storage)storage));
+                /* the storage's precision: float, binary16 (2^-11), bfloat16 (2^-8), times
+                 * the solve's amplification */
                 const double tol = storage == 0 ? 1e-6 : storage == 1 ? 1e-3 : 1e-2;
                 for (int path = LRR_PATH_AUTO; path <= LRR_PATH_INCREMENTAL; path++) {
                     lrr_solver *sv;
