@@ -1,4 +1,4 @@
-# Imports a .glb into Blender (background) and prints what it holds, for tests/cli.sh:
+# Imports a .glb into Blender (background) and prints what it holds, for tests/cli/export.sh:
 #   blender -b --python tests/blender_import.py -- FILE.glb
 # Lines: "BLENDER_IMPORT meshes M vertices V triangles T materials K", the attribute names,
 # and the first colours of the vertex-colour attribute.

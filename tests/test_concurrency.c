@@ -278,10 +278,8 @@ static unsigned char *slurp(const char *path, size_t *len)
 static void test_shared_scene(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    lrr_scene *scene;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 1, &scene));
+    lrr_context *ctx = tu_context();
+    lrr_scene *scene = tu_cornell(ctx, 1, 0, 0);
     lrr_subdivision sub = {.target_patches = 40, .levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(scene, &sub));
     build_job serial = {scene, ctx, NULL, "", 0};

@@ -8,6 +8,7 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -37,6 +38,16 @@
         }                                                                                     \
     } while (0)
 
+/* Tolerances (as in GSL's tests): a difference that comes from rounding alone gets
+ * k·n·ε, with ε the machine epsilon of the precision the value is computed or stored in
+ * (DBL_EPSILON, FLT_EPSILON), n the number of roundings that add up (terms of a sum,
+ * operations in a chain) and k a small safety factor; each use says why. Statistical and
+ * modelling errors (Monte Carlo noise, a hemicube's aliasing, the low-rank model, a solver's
+ * stopping tolerance, a condition number) are not rounding: those tolerances stay literal,
+ * with their reason beside them. */
+#define TU_TOL_DBL(k, n) ((double)(k) * (double)(n) * DBL_EPSILON)
+#define TU_TOL_FLT(k, n) ((double)(k) * (double)(n) * FLT_EPSILON)
+
 /* Writes the two triangles of quad (p0,p1,p2,p3) (counter-clockwise seen from the front)
  * into v (18 floats). */
 static inline void tu_quad(float *v, const double p0[3], const double p1[3], const double p2[3],
@@ -65,6 +76,28 @@ static inline void tu_box_inward(float v[108], double sx, double sy, double sz)
         tu_quad(v + 18 * i, c[f[i][0]], c[f[i][1]], c[f[i][2]], c[f[i][3]]);
 }
 
+/* The set-up most tests share (a fixture): a context, failing the test when it cannot be
+ * made; lrr_context_destroy(ctx) at the end. */
+static inline lrr_context *tu_context(void)
+{
+    lrr_context *ctx = NULL;
+    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    return ctx;
+}
+
+/* The built-in Cornell box (closed: the closed variant), subdivided into about K patches of
+ * 4^levels subpatches when K > 0; lrr_scene_destroy() it. */
+static inline lrr_scene *tu_cornell(lrr_context *ctx, int closed, size_t K, unsigned levels)
+{
+    lrr_scene *s;
+    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, closed, &s));
+    if (K > 0) {
+        lrr_subdivision sd = {.target_patches = K, .levels = levels};
+        LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
+    }
+    return s;
+}
+
 /* The furnace (docs/METHOD.md "Exact cases"): tu_box_inward(sx, sy, sz) with reflectance rho
  * and emission e (every channel) on every face, so B = e/(1 − rho) everywhere. */
 static inline lrr_scene *tu_furnace(lrr_context *ctx, double sx, double sy, double sz,
@@ -87,10 +120,7 @@ static inline lrr_scene *tu_furnace(lrr_context *ctx, double sx, double sy, doub
 static inline lrr_operator *tu_cornell_op(lrr_context *ctx, size_t K, unsigned levels,
                                           unsigned R, uint64_t seed)
 {
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
-    lrr_subdivision sd = {.target_patches = K, .levels = levels};
-    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
+    lrr_scene *s = tu_cornell(ctx, 0, K, levels);
     lrr_build_options o = {.hemicube_resolution = R, .seed = seed};
     lrr_operator *op;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
@@ -98,11 +128,18 @@ static inline lrr_operator *tu_cornell_op(lrr_context *ctx, size_t K, unsigned l
     return op;
 }
 
-/* Temporary file path under $LRR_TEST_TMP (or /tmp), unique per process. */
-static inline void tu_tmp_path(char *buf, size_t len, const char *name)
+/* The test's scratch directory: $LRR_TEST_TMP (make check gives each test its own under
+ * the build tree's tests/tmp, tests/scratch-driver.sh), else /tmp. */
+static inline const char *tu_tmp_dir(void)
 {
     const char *dir = getenv("LRR_TEST_TMP");
-    snprintf(buf, len, "%s/%s.%ld", dir && *dir ? dir : "/tmp", name, (long)getpid());
+    return dir && *dir ? dir : "/tmp";
+}
+
+/* Temporary file path in tu_tmp_dir(), unique per process. */
+static inline void tu_tmp_path(char *buf, size_t len, const char *name)
+{
+    snprintf(buf, len, "%s/%s.%ld", tu_tmp_dir(), name, (long)getpid());
 }
 
 /* True when the library was built with the optional feature name ("assimp", "cgal",

@@ -63,7 +63,7 @@ fi
 # In sanitizer builds (make check sets ASAN_OPTIONS): Mesa's DRI driver, whose JIT-built
 # code allocates, is unloaded at exit, so LeakSanitizer reports its leaks from an unknown
 # module that no suppression can name. The viewer's runs under Xvfb check memory errors
-# only; lrr's own leaks are checked by tests/cli.sh and the unit tests.
+# only; lrr's own leaks are checked by tests/cli/*.sh and the unit tests.
 ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0"
 export ASAN_OPTIONS
 

@@ -34,8 +34,7 @@ static void record(void *user, lrr_status st, const char *msg)
 static void test_error_record(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     char msg[64];
     assert_int_equal(lrr_context_last_error(ctx, msg, sizeof msg), LRR_OK);
     assert_string_equal(msg, "");
@@ -70,10 +69,8 @@ static void test_error_record(void **state)
 static void test_reference_counting(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_context *ctx = tu_context();
+    lrr_scene *s = tu_cornell(ctx, 0, 0, 0);
     lrr_context_destroy(ctx);
     lrr_subdivision bad = {.levels = 42};
     assert_int_equal(lrr_scene_subdivide(s, &bad), LRR_ERR_INVALID_ARG);
@@ -92,8 +89,7 @@ static void test_version(void **state)
 static void test_alloc(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     void *p;
     assert_int_equal(lrr__calloc(ctx, &p, SIZE_MAX / 2, 4, "huge"), LRR_ERR_OVERFLOW);
     assert_null(p);

@@ -22,8 +22,7 @@ typedef struct {
 static void test_option_sizes(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx);
     lrr_scene_info a, b;
 
@@ -77,8 +76,7 @@ static void test_option_sizes(void **state)
 static void test_defaults_equal_null(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx);
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &(lrr_subdivision){.target_patches = 36}));
     lrr_operator *a, *b;
@@ -161,8 +159,7 @@ static void test_first_sizes(void **state)
 static void test_info_sizes(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx);
     lrr_scene_info full;
     lrr_scene_get_info(s, &full, sizeof full);

@@ -6,10 +6,13 @@
 #include "formfactor/formfactor.h"
 #include "operator/operator.h"
 
+/* OpenCL against the CPU: the device rounds the same float terms in another order;
+ * 9 float roundings of the largest value (k = 1, n = 9). */
+#define DEVICE_TOL TU_TOL_FLT(1, 9)
+
 static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned levels)
 {
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, closed, &s));
+    lrr_scene *s = tu_cornell(ctx, closed, 0, 0);
     lrr_subdivision sd = {.target_patches = K, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
@@ -17,8 +20,7 @@ static lrr_scene *cornell(lrr_context *ctx, int closed, size_t K, unsigned level
 
 static void compare(int closed)
 {
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, closed, 37, 1);
     lrr_build_options o = {.hemicube_resolution = 32, .seed = 2};
     lrr_operator *cpu, *dev;
@@ -37,7 +39,7 @@ static void compare(int closed)
     print_message("%s: n = %zu, k = %zu, max |F̄_cpu - F̄_cl| = %.3g, d·Σ row 0 = %.6f\n",
                   closed ? "cornell-closed" : "cornell", cpu->n, cpu->k, worst,
                   sum_row0 * (double)dev->d);
-    assert_true(worst <= 1e-6);
+    assert_true(worst <= DEVICE_TOL);
     assert_true(sum_row0 > 0);
     const size_t kk = cpu->k * cpu->k;
     double mnum = 0, mden = 0;
@@ -70,8 +72,7 @@ static void test_cornell_closed(void **state)
 static void test_errors(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, 0, 37, 0);
     lrr_build_options o = {.hemicube_resolution = 16, .seed = 1, .backend = LRR_BACKEND_OPENCL};
     lrr_reference *ref = NULL;

@@ -9,8 +9,7 @@
 
 static lrr_scene *cornell(lrr_context *ctx, size_t patches, unsigned levels)
 {
-    lrr_scene *scene;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &scene));
+    lrr_scene *scene = tu_cornell(ctx, 0, 0, 0);
     lrr_subdivision sub = {.target_patches = patches, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(scene, &sub));
     return scene;
@@ -29,8 +28,7 @@ static lrr__operator_bytes_t need_of(lrr_context *ctx, const lrr_scene *scene,
 static void test_budget_boundary(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *scene = cornell(ctx, 60, 1);
     lrr_scene_info si;
     lrr_scene_get_info(scene, &si, sizeof si);
@@ -85,8 +83,7 @@ static void test_budget_boundary(void **state)
 static void test_budget_parts(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr__operator_bytes_t one, eight, f16;
     lrr_build_options bo = {.hemicube_resolution = 512, .threads = 1};
     const size_t n = 4096, k = 64, n_tri = 36;
@@ -119,8 +116,7 @@ static void test_overflow(void **state)
     (void)state;
     if (sizeof(size_t) < 8)
         skip();
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *scene = cornell(ctx, 2400000, 10);
     lrr_scene_info si;
     lrr_scene_get_info(scene, &si, sizeof si);

@@ -24,8 +24,7 @@ static float *all_rows(const lrr_operator *op)
 static void test_round_trip(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 50, 1);
     const size_t n = op->n, k = op->k;
     assert_true(n % LRR__PANEL != 0 && n > 2 * LRR__PANEL); /* panels and a row-major tail */
@@ -101,8 +100,7 @@ static void reference(const lrr_operator *op, const float *E, double *B)
 static void test_kernels(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     static const struct { size_t K; unsigned levels; } sizes[] = {{4, 1}, {8, 2}, {60, 1}};
     const char *variants[] = {"c", "avx2", "avx2+prefetch", "avx512", "avx512+prefetch"};
     int tested = 0, tail_seen = 0, whole_seen = 0;
@@ -172,8 +170,7 @@ static unsigned char *read_all(const char *path, size_t *len)
 static void test_file_rows(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 50, 1);
     char pa[256], pb[256];
     tu_tmp_path(pa, sizeof pa, "layout_panels.lrr");
@@ -209,8 +206,7 @@ static void test_file_rows(void **state)
 static void test_batch_panels(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 300, 1);
     const size_t n = op->n, frames = 3;
     print_message("n = %zu\n", n);

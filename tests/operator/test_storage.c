@@ -99,8 +99,7 @@ static double rel_l2(size_t m, const float *a, const float *b)
 static void test_solve_16bit(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 45, 1);
     const size_t n = op->n, k = op->k, d = op->d;
     float *b32 = malloc(3 * n * sizeof *b32), *b = malloc(3 * n * sizeof *b),
@@ -169,8 +168,7 @@ static void test_solve_16bit(void **state)
 static void test_small_values_keep_precision(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 20, 4);
     const size_t n = op->n, k = op->k;
     float *orig = malloc(n * k * sizeof *orig), *row = malloc(k * sizeof *row);
@@ -205,8 +203,7 @@ static void test_small_values_keep_precision(void **state)
 static void test_file_round_trip(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 30, 1);
     const lrr_storage kinds[2] = {LRR_STORAGE_F16, LRR_STORAGE_BF16};
     char path[256];
@@ -247,8 +244,7 @@ static void test_file_round_trip(void **state)
 static void test_errors(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 12, 0);
     assert_int_equal(lrr_operator_set_storage(op, (lrr_storage)3), LRR_ERR_INVALID_ARG);
     assert_int_equal(op->storage, LRR_STORAGE_F32);

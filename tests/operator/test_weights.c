@@ -7,6 +7,10 @@
 #include "operator/operator.h"
 #include "formfactor/closed_forms.h"
 
+/* Scene values are floats (positions, normals, areas, rho, E) from a few float
+ * operations each (a cross product and its normalisation: 5 roundings), k = 2. */
+#define FLOAT_TOL TU_TOL_FLT(2, 5)
+
 /* An open scene whose one non-emitting cluster mixes a floor that sees the lamp with a sill
  * that sees only the sky: floor [0,1]² at z = 0 facing up, lamp [0,1]² at z = 0.5 facing
  * down (emits 1, reflects 0.5), sill [1.5,2.5]×[0,1] at z = 0.5 facing up (nothing above
@@ -119,8 +123,7 @@ static double exact_power(const lrr_operator *op, size_t p, const double *b)
 static void test_open_scene_power(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = open_scene(ctx);
     lrr_operator *op = grouped(ctx, s, 128);
     const size_t p = 1; /* the floor-and-sill cluster */
@@ -134,8 +137,8 @@ static void test_open_scene_power(void **state)
         if (sill) /* nothing above the sill: R_j = 0, and so its weight */
             assert_true(op->weight[j] == 0.0f);
     }
-    ASSERT_NEAR(floor_area, 1.0, 1e-6, "floor\n");
-    ASSERT_NEAR(sill_area, 1.0, 1e-6, "sill\n");
+    ASSERT_NEAR(floor_area, 1.0, FLOAT_TOL, "floor\n");
+    ASSERT_NEAR(sill_area, 1.0, FLOAT_TOL, "sill\n");
     /* the closed form: the receivers (the lamp) gather A_floor F_floor→lamp B̄_floor from the
      * cluster, for any radiosity of the floor and the sill */
     const double F = parallel_closed_form(1 / H, 1 / H);
@@ -185,8 +188,7 @@ static double lamp_reflected(const lrr_operator *op, const float *B)
 static void test_open_scene_bounce(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = open_scene(ctx);
     lrr_operator *op = grouped(ctx, s, 128);
     float *B = malloc(op->n * 3 * sizeof(float)), *Bf = malloc(op->n * 3 * sizeof(float));
@@ -234,8 +236,7 @@ static void test_open_scene_bounce(void **state)
 static void test_exact_limit(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = open_scene(ctx);
     lrr_scene_info si;
     lrr_scene_get_info(s, &si, sizeof si);
@@ -256,15 +257,14 @@ static void test_exact_limit(void **state)
 static void test_file_versions(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = open_scene(ctx);
     lrr_build_options o = opts(3);
     o.hemicube_resolution = 32;
     lrr_operator *op, *back;
     LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
-    char path[64];
-    snprintf(path, sizeof path, "/tmp/test_weights.%d.lrr", (int)getpid());
+    char path[4096];
+    tu_tmp_path(path, sizeof path, "test_weights"); /* in the test's scratch directory */
     for (int version = 4; version >= 3; version--) {
         if (version == 3) { /* the area weights and the M they give */
             op->weighting = LRR__WEIGHTS_AREA;

@@ -53,8 +53,7 @@ static size_t count_face(const unsigned char *img, int w, int h, int face)
 static void test_inside_closed_lit(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float *B;
     lrr_operator *op = box_op(ctx, 1, 0, &B);
     lrr_render_options o = lrr_render_options_defaults();
@@ -90,8 +89,7 @@ static void test_inside_closed_lit(void **state)
 static void test_outside_otherwise(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     for (int open = 0; open < 2; open++) {
         float *B;
         lrr_operator *op = box_op(ctx, open, open, &B);
@@ -121,8 +119,7 @@ static void test_outside_otherwise(void **state)
 static void test_eye_target(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float *B;
     lrr_operator *op = box_op(ctx, 0, 0, &B);
     lrr_render_options o = lrr_render_options_defaults();
@@ -160,8 +157,7 @@ static void test_eye_target(void **state)
 static void test_first_layout_reads_eye(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float *B;
     lrr_operator *op = box_op(ctx, 0, 0, &B);
     lrr_render_options o0 = {.width = 48, .height = 48, .use_cornell_camera = 0,
@@ -191,8 +187,7 @@ static void test_first_layout_reads_eye(void **state)
 static void test_invalid_camera(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float *B;
     lrr_operator *op = box_op(ctx, 0, 0, &B);
     char path[512], msg[512];

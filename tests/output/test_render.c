@@ -23,8 +23,7 @@ static void unit_quad(float v[18], double z0, int front_z)
 static void test_uniform(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[108];
     tu_box_inward(v, 2, 1, 1.5);
     lrr_operator *op = ru_make_op(ctx, 12, v, 2, LRR__SCENE_FILE);
@@ -64,8 +63,7 @@ static void test_uniform(void **state)
 static void test_gouraud_ramp(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[18];
     unit_quad(v, 0, 1);
     lrr_operator *op = ru_make_op(ctx, 2, v, 3, LRR__SCENE_FILE); /* 8×8 steps across */
@@ -123,8 +121,7 @@ static void test_gouraud_ramp(void **state)
 static void test_sharp_corners(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[108];
     tu_box_inward(v, 1, 1, 1);
     lrr_operator *op = ru_make_op(ctx, 12, v, 2, LRR__SCENE_FILE);
@@ -174,8 +171,7 @@ static void test_sharp_corners(void **state)
 static void test_disjoint_triangles(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     enum { G = 12, T = G * G };
     float v[T * 9];
     for (int t = 0; t < T; t++) {
@@ -215,8 +211,7 @@ static void test_disjoint_triangles(void **state)
 static void test_back_face(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[18];
     /* a 400 mm square in front of the Cornell camera (eye z = -800, looking along +z) */
     double p0[3] = {78, 73, 100}, p1[3] = {478, 73, 100}, p2[3] = {478, 473, 100},
@@ -251,8 +246,7 @@ static void test_back_face(void **state)
 static void test_near_clipping(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[18];
     double p0[3] = {-1e6, 0, -5000}, p1[3] = {-1e6, 0, 1e5}, p2[3] = {1e6, 0, 1e5},
            p3[3] = {1e6, 0, -5000};
@@ -320,8 +314,7 @@ static void crude_radiosity(const lrr_operator *op, float *B)
 
 static lrr_operator *cornell_op(lrr_context *ctx, int closed)
 {
-    lrr_scene *scene;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, closed, &scene));
+    lrr_scene *scene = tu_cornell(ctx, closed, 0, 0);
     lrr_subdivision sub = {0};
     sub.max_patch_area = 4000;
     sub.levels = 0;
@@ -352,8 +345,7 @@ static void channel_sums(const unsigned char *img, int w, int h, int x0, int x1,
 static void test_cornell_camera(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     unsigned char *imgs[2];
     for (int closed = 0; closed < 2; closed++) {
         lrr_operator *op = cornell_op(ctx, closed);
@@ -412,10 +404,8 @@ static void test_cornell_camera(void **state)
 static void test_cornell_solved(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    lrr_scene *scene;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &scene));
+    lrr_context *ctx = tu_context();
+    lrr_scene *scene = tu_cornell(ctx, 0, 0, 0);
     lrr_subdivision sub = {0};
     sub.max_patch_area = 6000;
     sub.levels = 1;
@@ -462,8 +452,7 @@ static void test_cornell_solved(void **state)
 static void test_invalid(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[18];
     unit_quad(v, 0, 1);
     lrr_operator *op = ru_make_op(ctx, 2, v, 1, LRR__SCENE_FILE);
@@ -509,8 +498,7 @@ static void test_invalid(void **state)
 static void test_io_errors(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[18];
     unit_quad(v, 0, 1);
     lrr_operator *op = ru_make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
@@ -581,8 +569,7 @@ static int render_inject(void *user, unsigned long step, const char *what)
 static void test_write_faults(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[18];
     unit_quad(v, 0, 1);
     lrr_operator *op = ru_make_op(ctx, 2, v, 0, LRR__SCENE_FILE);
@@ -630,8 +617,7 @@ static void test_write_faults(void **state)
 static void test_exposure(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[18];
     unit_quad(v, 0, 1);
     lrr_operator *op = ru_make_op(ctx, 2, v, 1, LRR__SCENE_FILE);

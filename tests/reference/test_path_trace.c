@@ -8,8 +8,7 @@
 static void test_furnace(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     const float r[3] = {0.5f, 0.7f, 0.8f};
     lrr_scene *s = tu_furnace(ctx, 1.0, 0.8, 1.2, r, 1.0f);
     lrr_subdivision sd = {.target_patches = 48, .levels = 1};
@@ -59,10 +58,8 @@ static void test_furnace(void **state)
 static void test_against_gauss_seidel(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_context *ctx = tu_context();
+    lrr_scene *s = tu_cornell(ctx, 0, 0, 0);
     lrr_subdivision sd = {.target_patches = 600, .levels = 0};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     lrr_scene_info info;
@@ -117,8 +114,7 @@ static void test_against_gauss_seidel(void **state)
 static void test_parallel_squares(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[36], rho[12], em[12];
     const double a0[3] = {0, 0, 0}, a1[3] = {1, 0, 0}, a2[3] = {1, 1, 0}, a3[3] = {0, 1, 0};
     const double b0[3] = {0, 0, 1}, b1[3] = {0, 1, 1}, b2[3] = {1, 1, 1}, b3[3] = {1, 0, 1};
@@ -155,10 +151,8 @@ static void test_parallel_squares(void **state)
 static void test_deterministic(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 1, &s));
+    lrr_context *ctx = tu_context();
+    lrr_scene *s = tu_cornell(ctx, 1, 0, 0);
     lrr_subdivision sd = {.target_patches = 40, .levels = 1};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     lrr_scene_info info;
@@ -193,10 +187,8 @@ static int cancel_at_once(void *user, size_t done, size_t total)
 static void test_errors(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_context *ctx = tu_context();
+    lrr_scene *s = tu_cornell(ctx, 0, 0, 0);
     float B[3 * 64], se[3 * 64];
     char msg[512];
     /* not subdivided */

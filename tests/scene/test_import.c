@@ -6,6 +6,10 @@
 
 #include <stdbool.h>
 
+/* Scene values are floats (positions, normals, areas, rho, E) from a few float
+ * operations each (a cross product and its normalisation: 5 roundings), k = 2. */
+#define FLOAT_TOL TU_TOL_FLT(2, 5)
+
 #define MAX_SUB 64
 
 typedef struct loaded {
@@ -76,9 +80,9 @@ static double total_area(const loaded *l)
 static void assert_all_normals(const loaded *l, double nx, double ny, double nz)
 {
     for (size_t i = 0; i < l->n; i++) {
-        ASSERT_NEAR(l->normal[3 * i], nx, 1e-6, "subpatch %zu\n", i);
-        ASSERT_NEAR(l->normal[3 * i + 1], ny, 1e-6, "subpatch %zu\n", i);
-        ASSERT_NEAR(l->normal[3 * i + 2], nz, 1e-6, "subpatch %zu\n", i);
+        ASSERT_NEAR(l->normal[3 * i], nx, FLOAT_TOL, "subpatch %zu\n", i);
+        ASSERT_NEAR(l->normal[3 * i + 1], ny, FLOAT_TOL, "subpatch %zu\n", i);
+        ASSERT_NEAR(l->normal[3 * i + 2], nz, FLOAT_TOL, "subpatch %zu\n", i);
     }
 }
 
@@ -86,8 +90,8 @@ static void assert_all_materials(const loaded *l, const float rho[3], const floa
 {
     for (size_t i = 0; i < l->n; i++)
         for (int c = 0; c < 3; c++) {
-            ASSERT_NEAR(l->rho[3 * i + c], rho[c], 1e-6, "subpatch %zu channel %d\n", i, c);
-            ASSERT_NEAR(l->emission[3 * i + c], em[c], 1e-6, "subpatch %zu channel %d\n", i,
+            ASSERT_NEAR(l->rho[3 * i + c], rho[c], FLOAT_TOL, "subpatch %zu channel %d\n", i, c);
+            ASSERT_NEAR(l->emission[3 * i + c], em[c], FLOAT_TOL, "subpatch %zu channel %d\n", i,
                         c);
         }
 }
@@ -97,11 +101,11 @@ static void assert_unit_square(const loaded *l)
 {
     assert_int_equal(l->info.triangles, 2);
     assert_int_equal(l->info.skipped, 0);
-    ASSERT_NEAR(l->info.area, 1.0, 1e-6, "scene area\n");
-    ASSERT_NEAR(total_area(l), 1.0, 1e-6, "sum of subpatch areas\n");
+    ASSERT_NEAR(l->info.area, 1.0, FLOAT_TOL, "scene area\n");
+    ASSERT_NEAR(total_area(l), 1.0, FLOAT_TOL, "sum of subpatch areas\n");
     for (int j = 0; j < 3; j++) {
-        ASSERT_NEAR(l->info.bounds_min[j], 0.0, 1e-6, "bounds_min[%d]\n", j);
-        ASSERT_NEAR(l->info.bounds_max[j], j < 2 ? 1.0 : 0.0, 1e-6, "bounds_max[%d]\n", j);
+        ASSERT_NEAR(l->info.bounds_min[j], 0.0, FLOAT_TOL, "bounds_min[%d]\n", j);
+        ASSERT_NEAR(l->info.bounds_max[j], j < 2 ? 1.0 : 0.0, FLOAT_TOL, "bounds_max[%d]\n", j);
     }
     assert_all_normals(l, 0, 0, 1);
 }
@@ -311,7 +315,7 @@ static void test_ccw_front(void **state)
     loaded l;
     load_data(ctx, "ccw_triangle.obj", &l);
     assert_int_equal(l.info.triangles, 1);
-    ASSERT_NEAR(l.area[0], 2.0, 1e-6, "triangle area\n");
+    ASSERT_NEAR(l.area[0], 2.0, FLOAT_TOL, "triangle area\n");
     assert_all_normals(&l, 0, 0, 1);
     /* no usemtl: assimp's stand-in "DefaultMaterial" (diffuse 0.6) becomes the default grey */
     assert_all_materials(&l, (const float[]){0.5f, 0.5f, 0.5f}, (const float[]){0, 0, 0});
@@ -326,7 +330,7 @@ static void test_concave_polygon(void **state)
     load_data(ctx, "concave.obj", &l);
     assert_int_equal(l.info.triangles, 4); /* the line and the point are ignored */
     assert_int_equal(l.info.skipped, 0);
-    ASSERT_NEAR(total_area(&l), 3.0, 1e-6, "L-shape area\n");
+    ASSERT_NEAR(total_area(&l), 3.0, FLOAT_TOL, "L-shape area\n");
     assert_all_normals(&l, 0, 0, 1);
     for (size_t i = 0; i < l.n; i++) /* no triangle covers the missing corner (1..2, 1..2) */
         assert_false(l.centre[3 * i] > 1.0f && l.centre[3 * i + 1] > 1.0f);
@@ -341,12 +345,12 @@ static void test_node_transforms(void **state)
      * about x and moved to z = -5 */
     load_data(ctx, "mirror.gltf", &l);
     assert_int_equal(l.info.triangles, 4);
-    ASSERT_NEAR(total_area(&l), 2.0, 1e-6, "area\n");
-    ASSERT_NEAR(l.info.bounds_min[0], -1.0, 1e-6, "mirrored x\n");
-    ASSERT_NEAR(l.info.bounds_max[0], 1.0, 1e-6, "x\n");
-    ASSERT_NEAR(l.info.bounds_min[1], -1.0, 1e-6, "rotated y\n");
-    ASSERT_NEAR(l.info.bounds_min[2], -5.0, 1e-6, "z\n");
-    ASSERT_NEAR(l.info.bounds_max[2], 5.0, 1e-6, "z\n");
+    ASSERT_NEAR(total_area(&l), 2.0, FLOAT_TOL, "area\n");
+    ASSERT_NEAR(l.info.bounds_min[0], -1.0, FLOAT_TOL, "mirrored x\n");
+    ASSERT_NEAR(l.info.bounds_max[0], 1.0, FLOAT_TOL, "x\n");
+    ASSERT_NEAR(l.info.bounds_min[1], -1.0, FLOAT_TOL, "rotated y\n");
+    ASSERT_NEAR(l.info.bounds_min[2], -5.0, FLOAT_TOL, "z\n");
+    ASSERT_NEAR(l.info.bounds_max[2], 5.0, FLOAT_TOL, "z\n");
     size_t top = 0, bottom = 0;
     for (size_t i = 0; i < l.n; i++) {
         const float *c = l.centre + 3 * i, *nm = l.normal + 3 * i;
@@ -355,13 +359,13 @@ static void test_node_transforms(void **state)
              * not the -z that the stored order would give after the mirror */
             top++;
             assert_true(c[0] < 0);
-            ASSERT_NEAR(nm[2], 1.0, 1e-6, "mirrored subpatch %zu\n", i);
+            ASSERT_NEAR(nm[2], 1.0, FLOAT_TOL, "mirrored subpatch %zu\n", i);
         } else {
             bottom++;
             assert_true(c[1] < 0);
-            ASSERT_NEAR(nm[2], -1.0, 1e-6, "rotated subpatch %zu\n", i);
+            ASSERT_NEAR(nm[2], -1.0, FLOAT_TOL, "rotated subpatch %zu\n", i);
         }
-        ASSERT_NEAR(l.rho[3 * i], 0.3, 1e-6, "rho\n");
+        ASSERT_NEAR(l.rho[3 * i], 0.3, FLOAT_TOL, "rho\n");
     }
     assert_int_equal(top, 2);
     assert_int_equal(bottom, 2);
@@ -377,7 +381,7 @@ static void test_zero_area_skipped(void **state)
     load_data(ctx, "degenerate.obj", &l);
     assert_int_equal(l.info.triangles, 1);
     assert_int_equal(l.info.skipped, 1);
-    ASSERT_NEAR(l.info.area, 0.5, 1e-6, "area of the good triangle\n");
+    ASSERT_NEAR(l.info.area, 0.5, FLOAT_TOL, "area of the good triangle\n");
     lrr_scene_destroy(l.scene);
 }
 
@@ -448,7 +452,7 @@ static void test_ply_checked(void **state)
     loaded l;
     load_path(ctx, path, &l);
     assert_int_equal(l.n, 1);
-    ASSERT_NEAR(l.area[0], 0.5, 1e-6, "little-endian triangle area");
+    ASSERT_NEAR(l.area[0], 0.5, FLOAT_TOL, "little-endian triangle area");
     lrr_scene_destroy(l.scene);
     unsigned char be[52];
     for (size_t i = 0; i < 52; i += 4)
@@ -457,7 +461,7 @@ static void test_ply_checked(void **state)
     write_ply(path, PLY_TRIANGLE_HEADER("binary_big_endian", "uint"), be, 52);
     load_path(ctx, path, &l);
     assert_int_equal(l.n, 1);
-    ASSERT_NEAR(l.area[0], 0.5, 1e-6, "big-endian triangle area");
+    ASSERT_NEAR(l.area[0], 0.5, FLOAT_TOL, "big-endian triangle area");
     lrr_scene_destroy(l.scene);
     /* a list count of 4 billion in a 52-byte body; and one item short */
     const uint32_t huge = 0xfffffff0u;
@@ -609,11 +613,11 @@ static void test_shipped_cornell_matches_builtin(void **state)
             hits++;
             ASSERT_NEAR(file.area[j], builtin.area[i], 1e-3, "triangle %zu area\n", i);
             for (int c = 0; c < 3; c++) {
-                ASSERT_NEAR(file.normal[3 * j + c], builtin.normal[3 * i + c], 1e-6,
+                ASSERT_NEAR(file.normal[3 * j + c], builtin.normal[3 * i + c], FLOAT_TOL,
                             "triangle %zu normal\n", i);
-                ASSERT_NEAR(file.rho[3 * j + c], builtin.rho[3 * i + c], 1e-6,
+                ASSERT_NEAR(file.rho[3 * j + c], builtin.rho[3 * i + c], FLOAT_TOL,
                             "triangle %zu reflectance\n", i);
-                ASSERT_NEAR(file.emission[3 * j + c], builtin.emission[3 * i + c], 1e-6,
+                ASSERT_NEAR(file.emission[3 * j + c], builtin.emission[3 * i + c], FLOAT_TOL,
                             "triangle %zu emission\n", i);
             }
         }

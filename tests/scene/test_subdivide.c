@@ -3,6 +3,12 @@
 #include "testutil.h"
 #include "scene/scene.h"
 
+/* Areas and centroids in double of up to 256 subpatches (n = 256, 32 roundings each:
+ * the cross product, the halving, the sum); float areas: 5 roundings, k = 2, and a sum of
+ * up to 64 of them (TU_TOL_FLT(2, 64)). */
+#define AREA_TOL TU_TOL_DBL(32, 256)
+#define FLOAT_TOL TU_TOL_FLT(2, 5)
+
 static double area9(const double v[9])
 {
     double e1[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]};
@@ -26,8 +32,7 @@ static lrr_scene *two_triangles(lrr_context *ctx)
 static void test_counts_and_areas(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = two_triangles(ctx);
     for (unsigned levels = 0; levels <= 3; levels++) {
         lrr_subdivision sd = {.max_patch_area = 0.1, .levels = levels};
@@ -38,16 +43,16 @@ static void test_counts_and_areas(void **state)
         assert_int_equal(info.patches, 64 + 16);
         assert_int_equal(info.d, (size_t)1 << (2 * levels));
         assert_int_equal(info.subpatches, info.patches * info.d);
-        ASSERT_NEAR(info.area, 2.5, 1e-12, "area\n");
+        ASSERT_NEAR(info.area, 2.5, AREA_TOL, "area\n");
         float *area = malloc(info.subpatches * sizeof(float));
         LRR_CHECK(ctx, lrr_scene_subpatches(s, NULL, NULL, area, NULL, NULL));
         double sum = 0;
         for (size_t i = 0; i < info.subpatches; i++) {
             double expect = (i < 64 * info.d ? 2.0 / 64 : 0.5 / 16) / info.d;
-            ASSERT_NEAR(area[i], expect, 1e-6 * expect, "levels %u subpatch %zu\n", levels, i);
+            ASSERT_NEAR(area[i], expect, FLOAT_TOL * expect, "levels %u subpatch %zu\n", levels, i);
             sum += area[i];
         }
-        ASSERT_NEAR(sum, 2.5, 1e-5, "levels %u total\n", levels);
+        ASSERT_NEAR(sum, 2.5, TU_TOL_FLT(2, 64), "levels %u total\n", levels);
         free(area);
     }
     /* no limit: one patch per triangle */
@@ -93,15 +98,15 @@ static void test_children_tile_parent(void **state)
         double s[9];
         lrr__subpatch_vertices(&g, i, s);
         double a = area9(s);
-        ASSERT_NEAR(a, A / 256, 1e-12 * A, "subpatch %zu\n", i);
+        ASSERT_NEAR(a, A / 256, AREA_TOL * A, "subpatch %zu\n", i);
         sum += a;
         for (int j = 0; j < 3; j++)
             centroid[j] += (s[j] + s[3 + j] + s[6 + j]) / 3 / g.n;
     }
-    ASSERT_NEAR(sum, A, 1e-12 * A, "total\n");
+    ASSERT_NEAR(sum, A, AREA_TOL * A, "total\n");
     /* equal areas tiling the parent: the mean of the centroids is the parent's centroid */
     for (int j = 0; j < 3; j++)
-        ASSERT_NEAR(centroid[j], (parent[j] + parent[3 + j] + parent[6 + j]) / 3, 1e-12,
+        ASSERT_NEAR(centroid[j], (parent[j] + parent[3 + j] + parent[6 + j]) / 3, AREA_TOL,
                     "axis %d\n", j);
     /* the offsets lrr__geometry_index allocated (the rest lives on the stack) */
     lrr_aligned_free(g.sub0);
@@ -113,8 +118,7 @@ static void test_children_tile_parent(void **state)
 static void test_barycentric_round_trip(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = two_triangles(ctx);
     lrr_subdivision sd = {.max_patch_area = 0.1, .levels = 2};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
@@ -165,10 +169,8 @@ static void test_barycentric_round_trip(void **state)
 static void test_target_patches(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_context *ctx = tu_context();
+    lrr_scene *s = tu_cornell(ctx, 0, 0, 0);
     const size_t targets[] = {1, 36, 100, 216, 864, 3456};
     for (size_t i = 0; i < sizeof targets / sizeof targets[0]; i++) {
         lrr_subdivision sd = {.target_patches = targets[i]};

@@ -99,8 +99,7 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
 static void test_odd_sizes(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     for (unsigned levels = 1; levels <= 2; levels++) {
         lrr_operator *op = cornell_op(ctx, 37, levels);
         compare_op(ctx, op, levels == 1 ? "Cornell 37 patches, levels 1"
@@ -116,8 +115,7 @@ static void test_odd_sizes(void **state)
 static void test_cornell_216(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 216, 1);
     assert_int_equal(op->k, 216);
     compare_op(ctx, op, "Cornell k = 216");
@@ -128,8 +126,7 @@ static void test_cornell_216(void **state)
 static void test_errors(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = triangle_op(ctx, 1);
     char msg[512];
     lrr_solver *cl = NULL;
@@ -180,8 +177,7 @@ static void test_errors(void **state)
 static void test_timings(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_operator *op = cornell_op(ctx, 216, 1);
     const size_t n = op->n;
     float *e = test_emission(op), *b = malloc(3 * n * sizeof *b);

@@ -7,8 +7,7 @@
 
 static lrr_scene *cornell(lrr_context *ctx, size_t patches, unsigned levels)
 {
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &s));
+    lrr_scene *s = tu_cornell(ctx, 0, 0, 0);
     lrr_subdivision sd = {.target_patches = patches, .levels = levels};
     LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
     return s;
@@ -80,8 +79,7 @@ static double judge(lrr_context *ctx, const lrr_scene *s, const lrr_operator *op
 static void test_against_judge(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     const struct { size_t patches; unsigned levels; int receiver; } cases[] = {
         {54, 1, LRR_RECEIVER_CENTRE}, {216, 2, LRR_RECEIVER_AREA}};
     for (int k = 0; k < 2; k++) {
@@ -117,8 +115,7 @@ static void test_against_judge(void **state)
 static void test_bookkeeping(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, 54, 1);
     lrr_operator *op = build(ctx, s, LRR_RECEIVER_AUTO), *back;
     lrr_operator_info a, b;
@@ -128,8 +125,8 @@ static void test_bookkeeping(void **state)
     vo.samples = 64;
     LRR_CHECK(ctx, lrr_operator_verify(op, s, &vo));
     lrr_operator_get_info(op, &a, sizeof a);
-    char path[64];
-    snprintf(path, sizeof path, "/tmp/test_verify.%d.lrr", (int)getpid());
+    char path[4096];
+    tu_tmp_path(path, sizeof path, "test_verify"); /* in the test's scratch directory */
     LRR_CHECK(ctx, lrr_operator_save(op, path));
     LRR_CHECK(ctx, lrr_operator_load(ctx, path, &back));
     lrr_operator_get_info(back, &b, sizeof b);
@@ -157,8 +154,7 @@ static void test_bookkeeping(void **state)
 static void test_uniform_emission(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     float v[108], rho[36], em[36] = {0};
     tu_box_inward(v, 1, 1, 1);
     for (int i = 0; i < 36; i++)
@@ -187,8 +183,7 @@ static void test_uniform_emission(void **state)
 static void test_refusals(void **state)
 {
     (void)state;
-    lrr_context *ctx;
-    assert_int_equal(lrr_context_create(&ctx), LRR_OK);
+    lrr_context *ctx = tu_context();
     lrr_scene *s = cornell(ctx, 54, 1), *other = cornell(ctx, 60, 1), *raw;
     LRR_CHECK(ctx, lrr_scene_cornell_box(ctx, 0, &raw));
     lrr_operator *op = build(ctx, s, LRR_RECEIVER_AUTO);
