@@ -50,4 +50,20 @@ else
 fi
 
 
+# ---------------------------------------------------------------- not regular files
+# A FIFO (or a device) named as a scene, an operator or a script is refused at once as "not a
+# regular file" (lib/core/path.c), never waited on; timeout turns a regression into a failure.
+mkfifo "$T/fifo.obj" "$T/fifo.lrr" "$T/fifo.txt" || fatal "mkfifo"
+for c in "info $T/fifo.obj" "preprocess $T/fifo.obj -o $T/fifo-out.lrr" "solve $T/fifo.lrr" \
+         "info /dev/zero" "animate $T/fifo.lrr --lights $T/fifo.txt -o $T/anim"; do
+    # shellcheck disable=SC2086 # c is a command line
+    timeout 60 "$LRR" $c >"$T/out" 2>"$T/err"
+    rc=$?
+    if [ "$rc" -eq 1 ] && grep -q 'not a regular file' "$T/err" && [ ! -e "$T/fifo-out.lrr" ]; then
+        pass "lrr ${c%% *} of a FIFO or device: not a regular file"
+    else
+        fail "lrr $c: exit $rc"; show_err
+    fi
+done
+
 finish

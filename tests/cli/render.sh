@@ -98,4 +98,15 @@ else
 fi
 
 
+# one X,Y,Z parser for every option (tools/cli_util.c): three finite float numbers, single
+# commas, nothing else
+for v in '1, 2, 3' '1e39,0,0' '1,2' '1,2,3,'; do
+    run render "$LRRFILE" -o "$T/e.png" --eye "$v" --target 0,0,0
+    if [ "$rc" -eq 2 ] && grep -q -- "--eye: '$v' is not three finite numbers X,Y,Z" "$T/err"; then
+        pass "render --eye '$v' is a usage error naming the option"
+    else
+        fail "render --eye '$v': exit $rc"; show_err
+    fi
+done
+
 finish

@@ -213,4 +213,28 @@ else
 fi
 
 
+# ---------------------------------------------------------------- LRR_SIMD
+# One set of names for the form factors and the solver (lib/core/cpu.c); anything else is
+# an error naming them, and preprocess writes no file then.
+names='not one of c, avx2, avx2+prefetch, avx512, avx512+prefetch'
+LRR_SIMD=bogus run preprocess cornell --patches 30 --levels 1 --hemicube 16 -o "$T/simd.lrr"
+if [ "$rc" -eq 1 ] && grep -q "LRR_SIMD=bogus: $names" "$T/err" && [ ! -e "$T/simd.lrr" ]; then
+    pass "LRR_SIMD=bogus: preprocess refuses it, naming the valid values"
+else
+    fail "LRR_SIMD=bogus preprocess: exit $rc"; show_err
+fi
+LRR_SIMD=bogus run solve "$LRRFILE" --repeat 1
+if [ "$rc" -eq 1 ] && grep -q "LRR_SIMD=bogus: $names" "$T/err"; then
+    pass "LRR_SIMD=bogus: solve refuses it, naming the valid values"
+else
+    fail "LRR_SIMD=bogus solve: exit $rc"; show_err
+fi
+# the solver's "+prefetch" names are the form factors' plain levels; c gives the same file
+LRR_SIMD=avx2+prefetch run preprocess cornell --patches 30 --levels 1 --hemicube 16 -o "$T/simd.lrr"
+if [ "$rc" -eq 0 ] || grep -q 'LRR_SIMD=avx2+prefetch: this CPU lacks the instructions' "$T/err"; then
+    pass "LRR_SIMD=avx2+prefetch: preprocess takes the solver's names (exit $rc)"
+else
+    fail "LRR_SIMD=avx2+prefetch preprocess: exit $rc"; show_err
+fi
+
 finish
