@@ -2,12 +2,13 @@
  * Shared parts of lrr-bench, each name with the prefix bench_: messages, option helpers,
  * scenes, comparison of radiosities and number formatting (bench_util.c), the machine
  * description and cache size (bench_machine.c), timing and the lrr_solve and sgemv steps
- * (bench_timing.c), read bandwidth (bench_bandwidth.c), OpenCL (bench_opencl.c) and the
- * paper's method (bench_paper.c). One file per command: table.c, stress.c, hemicube.c, realtime.c,
- * probes.c, adaptive.c, scenes.c, lights.c; four of them measure in a second file (table_cell.c,
- * realtime_cell.c, adaptive_scene.c, scenes_run.c; scenes writes its output in scenes_out.c
- * and judges accuracy in judge.c), and what the files of a command share is declared at
- * the end.
+ * (bench_timing.c), read bandwidth (bench_bandwidth.c), the pass and its floor in
+ * interleaved pairs and the multiply-add peak (bench_interleave.c), OpenCL (bench_opencl.c)
+ * and the paper's method (bench_paper.c). One file per command: table.c, stress.c,
+ * hemicube.c, realtime.c, probes.c, adaptive.c, scenes.c, lights.c; four of them measure in
+ * a second file (table_cell.c, realtime_cell.c, adaptive_scene.c, scenes_run.c; scenes
+ * writes its output in scenes_out.c and judges accuracy in judge.c), and what the files of
+ * a command share is declared at the end.
  */
 #ifndef LRR_BENCH_H
 #define LRR_BENCH_H

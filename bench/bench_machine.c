@@ -235,8 +235,9 @@ void bench_print_machine(void)
 
 /* Size of the last-level cache in bytes (the largest cache sysfs lists), 0 if unknown.
  * sysfs only, not cpuid: under a hypervisor cpuid says what the host chooses (this
- * project's VM: an L3 of 508 MiB, the whole socket's, where a core shares 32 MiB), and the
- * bandwidth buffer (4 × the LLC) and the cache-resident floors would follow it. */
+ * project's VM: an L3 of 508 MiB from leaf 0x80000006, more than the 32 MiB one Zen 5 core
+ * complex shares), and the bandwidth buffer (4 × the LLC) and the cache-resident floors
+ * would follow it. */
 size_t bench_llc_bytes(void)
 {
     cache_level c[MAX_CACHES];

@@ -2,7 +2,8 @@
  * lrr-bench realtime, one cell (realtime.c has the command, its options and its output): the
  * operator built once, its f16 and bf16 copies, then every implementation timed in its own
  * block on the same matrix (fused f32, f16, bf16 and on OpenCL; the sparse and incremental
- * paths; sgemv3 and sgemm3; the paper's method; lrr_solve_batch), and the floors.
+ * paths; sgemv3 and sgemm3; the paper's method; lrr_solve_batch), and the floors: measured
+ * once, and for the fused CPU rows also in pairs alternating with the pass (rt_pairs).
  */
 #include <errno.h>
 #include <math.h>
