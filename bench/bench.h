@@ -131,13 +131,14 @@ double bench_measure_bandwidth(size_t bytes);
  * read them; NULL when out of memory (lrr_aligned_free it). */
 float *bench_read_buffer(size_t count);
 /* Read bandwidth over buf (count floats, a multiple of 128, from bench_read_buffer) in bytes
- * per second: each read loop the CPU runs `reps` times in a row, the best loop's mean; the
+ * per second: each read loop the CPU runs `reps` times in a row, the fastest pass of any; the
  * sums are added to *check (use it, so no pass is optimised away). */
 double bench_read_bandwidth(const float *buf, size_t count, unsigned reps, double *check);
 
 /* The pass and its floor in alternation (bench_interleave.c): `pairs` pairs (at most
  * BENCH_MAX_PAIRS) of the read loops over a buffer of `bytes` (what one frame must read)
- * then fn, each half repeated to about 20 ms (frame_ms: a frame's earlier median). */
+ * then fn, each half at least 3 runs and about 20 ms (frame_ms: a frame's earlier median),
+ * the fastest run of each half. */
 #define BENCH_MAX_PAIRS 31
 typedef struct bench_pairs {
     double median, min, max; /* the pairs' ratios pass ms / floor ms */

@@ -137,15 +137,12 @@ double bench_read_bandwidth(const float *buf, size_t count, unsigned reps, doubl
     double (*sums[BENCH_READ_LOOPS])(const float *, size_t);
     read_loops(sums);
     double best = 0;
-    for (int l = 0; l < BENCH_READ_LOOPS; l++) {
-        if (!sums[l])
-            continue;
-        double s = 0;
-        for (unsigned r = 0; r < reps; r++)
-            s += read_pass(sums[l], buf, count, check);
-        if (s > 0 && (double)count * sizeof(float) * reps / s > best)
-            best = (double)count * sizeof(float) * reps / s;
-    }
+    for (int l = 0; l < BENCH_READ_LOOPS; l++)
+        for (unsigned r = 0; sums[l] && r < reps; r++) {
+            double s = read_pass(sums[l], buf, count, check);
+            if (s > 0 && (double)count * sizeof(float) / s > best)
+                best = (double)count * sizeof(float) / s;
+        }
     return best;
 }
 
