@@ -2,12 +2,13 @@
  * Shared parts of lrr-bench, each name with the prefix bench_: messages, option helpers,
  * scenes, comparison of radiosities and number formatting (bench_util.c), the machine
  * description and cache size (bench_machine.c), timing and the lrr_solve and sgemv steps
- * (bench_timing.c), read bandwidth (bench_bandwidth.c), OpenCL (bench_opencl.c) and the
- * paper's method (bench_paper.c). One file per command: table.c, stress.c, hemicube.c, realtime.c,
- * probes.c, adaptive.c, scenes.c, lights.c; four of them measure in a second file (table_cell.c,
- * realtime_cell.c, adaptive_scene.c, scenes_run.c; scenes writes its output in scenes_out.c
- * and judges accuracy in judge.c), and what the files of a command share is declared at
- * the end.
+ * (bench_timing.c), read bandwidth (bench_bandwidth.c), the pass and its floor in
+ * interleaved pairs and the multiply-add peak (bench_interleave.c), OpenCL (bench_opencl.c)
+ * and the paper's method (bench_paper.c). One file per command: table.c, stress.c,
+ * hemicube.c, realtime.c, probes.c, adaptive.c, scenes.c, lights.c; four of them measure in
+ * a second file (table_cell.c, realtime_cell.c, adaptive_scene.c, scenes_run.c; scenes
+ * writes its output in scenes_out.c and judges accuracy in judge.c), and what the files of
+ * a command share is declared at the end.
  */
 #ifndef LRR_BENCH_H
 #define LRR_BENCH_H
@@ -116,13 +117,39 @@ int bench_time_frames(frame_fn fn, void *user, unsigned repeat, timing *t);
 /* min, max and median of runs ≥ 1 samples (ms); v is reordered. */
 void bench_timing_from_samples(double *v, size_t runs, timing *t);
 
-/* Size of the last-level cache in bytes (the highest cache index sysfs lists), 0 if unknown. */
+/* Size of the last-level cache in bytes (the largest cache sysfs lists; not cpuid), 0 if
+ * unknown. */
 size_t bench_llc_bytes(void);
 /* Bytes of the bandwidth buffer: 4 × the last-level cache, at least 512 MiB, at most 4 GiB. */
 size_t bench_bandwidth_buffer_bytes(void);
 /* Read bandwidth in bytes per second (0 on failure): an OpenMP sum, the best of
  * BANDWIDTH_PASSES passes of each read loop the CPU runs (portable, AVX2, AVX-512). */
 double bench_measure_bandwidth(size_t bytes);
+/* the read loops bench_measure_bandwidth runs: portable, AVX2, AVX-512, both with prefetch */
+#define BENCH_READ_LOOPS 5
+/* count floats (a multiple of 128), 64-byte aligned, first touched by the OpenMP threads that
+ * read them; NULL when out of memory (lrr_aligned_free it). */
+float *bench_read_buffer(size_t count);
+/* Read bandwidth over buf (count floats, a multiple of 128, from bench_read_buffer) in bytes
+ * per second: each read loop the CPU runs `reps` times in a row, the fastest pass of any; the
+ * sums are added to *check (use it, so no pass is optimised away). */
+double bench_read_bandwidth(const float *buf, size_t count, unsigned reps, double *check);
+
+/* The pass and its floor in alternation (bench_interleave.c): `pairs` pairs (at most
+ * BENCH_MAX_PAIRS) of the read loops over a buffer of `bytes` (what one frame must read)
+ * then fn, each half at least 3 runs and about 20 ms (frame_ms: a frame's earlier median),
+ * the fastest run of each half. */
+#define BENCH_MAX_PAIRS 31
+typedef struct bench_pairs {
+    double median, min, max; /* the pairs' ratios pass ms / floor ms */
+    double floor_ms;         /* the median floor: bytes / the pair's read bandwidth */
+    unsigned pairs;
+} bench_pairs;
+int bench_interleave(frame_fn fn, void *user, double bytes, double frame_ms, unsigned pairs,
+                     bench_pairs *out);
+/* Multiply-add peak in flop/s: an OpenMP loop of independent FMA chains, the best of each
+ * vector width the CPU has (0 on failure). */
+double bench_fma_peak(void);
 
 /* ------------------------------------------------------------------ real-time steps */
 typedef struct ours_frame {
@@ -259,6 +286,7 @@ int run_cell(lrr_context *ctx, const table_args *a, const cell *c, size_t index,
 #define RT_IDLE_MS 200u
 #define RT_MIN_SECONDS 0.3
 #define RT_BATCH 16
+#define RT_PAIRS 11 /* interleaved pairs of the fused rows (bench_interleave) */
 
 /* the rows of a cell: lrr-bench realtime --help says what each measures */
 enum {
@@ -286,6 +314,10 @@ typedef struct rt_row {
     const char *backend;  /* "cpu" or "opencl" */
     double kernel_ms, transfer_ms, ratio_to_cpu; /* OpenCL rows; nan otherwise */
     char device[160];   /* OpenCL rows: lrr_solver_kernel; "cpu" otherwise */
+    /* CPU fused rows: the interleaved pairs (pairs 0 and nan elsewhere), and the
+     * multiply-add roofline's time, flops / the measured FMA peak */
+    bench_pairs pairs;
+    double roofline_ms;
 } rt_row;
 
 typedef struct rt_cell {
@@ -313,6 +345,7 @@ typedef struct rt_args {
     const char *cells_name;
     size_t llc;
     double bandwidth;
+    double fma_peak; /* flop/s, 0 when not measured */
     int opencl; /* --backend opencl */
 } rt_args;
 

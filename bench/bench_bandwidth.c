@@ -100,45 +100,77 @@ static double sum_portable(const float *p, size_t count)
     return t;
 }
 
-double bench_measure_bandwidth(size_t bytes)
+/* Every read loop the CPU runs, into sums[BENCH_READ_LOOPS] (NULL where it does not). */
+static void read_loops(double (*sums[BENCH_READ_LOOPS])(const float *, size_t))
 {
-    size_t count = bytes / sizeof(float) / 128 * 128;
-    float *buf = lrr_aligned_alloc(count * sizeof(float));
-    if (!buf)
-        return 0;
-    #pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < count; i++)
-        buf[i] = 1.0f; /* first touch by the thread that will read it */
-    /* Every read loop the CPU runs, the best pass of any: on this project's AMD EPYC the
-     * 256-bit loop read 64.8 GB/s where the 512-bit one read 58.5 (medians of 15, one
-     * process), so the widest alone would set the floor too low. */
-    enum { LOOPS = 5 };
-    double (*sums[LOOPS])(const float *, size_t) = {sum_portable, NULL, NULL, NULL, NULL};
+    sums[0] = sum_portable;
+    sums[1] = sums[2] = sums[3] = sums[4] = NULL;
 #if defined(__x86_64__)
     if (__builtin_cpu_supports("avx2"))
         sums[1] = sum_avx2, sums[3] = sum_avx2_pf;
     if (__builtin_cpu_supports("avx512f"))
         sums[2] = sum_avx512, sums[4] = sum_avx512_pf;
 #endif
+}
+
+/* Seconds of one OpenMP pass of `sum` over count floats; the sum is added to *check. */
+static double read_pass(double (*sum)(const float *, size_t), const float *buf, size_t count,
+                        double *check)
+{
     const size_t blocks = count / 128;
-    double best = 0, check = 0;
-    for (int pass = 0; pass < LOOPS * BANDWIDTH_PASSES; pass++) {
-        double (*sum)(const float *, size_t) = sums[pass % LOOPS];
-        if (!sum)
-            continue;
-        double total = 0;
-        double a = cli_now();
-        #pragma omp parallel reduction(+ : total)
-        {
-            /* each thread one contiguous range of whole 128-float blocks */
-            int t = omp_get_thread_num(), nt = omp_get_num_threads();
-            size_t b0 = blocks * (size_t)t / (size_t)nt, b1 = blocks * (size_t)(t + 1) / (size_t)nt;
-            total += sum(buf + b0 * 128, (b1 - b0) * 128);
+    double total = 0;
+    double a = cli_now();
+    #pragma omp parallel reduction(+ : total)
+    {
+        /* each thread one contiguous range of whole 128-float blocks */
+        int t = omp_get_thread_num(), nt = omp_get_num_threads();
+        size_t b0 = blocks * (size_t)t / (size_t)nt, b1 = blocks * (size_t)(t + 1) / (size_t)nt;
+        total += sum(buf + b0 * 128, (b1 - b0) * 128);
+    }
+    double s = cli_now() - a;
+    *check += total;
+    return s;
+}
+
+double bench_read_bandwidth(const float *buf, size_t count, unsigned reps, double *check)
+{
+    double (*sums[BENCH_READ_LOOPS])(const float *, size_t);
+    read_loops(sums);
+    double best = 0;
+    for (int l = 0; l < BENCH_READ_LOOPS; l++)
+        for (unsigned r = 0; sums[l] && r < reps; r++) {
+            double s = read_pass(sums[l], buf, count, check);
+            if (s > 0 && (double)count * sizeof(float) / s > best)
+                best = (double)count * sizeof(float) / s;
         }
-        double s = cli_now() - a;
-        check += total;
-        if (s > 0 && (double)(count * sizeof(float)) / s > best)
-            best = (double)(count * sizeof(float)) / s;
+    return best;
+}
+
+float *bench_read_buffer(size_t count)
+{
+    float *buf = lrr_aligned_alloc(count * sizeof(float));
+    if (!buf)
+        return NULL;
+    #pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < count; i++)
+        buf[i] = 1.0f; /* first touch by the thread that will read it */
+    return buf;
+}
+
+double bench_measure_bandwidth(size_t bytes)
+{
+    size_t count = bytes / sizeof(float) / 128 * 128;
+    float *buf = bench_read_buffer(count);
+    if (!buf)
+        return 0;
+    /* Every read loop the CPU runs, the best pass of any: on this project's AMD EPYC the
+     * 256-bit loop read 64.8 GB/s where the 512-bit one read 58.5 (medians of 15, one
+     * process), so the widest alone would set the floor too low. */
+    double best = 0, check = 0;
+    for (int pass = 0; pass < BANDWIDTH_PASSES; pass++) {
+        double bw = bench_read_bandwidth(buf, count, 1, &check);
+        if (bw > best)
+            best = bw;
     }
     lrr_aligned_free(buf);
     /* the sums are used, so no pass can be optimised away */

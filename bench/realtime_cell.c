@@ -2,7 +2,8 @@
  * lrr-bench realtime, one cell (realtime.c has the command, its options and its output): the
  * operator built once, its f16 and bf16 copies, then every implementation timed in its own
  * block on the same matrix (fused f32, f16, bf16 and on OpenCL; the sparse and incremental
- * paths; sgemv3 and sgemm3; the paper's method; lrr_solve_batch), and the floors.
+ * paths; sgemv3 and sgemm3; the paper's method; lrr_solve_batch), and the floors: measured
+ * once, and for the fused CPU rows also in pairs alternating with the pass (rt_pairs).
  */
 #include <errno.h>
 #include <math.h>
@@ -251,6 +252,8 @@ static void rt_cell_init(rt_cell *r, const cell *c)
         w->rel_l2 = NAN;
         w->backend = "cpu";
         w->kernel_ms = w->transfer_ms = w->ratio_to_cpu = NAN;
+        w->pairs = (bench_pairs){NAN, NAN, NAN, NAN, 0};
+        w->roofline_ms = NAN;
         snprintf(w->device, sizeof w->device, "cpu");
     }
     for (int i = 0; i < 3; i++) {
@@ -341,6 +344,24 @@ static int rt_buffers(rt_work *wk)
     return 0;
 }
 
+/* The fused pass on sv and its floor in alternation (bench_interleave), over every byte a
+ * frame must read: F̄ as stored, M (3·k² floats), E and B (n·3 floats each); and the
+ * multiply-add roofline, 2·n·k·3 + 2·3·k² flops at the measured FMA peak. */
+static int rt_pairs(rt_work *wk, lrr_solver *sv, lrr_storage st, rt_row *row)
+{
+    const double n = (double)wk->n, k = (double)wk->k;
+    const double bytes = storage_bytes(wk->n, wk->k, st) + 12.0 * k * k + 2.0 * 12.0 * n;
+    ours_frame of = {sv, wk->e, NULL, wk->b, LRR_OK, 0};
+    bench_note("%s: fused %s and its floor, %u interleaved pairs", wk->label, row->storage,
+               RT_PAIRS);
+    int rc = bench_interleave(bench_ours_step, &of, bytes, row->t.median, RT_PAIRS, &row->pairs);
+    if (rc && of.status != LRR_OK)
+        return bench_lib_fail(wk->ctx, of.status, "lrr_solve (interleaved)");
+    row->roofline_ms = wk->a->fma_peak > 0 ? 1e3 * (6.0 * n * k + 6.0 * k * k) / wk->a->fma_peak
+                                           : NAN;
+    return rc;
+}
+
 /* fused f32: the reference B of every comparison */
 static int rt_fused_f32(rt_work *wk, rt_cell *r)
 {
@@ -354,6 +375,8 @@ static int rt_fused_f32(rt_work *wk, rt_cell *r)
         return rc;
     if (!finite_all(wk->b32, 3 * wk->n))
         return bench_fail("%s: fused f32 gave a non-finite B", wk->label);
+    if ((rc = rt_pairs(wk, wk->solver, LRR_STORAGE_F32, &r->rows[RT_FUSED_F32])))
+        return rc;
     if (wk->a->opencl) {
         bench_note("%s: fused f32 (OpenCL)", wk->label);
         if ((rc = time_cl(wk->ctx, wk->op, wk->e, wk->b, wk->a->repeat, &r->cl_rows[0])))
@@ -377,6 +400,8 @@ static int rt_fused_16bit(rt_work *wk, rt_cell *r)
         int rc = time_solver(wk->ctx, sv, LRR_PATH_FULL, wk->e, NULL, wk->b, wk->a->repeat, row);
         if (!rc)
             bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &row->rel_l2, NULL);
+        if (!rc)
+            rc = rt_pairs(wk, sv, rt_storage[RT_FUSED_F16 + j], row);
         lrr_solver_destroy(sv);
         if (rc)
             return rc;

@@ -208,7 +208,8 @@ fi
 run --help
 if [ "$rc" -eq 0 ] && grep -q 'realtime' "$T/out"; then pass "lrr-bench --help lists realtime"; else fail "lrr-bench --help does not list realtime"; fi
 help_mentions realtime --n --k --cells --scene --hemicube --repeat --csv 'Timing does' \
-    'impl,storage,n,k,ms_median' --backend 'backend,kernel_ms,transfer_ms,device'
+    'impl,storage,n,k,ms_median' --backend 'backend,kernel_ms,transfer_ms,device' \
+    'Interleaved floor' ratio_pairs_median roofline_ms
 run realtime --backend gpu
 if [ "$rc" -eq 2 ] && grep -q -- '--backend' "$T/err"; then pass "realtime --backend gpu: exit 2"; else fail "realtime --backend gpu: exit $rc"; fi
 run realtime --n 384
@@ -276,6 +277,58 @@ if head -n 1 "$RCSV" | grep -q ',backend,kernel_ms,transfer_ms,device\(,\|$\)' &
 else
     fail "realtime --backend cpu: backend columns missing or wrong"
 fi
+
+# the interleaved floor: its columns appended, min <= median <= max, all finite and positive
+# on the fused CPU rows, nan and 0 pairs on the others
+if head -n 1 "$RCSV" | grep -q ',ratio_pairs_median,ratio_pairs_min,ratio_pairs_max,pairs,floor_pairs_ms,roofline_ms$'; then
+    pass "realtime CSV ends with the interleaved columns"
+else
+    fail "realtime CSV lacks the interleaved columns: '$(head -n 1 "$RCSV")'"
+fi
+bad=$(awk -F, '
+    NR == 1 { for (j = 1; j <= NF; j++) c[$j] = j; next }
+    $c["backend"] == "cpu" && $1 == "fused" {
+        md = $c["ratio_pairs_median"]; lo = $c["ratio_pairs_min"]; hi = $c["ratio_pairs_max"]
+        fl = $c["floor_pairs_ms"]
+        for (q = 1; q <= 4; q++) {
+            v = q == 1 ? md : q == 2 ? lo : q == 3 ? hi : fl
+            if (v !~ /^[0-9.eE+-]+$/ || !(v + 0 > 0)) print $2 ": not finite positive: " v
+        }
+        if (!(lo + 0 <= md + 0 && md + 0 <= hi + 0)) print $2 ": not min <= median <= max: " lo " " md " " hi
+        if (!($c["pairs"] + 0 >= 7)) print $2 ": pairs " $c["pairs"]
+        n++
+        next
+    }
+    $c["pairs"] != "0" || $c["ratio_pairs_median"] != "nan" { print $1 " " $2 ": pairs " $c["pairs"] }
+    END { if (n != 3) print "fused CPU rows: " n }' "$RCSV")
+if [ -z "$bad" ] && [ -s "$RCSV" ]; then
+    pass "realtime: interleaved ratios, min <= median <= max, finite and positive (f32 median $(awk -F, 'NR == 1 { for (j = 1; j <= NF; j++) c[$j] = j; next } $1 == "fused" && $2 == "f32" { print $c["ratio_pairs_median"] }' "$RCSV"))"
+else
+    fail "realtime interleaved ratios:"
+    echo "$bad" | sed 's/^/    /'
+fi
+if grep -q '^interleaved: [0-9]* pairs' "$T/out" && grep -q '^fma_peak_gflops: ' "$T/out" &&
+    grep -q '^target: fused f32 .*(interleaved median [0-9.]*)' "$T/out"; then
+    pass "realtime prints the interleaved table, the FMA peak and the target on the median"
+else
+    fail "realtime text lacks the interleaved table, fma_peak_gflops or the median target"
+fi
+# the machine description: vendor, family and model from cpuid; the caches (sysfs, or cpuid
+# where sysfs is silent) known on x86 Linux
+case "$(uname -m)" in
+x86_64 | i?86)
+    if grep -q '^cpu: .*(\(Intel\|AMD\|[A-Za-z]*\) family [0-9][0-9]* model [0-9][0-9]*' "$T/out"; then
+        pass "the machine line names the family and model ($(grep -m 1 '^cpu: ' "$T/out"))"
+    else
+        fail "the machine line lacks family and model: $(grep -m 1 '^cpu: ' "$T/out")"
+    fi
+    if grep -q '^caches: L' "$T/out" && ! grep -q '^caches: unknown' "$T/out"; then
+        pass "the caches are known ($(grep -m 1 '^caches: ' "$T/out"))"
+    else
+        fail "caches: $(grep -m 1 '^caches: ' "$T/out")"
+    fi
+    ;;
+esac
 
 # realtime --backend opencl: skipped where no OpenCL device or platform is available
 OCSV="$T/realtime_opencl.csv"
