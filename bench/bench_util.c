@@ -15,14 +15,21 @@
 #include "bench.h"
 
 /* ------------------------------------------------------------------ messages */
+/* "lrr-bench: " + the message + a newline on stderr, flushed (bench_fail and bench_note) */
+static void vmessage(const char *fmt, va_list ap)
+{
+    fputs("lrr-bench: ", stderr);
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    fflush(stderr);
+}
+
 int bench_fail(const char *fmt, ...)
 {
     va_list ap;
-    fputs("lrr-bench: ", stderr);
     va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
+    vmessage(fmt, ap);
     va_end(ap);
-    fputc('\n', stderr);
     return CLI_EXIT_FAIL;
 }
 
@@ -50,12 +57,9 @@ int bench_csv_finish(cli_outfile *out, int rc, const char *path)
 void bench_note(const char *fmt, ...)
 {
     va_list ap;
-    fputs("lrr-bench: ", stderr);
     va_start(ap, fmt);
-    vfprintf(stderr, fmt, ap);
+    vmessage(fmt, ap);
     va_end(ap);
-    fputc('\n', stderr);
-    fflush(stderr);
 }
 
 int bench_bad_option(const char *prog, int c, char *const argv[])
