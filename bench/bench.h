@@ -70,6 +70,7 @@ int cmd_adaptive(int argc, char *argv[]);
 int cmd_scenes(int argc, char *argv[]);
 int cmd_lights(int argc, char *argv[]);
 int cmd_raycast(int argc, char *argv[]);
+int cmd_fbar(int argc, char *argv[]);
 
 /* ------------------------------------------------------------------ messages */
 /* "lrr-bench: <message>" on stderr; returns CLI_EXIT_FAIL. */

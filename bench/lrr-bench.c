@@ -62,6 +62,8 @@ static const char main_help[] =
     "             per second, all lights moving or one, against Embree's occlusion rate\n"
     "  raycast    hemicubes per second of the rasteriser and of the ray caster against the\n"
     "             number of triangles (the crossover LRR_FORMFACTOR_AUTO uses)\n"
+    "  fbar       saved operators' F̄ read dense and sparse: bytes, ms per frame against\n"
+    "             each pass's own floor, the two in alternation, the difference of B\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help (COMMAND --help: help on a command)\n"
@@ -89,7 +91,8 @@ int main(int argc, char *argv[])
                     {"adaptive", cmd_adaptive},
                     {"scenes", cmd_scenes},
                     {"lights", cmd_lights},
-                    {"raycast", cmd_raycast}};
+                    {"raycast", cmd_raycast},
+                    {"fbar", cmd_fbar}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;

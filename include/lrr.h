@@ -546,11 +546,11 @@ LRR_API LRR_NODISCARD lrr_status lrr_solve(lrr_solver *solver, const float *emis
 
 /* count frames at once (animation frames, light presets): emission and radiosity are
  * count×n×3, frame after frame. Every frame is validated first (an error names the frame
- * and leaves radiosity untouched). On the CPU with float storage, at least 8 frames and F̄
- * larger than 32 MiB and than a quarter of the last-level cache, this is three small sgemm
- * and one n×k×3·count sgemm (OpenBLAS) per 64 frames, which is compute-bound rather than
- * memory-bound (n = 55296, k = 864: 3.3 ms per frame for 16 frames against 8.0 ms one at a
- * time); otherwise a loop of lrr_solve. */
+ * and leaves radiosity untouched). On the CPU, with at least 8 frames and F̄ larger than
+ * 32 MiB and than a quarter of the last-level cache, M is applied by sgemm (OpenBLAS) to 64
+ * frames at a time and F̄ read once for them, each block of rows serving every frame while
+ * it is in cache (n = 55296, k = 864: 1.80 ms per frame for 16 frames against 4.93 ms one
+ * at a time); otherwise a loop of lrr_solve. */
 LRR_API LRR_NODISCARD lrr_status lrr_solve_batch(lrr_solver *solver, size_t count,
                                                  const float *emission, float *radiosity)
     LRR_NONNULL(1, 3, 4);
@@ -569,10 +569,49 @@ LRR_API LRR_NODISCARD lrr_status lrr_solver_set_path(lrr_solver *solver, lrr_pat
     LRR_NONNULL(1);
 /* The path the last frame took. */
 LRR_API lrr_path lrr_solver_last_path(const lrr_solver *solver) LRR_NONNULL(1);
-/* Memory for cached columns (n×3 floats each; default a quarter of F̄'s bytes; 0 disables
- * the sparse and incremental paths). Empties the cache. No effect on an OpenCL solver. */
+/* Memory for cached columns (n×3 floats each; default a quarter of the bytes of F̄ a full
+ * frame reads, lrr_solver_info.fbar_bytes; 0 disables the sparse and incremental paths).
+ * Empties the cache. No effect on an OpenCL solver. */
 LRR_API LRR_NODISCARD lrr_status lrr_solver_set_cache(lrr_solver *solver, size_t max_bytes)
     LRR_NONNULL(1);
+
+/* How a CPU solver reads F̄ (docs/METHOD.md "Sparse F̄"). F̄ of a real scene is mostly
+ * zeros (a patch sees few of the scene's clusters; the rest is behind walls): SPARSE keeps
+ * only the strips of 16 rows × 1 column that hold a nonzero, in F̄'s storage with a 16-bit
+ * column index each (k <= 65535), copied once from the operator; B equals the dense pass's
+ * up to the order of the sums. AUTO, what lrr_solver_create chooses, is SPARSE where that
+ * reads at most half of the dense bytes. The operator and its files keep F̄ dense. */
+typedef enum lrr_fbar_format {
+    LRR_FBAR_AUTO = 0,
+    LRR_FBAR_DENSE = 1,
+    LRR_FBAR_SPARSE = 2
+} lrr_fbar_format;
+
+/* "auto", "dense", "sparse"; NULL for an unknown value. */
+LRR_API const char *lrr_fbar_format_name(lrr_fbar_format format);
+/* The inverse of lrr_fbar_format_name; LRR_ERR_INVALID_ARG for an unknown name. */
+LRR_API LRR_NODISCARD lrr_status lrr_fbar_format_from_name(const char *name,
+                                                           lrr_fbar_format *out)
+    LRR_NONNULL(1, 2);
+/* Reads F̄ in the given format from now on (one pass over the operator's F̄ to count and
+ * copy its strips); on an error the solver reads F̄ as before. LRR_ERR_UNSUPPORTED for
+ * SPARSE on an OpenCL solver (its device reads F̄ dense) or with k > 65535. Thread safety:
+ * one thread per object. */
+LRR_API LRR_NODISCARD lrr_status lrr_solver_set_fbar(lrr_solver *solver, lrr_fbar_format format)
+    LRR_NONNULL(1);
+
+typedef struct lrr_solver_info {
+    lrr_fbar_format fbar;      /* DENSE or SPARSE: what a full frame reads */
+    size_t fbar_bytes;         /* bytes of F̄ a full frame reads (the sparse copy's size) */
+    size_t fbar_dense_bytes;   /* n·k entries in the operator's storage */
+    size_t m_bytes;            /* M_c: 3·k·k floats, read by every full frame */
+    double fbar_density;       /* nonzero entries / (n·k); 0 for an OpenCL solver (not
+                                  counted) */
+    double fbar_strip_density; /* entries of the strips that hold a nonzero / (n·k) */
+} lrr_solver_info;
+/* info_size = sizeof *info (see Conventions). */
+LRR_API void lrr_solver_get_info(const lrr_solver *solver, lrr_solver_info *info,
+                                 size_t info_size) LRR_NONNULL(1, 2);
 
 /* ---------------------------------------------------------------- verification */
 /* The operator's error bar (docs/METHOD.md "Verification"): its radiosity for the scene's

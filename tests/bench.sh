@@ -193,6 +193,28 @@ fi
 run hemicube --builds 3
 if [ "$rc" -eq 2 ]; then pass "hemicube --builds without --rates: exit 2"; else fail "hemicube --builds without --rates: exit $rc"; fi
 
+# fbar: dense against sparse F̄ on a saved operator, two storages: the same B (summation
+# order only), 0 < density <= strip density <= 1, positive times and floor ratios
+LRRB=${LRR_BIN:-./lrr}
+if [ -x "$LRRB" ] && "$LRRB" preprocess cornell --patches 54 --levels 1 --hemicube 32 \
+    -o "$T/fbar.lrr" >/dev/null 2>&1; then
+    run fbar --pairs 1 --storage f32,f16 --csv "$T/fbar.csv" "$T/fbar.lrr"
+    bad=$(awk -F, 'NR == 1 { if ($23 != "b_diff") print "header: " $0; next }
+                   { rows++; if (!($5 > 0 && $5 <= $6 && $6 <= 1) || !($23 <= 1e-5) ||
+                                 !($10 > 0 && $11 > 0 && $14 > 0 && $17 > 0 && $20 > 0)) print "row " NR ": " $0 }
+                   END { if (rows != 2) print "rows: " rows }' "$T/fbar.csv" 2>&1)
+    if [ "$rc" -eq 0 ] && [ -z "$bad" ]; then
+        pass "fbar --storage f32,f16: B sparse = B dense (b_diff <= 1e-5), densities in (0, 1]"
+    else
+        fail "fbar: exit $rc $bad"
+        show_err
+    fi
+else
+    fail "fbar: cannot build an operator with '$LRRB'"
+fi
+run fbar --storage f8 "$T/fbar.lrr"
+if [ "$rc" -eq 2 ]; then pass "fbar --storage f8: exit 2"; else fail "fbar --storage f8: exit $rc"; fi
+
 # raycast --quick: T 36 and 144 at R 16, one and all threads, both rates > 0
 run raycast --quick
 bad=$(awk -F, '/^T,R,threads/ { h = 1; next } h && NF == 6 { rows++; if ($2 != 16 || !($4 > 0) || !($5 > 0)) print "row: " $0 }

@@ -262,8 +262,8 @@ int solve_lit(lrr_context *ctx, const char *file, double scale, const probe_args
         lrr_operator_info oi;
         lrr_operator_get_info(*op, &oi, sizeof oi);
         *b = cli_alloc_rgb(oi.n);
-        rc = *b ? timed_solve(ctx, *op, LRR_BACKEND_CPU, e, *b, 0, LRR_PATH_AUTO, &ms, NULL,
-                              NULL)
+        rc = *b ? timed_solve(ctx, *op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, e, *b, 0, LRR_PATH_AUTO,
+                              &ms, NULL, NULL)
                 : CLI_EXIT_FAIL;
     }
     free(e);
@@ -282,12 +282,14 @@ int check_finite(const float *b, size_t n)
 }
 
 /* Solves once to warm up, then `repeat` timed runs; *median_ms gets their median. */
-int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend, const float *e,
-                float *b, unsigned repeat, lrr_path path, double *median_ms, lrr_path *used,
-                char *kernel)
+int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend,
+                lrr_fbar_format fbar, const float *e, float *b, unsigned repeat, lrr_path path,
+                double *median_ms, lrr_path *used, solver_report *report)
 {
     lrr_solver *solver = NULL;
     lrr_status s = lrr_solver_create(op, backend, &solver);
+    if (s == LRR_OK && fbar != LRR_FBAR_AUTO) /* create chose for AUTO already */
+        s = lrr_solver_set_fbar(solver, fbar);
     if (s == LRR_OK)
         s = lrr_solver_set_path(solver, path);
     if (s != LRR_OK) {
@@ -307,8 +309,10 @@ int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend, c
     }
     if (used)
         *used = lrr_solver_last_path(solver);
-    if (kernel)
-        snprintf(kernel, KERNEL_NAME_MAX, "%s", lrr_solver_kernel(solver));
+    if (report) {
+        snprintf(report->kernel, KERNEL_NAME_MAX, "%s", lrr_solver_kernel(solver));
+        lrr_solver_get_info(solver, &report->info, sizeof report->info);
+    }
     lrr_solver_destroy(solver);
     if (s != LRR_OK) {
         free(t);

@@ -204,18 +204,18 @@ static int demo_solve(demo_run *d)
     d->b = cli_alloc_rgb(d->built.n);
     if (!d->b)
         return CLI_EXIT_FAIL;
-    char kernel[KERNEL_NAME_MAX] = "";
+    solver_report rep;
     double sparse_ms = 0;
     const float *e = lrr_operator_emission(d->op);
-    rc = timed_solve(d->ctx, d->op, LRR_BACKEND_CPU, e, d->b, DEFAULT_REPEAT, LRR_PATH_SPARSE,
-                     &sparse_ms, NULL, NULL);
+    rc = timed_solve(d->ctx, d->op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, e, d->b, DEFAULT_REPEAT,
+                     LRR_PATH_SPARSE, &sparse_ms, NULL, NULL);
     if (rc == CLI_EXIT_OK)
-        rc = timed_solve(d->ctx, d->op, LRR_BACKEND_CPU, e, d->b, DEFAULT_REPEAT, LRR_PATH_FULL,
-                         &d->ms, NULL, kernel);
+        rc = timed_solve(d->ctx, d->op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, e, d->b,
+                         DEFAULT_REPEAT, LRR_PATH_FULL, &d->ms, NULL, &rep);
     if (rc)
         return rc;
-    printf("solve_ms: %.4f (one pass over F̄, %s kernel, median of %u)\n", d->ms, kernel,
-           DEFAULT_REPEAT);
+    printf("solve_ms: %.4f (one pass over %s F̄, %s kernel, median of %u)\n", d->ms,
+           lrr_fbar_format_name(rep.info.fbar), rep.kernel, DEFAULT_REPEAT);
     printf("solve_ms_sparse: %.4f (only the light's patches emit: cached columns)\n",
            sparse_ms);
     print_solution_summary(d->op, d->b);

@@ -14,8 +14,29 @@ static const char info_help[] =
     "operator file (a .lrr of 'lrr preprocess') what 'lrr preprocess' printed of it: n, k,\n"
     "d, hierarchy, hemicube, receiver, seed, build_seconds, the condition estimates,\n"
     "storage, memory_mb and, when it was verified (--verify), verify_rel_l2,\n"
-    "verify_noise, verify_subpatches, verify_samples, verify_seconds, verify_emission.\n"
+    "verify_noise, verify_subpatches, verify_samples, verify_seconds, verify_emission;\n"
+    "then how 'lrr solve' reads F̄ (a CPU solver's --fbar auto): fbar (dense or sparse),\n"
+    "fbar_bytes (read per full frame), fbar_dense_bytes, fbar_density (nonzero entries /\n"
+    "n·k), fbar_strip_density (entries of the 16-row strips that hold a nonzero / n·k).\n"
     "\n" SCENE_HELP "\n" SUBDIV_HELP "  -h, --help           show this help\n";
+
+/* How a CPU solver reads the operator's F̄ (lrr_solver_get_info). */
+static int print_fbar_info(lrr_context *ctx, const lrr_operator *op)
+{
+    lrr_solver *sv = NULL;
+    lrr_status s = lrr_solver_create(op, LRR_BACKEND_CPU, &sv);
+    if (s != LRR_OK)
+        return cli_lib_error(ctx, s);
+    lrr_solver_info si;
+    lrr_solver_get_info(sv, &si, sizeof si);
+    lrr_solver_destroy(sv);
+    printf("fbar: %s\n", lrr_fbar_format_name(si.fbar));
+    printf("fbar_bytes: %zu\n", si.fbar_bytes);
+    printf("fbar_dense_bytes: %zu\n", si.fbar_dense_bytes);
+    printf("fbar_density: %.4f\n", si.fbar_density);
+    printf("fbar_strip_density: %.4f\n", si.fbar_strip_density);
+    return CLI_EXIT_OK;
+}
 
 /* 1 when the file starts with the .lrr magic ("LRROPER\0"). */
 static int is_operator_file(const char *path)
@@ -71,6 +92,7 @@ int cmd_info(int argc, char *argv[])
         if (rc == CLI_EXIT_OK) {
             printf("file: %s\n", name);
             print_operator_info(op);
+            rc = print_fbar_info(ctx, op);
         }
         lrr_operator_destroy(op);
         lrr_context_destroy(ctx);

@@ -28,9 +28,16 @@ static const char solve_help[] =
     "                       GPU, else the first CPU device; the environment variable\n"
     "                       LRR_OPENCL_DEVICE picks another, by index P:D or by a part of\n"
     "                       \"platform / device\" name). Every OpenCL frame is a full pass\n"
+    "  --fbar F             auto (default), dense or sparse: how the CPU solver reads F̄:\n"
+    "                       sparse keeps the strips of 16 rows x 1 column that hold a\n"
+    "                       nonzero (a real scene's F̄ is mostly zeros), auto does so\n"
+    "                       where that reads at most half the dense bytes; the same B up\n"
+    "                       to the order of the sums (dense only with --backend opencl)\n"
     PROBE_LIGHT_HELP
     "  -h, --help           show this help\n"
-    "Also prints storage (of F̄), backend, path (that the last run took) and kernel (the\n"
+    "Also prints storage (of F̄), fbar (dense or sparse, as read), fbar_bytes (read per full\n"
+    "frame), fbar_density (nonzero entries / n·k), m_bytes, backend, path (that the last\n"
+    "run took) and kernel (the\n"
     "SIMD variant, c, avx2 or avx512, with +prefetch on Intel CPUs; the environment\n"
     "variable LRR_SIMD forces one by that name, or\n"
     "opencl:<device name>); with --probe also probe, probe_method and sources, with --light\n"
@@ -45,13 +52,14 @@ typedef struct solve_args {
     unsigned repeat;
     int path;     /* lrr_path */
     int backend;  /* lrr_backend */
+    int fbar;     /* lrr_fbar_format */
 } solve_args;
 
 /* What the run measured, for the printout. */
 typedef struct solve_result {
     double ms, direct_s;
     lrr_path used;
-    char kernel[KERNEL_NAME_MAX];
+    solver_report solver;
 } solve_result;
 
 /* ------------------------------------------------------------------ parsing */
@@ -59,6 +67,10 @@ static const cli_choice paths[] = {{"auto", LRR_PATH_AUTO},
                                    {"full", LRR_PATH_FULL},
                                    {"sparse", LRR_PATH_SPARSE},
                                    {"incremental", LRR_PATH_INCREMENTAL},
+                                   {NULL, 0}};
+static const cli_choice fbars[] = {{"auto", LRR_FBAR_AUTO},
+                                   {"dense", LRR_FBAR_DENSE},
+                                   {"sparse", LRR_FBAR_SPARSE},
                                    {NULL, 0}};
 static const cli_choice backends[] = {{"cpu", LRR_BACKEND_CPU},
                                       {"opencl", LRR_BACKEND_OPENCL},
@@ -74,6 +86,8 @@ static const cli_opt solve_opts[] = {
      .choices = paths},
     {.name = "backend", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(solve_args, backend),
      .choices = backends},
+    {.name = "fbar", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(solve_args, fbar),
+     .choices = fbars},
     {.name = NULL}};
 
 /* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
@@ -82,7 +96,8 @@ static int parse_solve(solve_args *a, int argc, char *argv[])
     *a = (solve_args){.scale = 1.0,
                       .repeat = DEFAULT_REPEAT,
                       .path = LRR_PATH_FULL,
-                      .backend = LRR_BACKEND_CPU};
+                      .backend = LRR_BACKEND_CPU,
+                      .fbar = LRR_FBAR_AUTO};
     probe_args_init(&a->pa);
     const cli_opt_group groups[] = {{solve_opts, a}, {probe_opts, &a->pa}, {NULL, NULL}};
     const cli_command cmd = {prog, solve_help, "FILE.lrr", groups};
@@ -102,9 +117,15 @@ static void print_solve(const solve_args *a, const lrr_operator *op, const float
     printf("k: %zu\n", oi.k);
     printf("d: %zu\n", oi.d);
     printf("storage: %s\n", lrr_storage_name(oi.storage));
+    const lrr_solver_info *si = &r->solver.info;
+    printf("fbar: %s\n", lrr_fbar_format_name(si->fbar));
+    printf("fbar_bytes: %zu\n", si->fbar_bytes);
+    if (a->backend != LRR_BACKEND_OPENCL)
+        printf("fbar_density: %.4f\n", si->fbar_density);
+    printf("m_bytes: %zu\n", si->m_bytes);
     printf("backend: %s\n", a->backend == LRR_BACKEND_OPENCL ? "opencl" : "cpu");
     printf("path: %s\n", path_names[r->used]);
-    printf("kernel: %s\n", r->kernel);
+    printf("kernel: %s\n", r->solver.kernel);
     printf("solve_ms: %.4f\n", r->ms);
     if (a->pa.path) {
         printf("probe: %s\n", a->pa.path);
@@ -129,7 +150,7 @@ static int run_solve(const solve_args *a)
         return cli_lib_error(NULL, s);
     lrr_operator *op = NULL;
     float *e = NULL, *b = NULL;
-    solve_result r = {.ms = 0.0, .direct_s = 0.0, .used = LRR_PATH_FULL, .kernel = ""};
+    solve_result r = {.ms = 0.0, .direct_s = 0.0, .used = LRR_PATH_FULL};
     int rc = load_operator(ctx, a->file, &op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(op, a->scale, &e);
@@ -139,8 +160,8 @@ static int run_solve(const solve_args *a)
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi, sizeof oi);
         b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, (lrr_backend)a->backend, e, b, a->repeat, (lrr_path)a->path,
-                             &r.ms, &r.used, r.kernel)
+        rc = b ? timed_solve(ctx, op, (lrr_backend)a->backend, (lrr_fbar_format)a->fbar, e, b,
+                             a->repeat, (lrr_path)a->path, &r.ms, &r.used, &r.solver)
                : CLI_EXIT_FAIL;
     }
     if (rc == CLI_EXIT_OK && a->csv)

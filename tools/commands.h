@@ -343,12 +343,17 @@ int check_finite(const float *b, size_t n);
 /* Room for lrr_solver_kernel's name, copied before the solver goes ("opencl:<device>"). */
 #define KERNEL_NAME_MAX 160
 
-/* Times `repeat` solves of the same emission on the given backend and path after one
- * warm-up, and reports the path the last one took and the kernel variant (kernel has
- * KERNEL_NAME_MAX bytes, or is NULL). */
-int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend, const float *e,
-                float *b, unsigned repeat, lrr_path path, double *median_ms, lrr_path *used,
-                char *kernel);
+/* What timed_solve's solver was: its kernel variant and how it read F̄. */
+typedef struct solver_report {
+    char kernel[KERNEL_NAME_MAX];
+    lrr_solver_info info;
+} solver_report;
+/* Times `repeat` solves of the same emission on the given backend and path, F̄ read as fbar
+ * says, after one warm-up, and reports the path the last one took and the solver (report
+ * may be NULL). */
+int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend,
+                lrr_fbar_format fbar, const float *e, float *b, unsigned repeat, lrr_path path,
+                double *median_ms, lrr_path *used, solver_report *report);
 /* render's and export's solve: loads *op from file and solves once on the CPU for its stored
  * emission × scale plus the direct light of pa's probe and --light sources (or that light
  * alone with --no-scene-emission) into *b (n×3, freed by the caller; also on failure). */

@@ -45,6 +45,8 @@ struct lrr_solver {
     const lrr_operator *op;
     lrr_backend backend;
     const lrr__kernel *kernel; /* SIMD variant, chosen once (lrr__cpu_choose) */
+    lrr__sparse *sparse;       /* F̄ as strips (sparse.c), or NULL: the operator's dense F̄ */
+    lrr__sparse_stats fbar_stats; /* its counts (also when dense was kept) */
     lrr__cl_solver *cl;        /* LRR_BACKEND_OPENCL: every frame goes there (solve/opencl.c) */
     float *w;      /* 3×k, channel-major */
     float *z;      /* 3×k, channel-major: the right-hand sides of the n×k product */
@@ -74,6 +76,7 @@ void lrr_solver_destroy(lrr_solver *s)
     if (!s)
         return;
     lrr__cl_destroy(s->cl);
+    lrr__sparse_destroy(s->sparse);
     lrr_aligned_free(s->w);
     lrr_aligned_free(s->z);
     lrr_aligned_free(s->slot);
@@ -90,9 +93,81 @@ void lrr_solver_destroy(lrr_solver *s)
     free(s);
 }
 
-static size_t fbar_bytes(const lrr_operator *op)
+static size_t dense_bytes(const lrr_operator *op)
 {
     return op->n * op->k * lrr__fbar_elem_bytes(op);
+}
+
+/* the bytes of F̄ a full frame reads */
+static size_t fbar_bytes(const lrr_solver *s)
+{
+    return s->sparse ? s->sparse->bytes : dense_bytes(s->op);
+}
+
+/* B_c = E_c + rho_c ∘ (F̄ z_c) for count frames, from whichever F̄ the solver reads */
+static void fbar_apply_frames(const lrr_solver *s, size_t count, const float *z,
+                              const float *E, const float *rho, float *B)
+{
+    if (s->sparse)
+        lrr__sparse_apply_frames(s->kernel, s->sparse, count, z, E, rho, B);
+    else
+        lrr__fbar_apply_frames(s->kernel, s->op, count, z, E, rho, B);
+}
+
+static const char *const fbar_names[] = {"auto", "dense", "sparse"};
+
+const char *lrr_fbar_format_name(lrr_fbar_format f)
+{
+    return (unsigned)f < 3 ? fbar_names[f] : NULL;
+}
+
+lrr_status lrr_fbar_format_from_name(const char *name, lrr_fbar_format *out)
+{
+    for (int i = 0; i < 3; i++)
+        if (strcmp(name, fbar_names[i]) == 0) {
+            *out = (lrr_fbar_format)i;
+            return LRR_OK;
+        }
+    return LRR_ERR_INVALID_ARG;
+}
+
+lrr_status lrr_solver_set_fbar(lrr_solver *s, lrr_fbar_format format)
+{
+    const lrr_operator *op = s->op;
+    if ((unsigned)format > LRR_FBAR_SPARSE)
+        return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown F̄ format %d", (int)format);
+    if (s->cl) {
+        if (format == LRR_FBAR_SPARSE)
+            return lrr__error(op->ctx, LRR_ERR_UNSUPPORTED,
+                              "sparse F̄: an OpenCL solver reads F̄ dense");
+        return LRR_OK;
+    }
+    lrr__sparse *sp = NULL;
+    lrr__sparse_stats stats;
+    lrr_status st = lrr__sparse_create(op, format, &stats, &sp);
+    if (st)
+        return st;
+    lrr__sparse_destroy(s->sparse);
+    s->sparse = sp;
+    s->fbar_stats = stats;
+    return LRR_OK; /* cached columns F̄ M_c[:, p] stay valid: the same F̄ */
+}
+
+void lrr_solver_get_info(const lrr_solver *s, lrr_solver_info *out, size_t out_size)
+{
+    const lrr_operator *op = s->op;
+    lrr_solver_info info;
+    memset(&info, 0, sizeof info);
+    info.fbar = s->sparse ? LRR_FBAR_SPARSE : LRR_FBAR_DENSE;
+    info.fbar_dense_bytes = dense_bytes(op);
+    info.fbar_bytes = s->cl ? info.fbar_dense_bytes : fbar_bytes(s);
+    info.m_bytes = 3 * op->k * op->k * sizeof(float);
+    if (!s->cl) {
+        const double entries = (double)op->n * (double)op->k;
+        info.fbar_density = (double)s->fbar_stats.nonzeros / entries;
+        info.fbar_strip_density = (double)s->fbar_stats.strips * LRR__TILE / entries;
+    }
+    lrr__info_write(out, out_size, &info, sizeof info);
 }
 
 lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_solver **out)
@@ -146,7 +221,8 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
         (st = lrr__calloc(op->ctx, &s->nz, op->k, 1, "solver patch flags")) ||
         (st = lrr__calloc(op->ctx, &s->ch, op->k, 1, "solver patch flags")) ||
         (st = lrr__calloc(op->ctx, &s->dw, op->k, 3 * sizeof(float), "solver Δw (3×k)")) ||
-        (st = lrr_solver_set_cache(s, fbar_bytes(op) / 4))) {
+        (st = lrr_solver_set_fbar(s, LRR_FBAR_AUTO)) ||
+        (st = lrr_solver_set_cache(s, fbar_bytes(s) / 4))) {
         lrr_solver_destroy(s);
         return st;
     }
@@ -389,7 +465,7 @@ static int ensure_columns(lrr_solver *s, const unsigned char *flag)
             for (size_t q = 0; q < k; q++)
                 s->z[c * k + q] = op->m[(size_t)c * k * k + q * k + p];
         size_t slot = s->used++;
-        lrr__fbar_apply(s->kernel, op, s->z, s->zeros, s->ones, s->cols + slot * n * 3);
+        fbar_apply_frames(s, 1, s->z, s->zeros, s->ones, s->cols + slot * n * 3);
         s->slot[p] = slot;
     }
     return 1;
@@ -453,7 +529,7 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
         return st;
     /* bytes each path reads: a full frame F̄ and M; a column path 12 bytes per subpatch per
      * patch involved (+ previous E and B for the incremental one) */
-    const double full = (double)fbar_bytes(op) + 12.0 * k * k;
+    const double full = (double)fbar_bytes(s) + 12.0 * k * k;
     const double sparse = 12.0 * n * (double)m_emit;
     const double incr = can_incr ? 12.0 * n * (double)m_changed + 24.0 * n : INFINITY;
     lrr_path path = s->path;
@@ -487,7 +563,7 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
         s->since_full = 0;
     } else {
         lrr__smw_apply(s->kernel, op->m, k, s->w, s->z);
-        lrr__fbar_apply(s->kernel, op, s->z, E, op->rho, B);
+        fbar_apply_frames(s, 1, s->z, E, op->rho, B);
         s->since_full = 0;
     }
     s->last = path;
@@ -539,7 +615,7 @@ static lrr_status batch_frames(lrr_solver *s, size_t count, const float *E, floa
         cblas_sgemm(CblasRowMajor, CblasTrans, CblasTrans, cnt, ki, ki, 1.0f,
                     s->bw + (size_t)c * k * count, cnt, op->m + (size_t)c * k * k, ki, 0.0f,
                     s->bz + (size_t)c * k, 3 * ki);
-    lrr__fbar_apply_frames(s->kernel, op, count, s->bz, E, op->rho, B);
+    fbar_apply_frames(s, count, s->bz, E, op->rho, B);
     return LRR_OK;
 }
 
@@ -575,7 +651,7 @@ lrr_status lrr_solve_batch(lrr_solver *s, size_t count, const float *E, float *B
                           "frame %zu: emission of subpatch %zu, channel %zu = %g (must be "
                           "finite and >= 0)",
                           bad / frame, bad % frame / 3, bad % 3, (double)E[bad]);
-    if (s->cl || count < s->gemm_min_count || fbar_bytes(op) < s->gemm_min_bytes) {
+    if (s->cl || count < s->gemm_min_count || fbar_bytes(s) < s->gemm_min_bytes) {
         /* one fused pass per frame (OpenCL frames loop) */
         for (size_t f = 0; f < count; f++) {
             lrr_status st = lrr_solve(s, E + f * frame, B + f * frame);

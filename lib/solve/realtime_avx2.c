@@ -166,4 +166,79 @@ __attribute__((target("avx2,fma"))) void lrr__gemv_rows_avx2(const float *a, siz
     if (i < i1)
         lrr__gemv_rows_c(a, i, i1, k, x, y);
 }
+/* Sparse F̄ (sparse.c): a strip of 16 rows is two registers; two strips in flight (12
+ * named accumulators of the 16 registers: realtime_avx512.c says why named) hide the
+ * multiply-add latency. */
+#define SPARSE_STEP256(LOAD8, S, R0, R1, G0, G1, B0, B1)                                        \
+    do {                                                                                        \
+        const size_t q_ = sp->col[S];                                                           \
+        const __m256 v0_ = LOAD8(sp, S, 0), v1_ = LOAD8(sp, S, 8);                              \
+        const __m256 r_ = _mm256_broadcast_ss(zr + q_);                                         \
+        R0 = _mm256_fmadd_ps(v0_, r_, R0);                                                      \
+        R1 = _mm256_fmadd_ps(v1_, r_, R1);                                                      \
+        const __m256 g_ = _mm256_broadcast_ss(zg + q_);                                         \
+        G0 = _mm256_fmadd_ps(v0_, g_, G0);                                                      \
+        G1 = _mm256_fmadd_ps(v1_, g_, G1);                                                      \
+        const __m256 b_ = _mm256_broadcast_ss(zb + q_);                                         \
+        B0 = _mm256_fmadd_ps(v0_, b_, B0);                                                      \
+        B1 = _mm256_fmadd_ps(v1_, b_, B1);                                                      \
+    } while (0)
+#define DEFINE_SPARSE_AVX2(NAME, LOAD8)                                                         \
+    __attribute__((target("avx2,fma,f16c"))) static void NAME(                                  \
+        const lrr__sparse *sp, size_t t, const float *z, const float *E, const float *rho,      \
+        float *B)                                                                               \
+    {                                                                                           \
+        const float *zr = z, *zg = z + sp->k, *zb = z + 2 * sp->k;                              \
+        __m256 r0 = _mm256_setzero_ps(), r1 = r0, g0 = r0, g1 = r0, b0 = r0, b1 = r0;           \
+        __m256 r2 = r0, r3 = r0, g2 = r0, g3 = r0, b2 = r0, b3 = r0;                            \
+        size_t s = sp->start[t];                                                                \
+        const size_t s1 = sp->start[t + 1];                                                     \
+        for (; s + 2 <= s1; s += 2) {                                                           \
+            SPARSE_STEP256(LOAD8, s, r0, r1, g0, g1, b0, b1);                                   \
+            SPARSE_STEP256(LOAD8, s + 1, r2, r3, g2, g3, b2, b3);                               \
+        }                                                                                       \
+        if (s < s1)                                                                             \
+            SPARSE_STEP256(LOAD8, s, r0, r1, g0, g1, b0, b1);                                   \
+        float acc[3][LRR__TILE];                                                                \
+        _mm256_storeu_ps(acc[0], _mm256_add_ps(r0, r2));                                        \
+        _mm256_storeu_ps(acc[0] + 8, _mm256_add_ps(r1, r3));                                    \
+        _mm256_storeu_ps(acc[1], _mm256_add_ps(g0, g2));                                        \
+        _mm256_storeu_ps(acc[1] + 8, _mm256_add_ps(g1, g3));                                    \
+        _mm256_storeu_ps(acc[2], _mm256_add_ps(b0, b2));                                        \
+        _mm256_storeu_ps(acc[2] + 8, _mm256_add_ps(b1, b3));                                    \
+        lrr__sparse_epilogue(sp, t, acc, E, rho, B);                                            \
+    }
+
+_Static_assert(LRR__TILE == 16, "two AVX2 registers per strip");
+
+__attribute__((target("avx2,fma,f16c"))) static inline __m256 strip8_f32(const lrr__sparse *sp,
+                                                                         size_t s, int h)
+{
+    return _mm256_loadu_ps(sp->val + s * LRR__TILE + h);
+}
+__attribute__((target("avx2,fma,f16c"))) static inline __m256 strip8_f16(const lrr__sparse *sp,
+                                                                         size_t s, int h)
+{
+    return load8_f16(sp->val16 + s * LRR__TILE + h);
+}
+__attribute__((target("avx2,fma,f16c"))) static inline __m256 strip8_bf16(const lrr__sparse *sp,
+                                                                          size_t s, int h)
+{
+    return load8_bf16(sp->val16 + s * LRR__TILE + h);
+}
+DEFINE_SPARSE_AVX2(tile_f32_avx2, strip8_f32)
+DEFINE_SPARSE_AVX2(tile_f16_avx2, strip8_f16)
+DEFINE_SPARSE_AVX2(tile_bf16_avx2, strip8_bf16)
+
+void lrr__sparse_tiles_avx2(const lrr__sparse *sp, size_t t0, size_t t1, const float *z,
+                            const float *E, const float *rho, float *B)
+{
+    for (size_t t = t0; t < t1; t++)
+        if (sp->storage == LRR_STORAGE_F32)
+            tile_f32_avx2(sp, t, z, E, rho, B);
+        else if (sp->storage == LRR_STORAGE_F16)
+            tile_f16_avx2(sp, t, z, E, rho, B);
+        else
+            tile_bf16_avx2(sp, t, z, E, rho, B);
+}
 #endif

@@ -136,17 +136,17 @@ void lrr__gemv_rows_c(const float *a, size_t i0, size_t i1, size_t k, const floa
  * the level and the twin. */
 static const lrr__kernel kernels[] = {
     {"c", LRR__ISA_C, 0, lrr__rows_f32_c, lrr__rows_f16_c, lrr__rows_bf16_c, lrr__gemv_rows_c,
-     lrr__panels_f32_c, lrr__panels_f16_c, lrr__panels_bf16_c},
+     lrr__panels_f32_c, lrr__panels_f16_c, lrr__panels_bf16_c, lrr__sparse_tiles_c},
 #if defined(__x86_64__) || defined(__i386__)
 #define ROWS(ISA) lrr__rows_f32_##ISA, lrr__rows_f16_##ISA, lrr__rows_bf16_##ISA, lrr__gemv_rows_##ISA
     {"avx2", LRR__ISA_AVX2, 0, ROWS(avx2), lrr__panels_f32_avx2, lrr__panels_f16_avx2,
-     lrr__panels_bf16_avx2},
+     lrr__panels_bf16_avx2, lrr__sparse_tiles_avx2},
     {"avx2+prefetch", LRR__ISA_AVX2, 1, ROWS(avx2), lrr__panels_f32_avx2_pf,
-     lrr__panels_f16_avx2_pf, lrr__panels_bf16_avx2_pf},
+     lrr__panels_f16_avx2_pf, lrr__panels_bf16_avx2_pf, lrr__sparse_tiles_avx2},
     {"avx512", LRR__ISA_AVX512, 0, ROWS(avx512), lrr__panels_f32_avx512,
-     lrr__panels_f16_avx512, lrr__panels_bf16_avx512},
+     lrr__panels_f16_avx512, lrr__panels_bf16_avx512, lrr__sparse_tiles_avx512},
     {"avx512+prefetch", LRR__ISA_AVX512, 1, ROWS(avx512), lrr__panels_f32_avx512_pf,
-     lrr__panels_f16_avx512_pf, lrr__panels_bf16_avx512_pf},
+     lrr__panels_f16_avx512_pf, lrr__panels_bf16_avx512_pf, lrr__sparse_tiles_avx512},
 #undef ROWS
 #endif
 };

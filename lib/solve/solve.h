@@ -6,6 +6,50 @@
 #include "core/cpu.h"
 #include "operator/operator.h"
 
+struct lrr__kernel;
+
+/* ------------------------------------------------------------ sparse F̄ (sparse.c) */
+/* Rows per tile: a strip is LRR__TILE rows × one column (sparse.c says why 16). */
+#define LRR__TILE 16
+/* LRR_FBAR_AUTO reads F̄ sparse where that reads at most this share of the dense bytes
+ * (docs/METHOD.md "Sparse F̄": measured per-byte speeds of the two passes). */
+#define LRR__SPARSE_AUTO_SHARE 0.5
+typedef struct lrr__sparse {
+    size_t n, k, tiles, strips, nonzeros, bytes;
+    lrr_storage storage;
+    size_t *start;       /* tiles + 1: tile t's strips are [start[t], start[t + 1]) */
+    uint16_t *col;       /* strips: each strip's column, ascending within a tile */
+    float *val;          /* F32: strips × LRR__TILE values (rows past n are 0) */
+    uint16_t *val16;     /* F16, BF16: the operator's codes, likewise */
+    const float *scale;  /* the operator's row scales (16-bit), else NULL */
+    size_t *chunk;       /* chunks + 1 tile boundaries of about equal strip bytes */
+    size_t chunks;
+} lrr__sparse;
+typedef struct lrr__sparse_stats {
+    size_t nonzeros, strips, bytes; /* bytes: what a frame reads of the sparse F̄ */
+} lrr__sparse_stats;
+/* Counts F̄'s strips (stats) and, for LRR_FBAR_SPARSE or an AUTO that favours it, builds
+ * the sparse copy (*out; NULL when dense is kept). LRR_ERR_UNSUPPORTED for a forced sparse
+ * F̄ whose k exceeds the 16-bit column index. */
+lrr_status lrr__sparse_create(const lrr_operator *op, lrr_fbar_format format,
+                              lrr__sparse_stats *stats, lrr__sparse **out);
+void lrr__sparse_destroy(lrr__sparse *sp);
+size_t lrr__sparse_strip_bytes(lrr_storage storage);
+/* B_c = E_c + rho_c ∘ (F̄ z_c) for count frames (as lrr__fbar_apply_frames) */
+void lrr__sparse_apply_frames(const struct lrr__kernel *kn, const lrr__sparse *sp,
+                              size_t count, const float *z, const float *E, const float *rho,
+                              float *B);
+/* tiles [t0, t1) of one frame: the kernels (sparse.c portable, realtime_avx2.c,
+ * realtime_avx512.c) and their shared epilogue (acc[c][r]: tile row r, channel c) */
+void lrr__sparse_epilogue(const lrr__sparse *sp, size_t t, float acc[3][LRR__TILE],
+                          const float *E, const float *rho, float *B);
+#define LRR__DECLARE_SPARSE(ISA)                                                             \
+    void lrr__sparse_tiles_##ISA(const lrr__sparse *, size_t, size_t, const float *,         \
+                                 const float *, const float *, float *);
+LRR__DECLARE_SPARSE(c)
+LRR__DECLARE_SPARSE(avx2)
+LRR__DECLARE_SPARSE(avx512)
+
 /* ------------------------------------------------------------ real-time kernels */
 /* One instruction-set variant of the two row kernels (realtime_kernel.c). */
 typedef struct lrr__kernel {
@@ -30,6 +74,9 @@ typedef struct lrr__kernel {
                        size_t k, const float *z, const float *E, const float *rho, float *B);
     void (*bf16_panels)(const uint16_t *fbar, const float *scale, size_t i0, size_t i1,
                         size_t k, const float *z, const float *E, const float *rho, float *B);
+    /* tiles [t0, t1) of a sparse F̄ (sparse.c), any storage */
+    void (*sparse_tiles)(const lrr__sparse *sp, size_t t0, size_t t1, const float *z,
+                         const float *E, const float *rho, float *B);
 } lrr__kernel;
 
 /* panel_kernel.c's variants (the signatures of lrr__kernel's *_panels) */

@@ -464,9 +464,9 @@ class Operator:
         self.context.call(lib.lrr_operator_save, self.h, _path(path))
 
     # ------------------------------------------------------------ solving
-    def solver(self, backend="cpu"):
-        """A new Solver ('cpu' or 'opencl')."""
-        return Solver(self, backend)
+    def solver(self, backend="cpu", fbar="auto"):
+        """A new Solver ('cpu' or 'opencl'; fbar 'auto', 'dense' or 'sparse': Solver.set_fbar)."""
+        return Solver(self, backend, fbar)
 
     def solve(self, emission=None, order="operator"):
         """B (n, 3) float32 for emission E (n, 3), finite and >= 0; None: the stored
@@ -545,7 +545,7 @@ class Operator:
 class Solver:
     """An lrr_solver: one backend's buffers for an operator (which it keeps alive)."""
 
-    def __init__(self, op, backend="cpu"):
+    def __init__(self, op, backend="cpu", fbar="auto"):
         if backend not in _BACKEND:
             raise LrrError(ERR_INVALID_ARG, "solver: backend '%s' is not cpu or opencl"
                            % backend)
@@ -553,6 +553,28 @@ class Solver:
         h = ctypes.c_void_p()
         op.context.call(lib.lrr_solver_create, op.h, _BACKEND[backend], ctypes.byref(h))
         self._h = h
+        if fbar != "auto":
+            self.set_fbar(fbar)
+
+    FBAR = ("auto", "dense", "sparse")
+
+    def set_fbar(self, name):
+        """How F̄ is read: "dense", "sparse" (only the 16-row strips that hold a nonzero) or
+        "auto" (sparse where that reads at most half the bytes; lrr_solver_set_fbar)."""
+        if name not in self.FBAR:
+            raise LrrError(ERR_INVALID_ARG, "solver: fbar '%s' is not one of %s"
+                           % (name, ", ".join(self.FBAR)))
+        self.op.context.call(lib.lrr_solver_set_fbar, self.h, self.FBAR.index(name))
+
+    @property
+    def info(self):
+        """lrr_solver_info as a dict: fbar ("dense" or "sparse"), fbar_bytes (read per full
+        frame), fbar_dense_bytes, m_bytes, fbar_density, fbar_strip_density."""
+        i = _ffi.SolverInfo()
+        lib.lrr_solver_get_info(self.h, ctypes.byref(i), ctypes.sizeof(i))
+        d = _struct_dict(i)
+        d["fbar"] = self.FBAR[i.fbar]
+        return d
 
     @property
     def h(self):

@@ -103,6 +103,15 @@ class VerifyOptions(ctypes.Structure):
                 ("progress_user", ctypes.c_void_p)]
 
 
+class SolverInfo(ctypes.Structure):
+    _fields_ = [("fbar", ctypes.c_int),
+                ("fbar_bytes", c_size_t),
+                ("fbar_dense_bytes", c_size_t),
+                ("m_bytes", c_size_t),
+                ("fbar_density", ctypes.c_double),
+                ("fbar_strip_density", ctypes.c_double)]
+
+
 class LightSource(ctypes.Structure):
     _fields_ = [("kind", ctypes.c_int),
                 ("position", _f3()), ("direction", _f3()),
@@ -138,7 +147,7 @@ STRUCTS = {"lrr_subdivision": Subdivision, "lrr_scene_info": SceneInfo,
            "lrr_build_options": BuildOptions, "lrr_operator_info": OperatorInfo,
            "lrr_light_source": LightSource, "lrr_export_options": ExportOptions,
            "lrr_export_info": ExportInfo, "lrr_render_options": RenderOptions,
-           "lrr_verify_options": VerifyOptions}
+           "lrr_verify_options": VerifyOptions, "lrr_solver_info": SolverInfo}
 
 _P = ctypes.c_void_p  # every opaque handle
 _S = ctypes.c_int     # lrr_status
@@ -182,6 +191,8 @@ _PROTOTYPES = {
     "lrr_solver_create": (_S, [_P, ctypes.c_int, ctypes.POINTER(_P)]),
     "lrr_solver_destroy": (None, [_P]),
     "lrr_solver_kernel": (_STR, [_P]),
+    "lrr_solver_set_fbar": (_S, [_P, ctypes.c_int]),
+    "lrr_solver_get_info": (None, [_P, ctypes.POINTER(SolverInfo), c_size_t]),
     "lrr_solve": (_S, [_P, c_float_p, c_float_p]),
     "lrr_solver_set_path": (_S, [_P, ctypes.c_int]),
     "lrr_solver_last_path": (ctypes.c_int, [_P]),

@@ -262,6 +262,22 @@ class Solve(unittest.TestCase):
         with self.assertRaises(lrr.LrrError):
             sparse.set_path("fastest")
 
+    def test_sparse_fbar(self):
+        """F̄ read sparse gives the dense B; the info counts F̄'s nonzeros exactly."""
+        dense, sparse = self.op.solver(fbar="dense"), self.op.solver(fbar="sparse")
+        for s in (dense, sparse):
+            s.set_path("full")
+        e = np.random.default_rng(2).random((self.op.n, 3), dtype=np.float32)
+        self.assertLess(max_rel(sparse.solve(e), dense.solve(e)), 1e-6)
+        di, si = dense.info, sparse.info
+        self.assertEqual((di["fbar"], si["fbar"]), ("dense", "sparse"))
+        f = self.op.fbar()
+        self.assertEqual(si["fbar_density"], np.count_nonzero(f) / f.size)
+        self.assertEqual(di["fbar_bytes"], di["fbar_dense_bytes"])
+        self.assertEqual(di["m_bytes"], 3 * self.op.k ** 2 * 4)
+        with self.assertRaises(lrr.LrrError):
+            dense.set_fbar("csr")
+
     def test_furnace(self):
         """A sealed box, uniform rho and E (docs/METHOD.md "Exact cases"): B = E/(1 − rho)."""
         rho = np.array([0.9, 0.5, 0.99], np.float32)

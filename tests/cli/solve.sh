@@ -74,6 +74,38 @@ done
 run solve "$LRRFILE" --path sideways
 expect_rc 2 "solve --path sideways is a usage error"
 
+# F̄ read dense or sparse: the same radiosity (summation order only), and what each read is
+# reported (the Cornell box's F̄ is too dense for auto to choose sparse)
+for f in dense sparse auto; do
+    run solve "$LRRFILE" --fbar "$f" --csv "$T/fbar-$f.csv" --repeat 1
+    eval "fbar_$f=\$(value fbar) bytes_$f=\$(value fbar_bytes) density_$f=\$(value fbar_density)"
+done
+run compare "$T/fbar-sparse.csv" "$T/fbar-dense.csv"
+mx=$(value max_rel)
+if [ "$rc" -eq 0 ] && [ "$fbar_dense" = dense ] && [ "$fbar_sparse" = sparse ] &&
+    [ "$fbar_auto" = dense ] && [ "$density_sparse" = "$density_dense" ] &&
+    awk -v e="$mx" -v d="$density_dense" 'BEGIN { exit !(e <= 1e-6 && d > 0 && d < 1) }'; then
+    pass "solve --fbar sparse = dense (max_rel $mx; density $density_dense, bytes $bytes_sparse of $bytes_dense; auto: $fbar_auto)"
+else
+    fail "solve --fbar: max_rel '$mx', fbar '$fbar_dense' '$fbar_sparse' '$fbar_auto', density '$density_dense' '$density_sparse' (exit $rc)"
+    show_err
+fi
+run info "$LRRFILE"
+if [ "$rc" -eq 0 ] && [ "$(value fbar)" = dense ] && [ "$(value fbar_bytes)" = "$bytes_dense" ] &&
+    [ "$(value fbar_density)" = "$density_dense" ]; then
+    pass "info FILE.lrr: fbar dense, fbar_bytes $bytes_dense, fbar_density $density_dense as solve says"
+else
+    fail "info FILE.lrr: fbar '$(value fbar)' bytes '$(value fbar_bytes)' density '$(value fbar_density)'"
+fi
+run solve "$LRRFILE" --fbar csr
+expect_rc 2 "solve --fbar csr is a usage error"
+run solve "$LRRFILE" --fbar sparse --backend opencl --repeat 1
+if [ "$rc" -eq 1 ] && grep -Eq 'not built into|no OpenCL platform|OpenCL solver reads F̄ dense' "$T/err"; then
+    pass "solve --fbar sparse --backend opencl: exit 1 ($(head -n 1 "$T/err"))"
+else
+    fail "solve --fbar sparse --backend opencl: exit $rc, stderr: $(cat "$T/err")"
+fi
+
 # The OpenCL backend gives the CPU's answer; skipped (with a PASS line saying so) where the
 # library has no OpenCL or the machine no OpenCL platform.
 run solve "$LRRFILE" --backend opencl --repeat 2
