@@ -367,6 +367,8 @@ static int rt_fused_f32(rt_work *wk, rt_cell *r)
 {
     bench_note("%s: fused f32", wk->label);
     lrr_status s = lrr_solver_create(wk->op, LRR_BACKEND_CPU, &wk->solver);
+    if (s == LRR_OK) /* the fused pass over dense F̄, whose floor this is (lrr-bench fbar) */
+        s = lrr_solver_set_fbar(wk->solver, LRR_FBAR_DENSE);
     if (s != LRR_OK)
         return bench_lib_fail(wk->ctx, s, "solver");
     int rc = time_solver(wk->ctx, wk->solver, LRR_PATH_FULL, wk->e, NULL, wk->b32, wk->a->repeat,
@@ -395,8 +397,12 @@ static int rt_fused_16bit(rt_work *wk, rt_cell *r)
         bench_note("%s: fused %s", wk->label, row->storage);
         lrr_solver *sv = NULL;
         lrr_status s = lrr_solver_create(wk->op16[j], LRR_BACKEND_CPU, &sv);
-        if (s != LRR_OK)
+        if (s == LRR_OK)
+            s = lrr_solver_set_fbar(sv, LRR_FBAR_DENSE);
+        if (s != LRR_OK) {
+            lrr_solver_destroy(sv);
             return bench_lib_fail(wk->ctx, s, "solver");
+        }
         int rc = time_solver(wk->ctx, sv, LRR_PATH_FULL, wk->e, NULL, wk->b, wk->a->repeat, row);
         if (!rc)
             bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &row->rel_l2, NULL);

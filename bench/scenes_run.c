@@ -327,8 +327,12 @@ static int time_storage(sc_child *c, const lrr_operator *op, const float *e, flo
 {
     lrr_solver *sv = NULL;
     lrr_status s = lrr_solver_create(op, LRR_BACKEND_CPU, &sv);
-    if (s != LRR_OK)
+    if (s == LRR_OK) /* dense: the floors here are n·k entries (lrr-bench fbar: sparse) */
+        s = lrr_solver_set_fbar(sv, LRR_FBAR_DENSE);
+    if (s != LRR_OK) {
+        lrr_solver_destroy(sv);
         return step_fail(c, s, "lrr_solver_create");
+    }
     snprintf(c->r->kernel, sizeof c->r->kernel, "%s", lrr_solver_kernel(sv));
     s = lrr_solver_set_path(sv, LRR_PATH_FULL);
     if (s == LRR_OK)
