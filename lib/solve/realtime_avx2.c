@@ -168,7 +168,7 @@ __attribute__((target("avx2,fma"))) void lrr__gemv_rows_avx2(const float *a, siz
 }
 /* Sparse F̄ (sparse.c): a strip of 16 rows is two registers; two strips in flight (12
  * named accumulators of the 16 registers: realtime_avx512.c says why named) hide the
- * multiply-add latency. */
+ * multiply-add latency; the stream is prefetched as there. */
 #define SPARSE_STEP256(LOAD8, S, R0, R1, G0, G1, B0, B1)                                        \
     do {                                                                                        \
         const size_t q_ = sp->col[S];                                                           \
@@ -194,6 +194,7 @@ __attribute__((target("avx2,fma"))) void lrr__gemv_rows_avx2(const float *a, siz
         size_t s = sp->start[t];                                                                \
         const size_t s1 = sp->start[t + 1];                                                     \
         for (; s + 2 <= s1; s += 2) {                                                           \
+            PREFETCH_STRIPS(sp, s + SPARSE_AHEAD); /* four strips: half of them again */    \
             SPARSE_STEP256(LOAD8, s, r0, r1, g0, g1, b0, b1);                                   \
             SPARSE_STEP256(LOAD8, s + 1, r2, r3, g2, g3, b2, b3);                               \
         }                                                                                       \

@@ -173,9 +173,8 @@ __attribute__((target("avx512f"))) void lrr__gemv_rows_avx512(const float *a, si
 /* Sparse F̄ (sparse.c): one strip of 16 rows is one register; four strips in flight, each
  * into its own three accumulators (named: GCC keeps an array of them on the stack, and the
  * store-to-load chain then cost 9–17 cycles a strip on Zen 5), hide the multiply-add
- * latency; z_q comes as an embedded broadcast. No software prefetch: 64–512 bytes ahead
- * moved the pass between 1.39 and 1.92× its floor against 1.48 and 1.75× without
- * (fzk_haus, Sponza; f16, K 2000), no change beyond the drift of this VM's bandwidth. */
+ * latency; z_q comes as an embedded broadcast; the stream is prefetched (realtime_rows.h's
+ * SPARSE_AHEAD says why and how far). */
 #define SPARSE_STEP512(LOAD16, S, R, G, B)                                                      \
     do {                                                                                        \
         const size_t q_ = sp->col[S];                                                           \
@@ -195,6 +194,7 @@ __attribute__((target("avx512f"))) void lrr__gemv_rows_avx512(const float *a, si
         size_t s = sp->start[t];                                                                \
         const size_t s1 = sp->start[t + 1];                                                     \
         for (; s + 4 <= s1; s += 4) {                                                           \
+            PREFETCH_STRIPS(sp, s + SPARSE_AHEAD);                                              \
             SPARSE_STEP512(LOAD16, s, r0, g0, b0);                                              \
             SPARSE_STEP512(LOAD16, s + 1, r1, g1, b1);                                          \
             SPARSE_STEP512(LOAD16, s + 2, r2, g2, b2);                                          \

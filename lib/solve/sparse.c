@@ -25,9 +25,10 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Chunks of about this many strip bytes per OpenMP work item: the tiles' strip counts vary
- * 100× across a scene (a floor sees everything, a column's back little), so the threads
- * take balanced chunks rather than equal numbers of tiles. */
+/* Chunks of about this many strip bytes: the tiles' strip counts vary 100× across a scene
+ * (a floor sees everything, a column's back little), so the threads share chunks of equal
+ * bytes rather than equal numbers of tiles, each thread a contiguous run of them (OpenMP
+ * static: one stream per thread for the prefetchers; realtime_rows.h's SPARSE_AHEAD). */
 #define CHUNK_BYTES ((size_t)64 << 10)
 
 void lrr__sparse_destroy(lrr__sparse *sp)
@@ -195,7 +196,7 @@ void lrr__sparse_apply_frames(const lrr__kernel *kn, const lrr__sparse *sp, size
                               const float *z, const float *E, const float *rho, float *B)
 {
     const size_t n = sp->n, k = sp->k;
-    #pragma omp parallel for schedule(dynamic, 1) \
+    #pragma omp parallel for schedule(static) \
         if (sp->strips * LRR__TILE * count >= LRR__PARALLEL_MIN)
     for (size_t c = 0; c < sp->chunks; c++)
         for (size_t f = 0; f < count; f++) /* a chunk's strips serve every frame from cache */
