@@ -220,9 +220,3 @@ void lrr__fbar_apply_frames(const lrr__kernel *kn, const lrr_operator *op, size_
         }
     }
 }
-
-void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
-                     const float *E, const float *rho, float *B)
-{
-    lrr__fbar_apply_frames(kn, op, 1, z, E, rho, B);
-}

@@ -98,11 +98,8 @@ LRR__DECLARE_PANELS(avx512_pf)
 const lrr__kernel *lrr__kernel_select(const lrr__cpu_choice *choice, size_t k);
 /* z (3×k, channel-major) = M_c w_c (w likewise), M = three k×k row-major blocks. */
 void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float *w, float *z);
-/* B_c = E_c + rho_c ∘ (F̄ z_c): F̄ read once, in the operator's storage and layout;
- * E, rho, B n×3 (rho is usually op->rho). */
-void lrr__fbar_apply(const lrr__kernel *kn, const lrr_operator *op, const float *z,
-                     const float *E, const float *rho, float *B);
-/* The same for count frames (z: 3k per frame, E and B: 3n per frame, rho shared): each
+/* B_c = E_c + rho_c ∘ (F̄ z_c) for count frames (z: 3k per frame, E and B: 3n per frame,
+ * rho shared; rho is usually op->rho), F̄ dense in the operator's storage and layout: each
  * block of rows serves every frame while it is in cache, so F̄ is read once. */
 void lrr__fbar_apply_frames(const lrr__kernel *kn, const lrr_operator *op, size_t count,
                             const float *z, const float *E, const float *rho, float *B);
