@@ -215,6 +215,18 @@ fi
 run fbar --storage f8 "$T/fbar.lrr"
 if [ "$rc" -eq 2 ]; then pass "fbar --storage f8: exit 2"; else fail "fbar --storage f8: exit $rc"; fi
 
+# raycast --rays: lrr's rays/s from centres and areas and Embree's on the same rays, all
+# positive, the ray count n·3R² (Cornell: 36 triangles, R 16)
+run raycast --rays cornell --hemicube 16
+bad=$(awk -F, '/^scene,triangles/ { h = 1; next } h && NF == 10 { rows++; if ($2 != 36 || $3 != 16 || $5 != 36 * 3 * 256 || !($6 > 0 && $7 > 0 && $8 > 0)) print "row: " $0 }
+               END { if (rows != 1) print "rows: " rows }' "$T/out" 2>&1)
+if [ "$rc" -eq 0 ] && [ -z "$bad" ]; then
+    pass "raycast --rays cornell: 36 × 3·16² rays, lrr and Embree rates > 0"
+else
+    fail "raycast --rays: exit $rc $bad"
+    show_err
+fi
+
 # raycast --quick: T 36 and 144 at R 16, one and all threads, both rates > 0
 run raycast --quick
 bad=$(awk -F, '/^T,R,threads/ { h = 1; next } h && NF == 6 { rows++; if ($2 != 16 || !($4 > 0) || !($5 > 0)) print "row: " $0 }
