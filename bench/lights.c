@@ -4,7 +4,7 @@
  * triangles). */
 #include "bench.h"
 
-#include <embree3/rtcore.h>
+#include "bench_embree.h"
 #include <getopt.h>
 #include <math.h>
 #include <omp.h>
@@ -120,24 +120,12 @@ static double embree_pass(RTCScene sc, const float *ce, const float *nr, size_t 
 static double embree_rate(const lrr_operator *op, size_t n, const lights_run *r, int width,
                           double *rays)
 {
-    float *tri = malloc(n * 9 * sizeof(float));
-    if (!tri)
-        return 0;
-    lrr_operator_subpatch_vertices(op, tri);
     RTCDevice dev = rtcNewDevice(NULL);
-    RTCScene sc = rtcNewScene(dev);
-    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                        3 * sizeof(float), 3 * n);
-    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                           3 * sizeof(unsigned), n);
-    memcpy(vb, tri, n * 9 * sizeof(float));
-    for (size_t i = 0; i < 3 * n; i++)
-        ib[i] = (unsigned)i;
-    rtcCommitGeometry(g);
-    rtcAttachGeometry(sc, g);
-    rtcReleaseGeometry(g);
-    rtcCommitScene(sc);
+    RTCScene sc = bench_embree_scene(dev, op, n, 0);
+    if (!sc) {
+        rtcReleaseDevice(dev);
+        return 0;
+    }
     const float *ce = lrr_operator_centre(op), *nr = lrr_operator_normal(op);
     double best = 0;
     for (int pass = 0; pass < 5; pass++) {
@@ -148,7 +136,6 @@ static double embree_rate(const lrr_operator *op, size_t n, const lights_run *r,
     }
     rtcReleaseScene(sc);
     rtcReleaseDevice(dev);
-    free(tri);
     return best;
 }
 

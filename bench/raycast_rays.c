@@ -11,7 +11,8 @@
  * rotation, no item buffer, no integration. OpenMP over receivers, dynamic. */
 #include "bench.h"
 
-#include <embree3/rtcore.h>
+#include "bench_embree.h"
+
 #include <float.h>
 #include <math.h>
 #include <omp.h>
@@ -99,24 +100,16 @@ static double embree_rays(const lrr_operator *op, size_t n, unsigned R, int pass
         lo = fminf(lo, tri[i]), hi = fmaxf(hi, tri[i]);
         maxabs = fmaxf(maxabs, fabsf(tri[i]));
     }
+    free(tri);
+    /* lrr's lift off the surface (lib/formfactor/raycast.c), the box diagonal bounded by
+     * √3 × the largest extent */
     const float lift = 1e-6f * sqrtf(3.0f) * (hi - lo) + 8 * FLT_EPSILON * maxabs;
     RTCDevice dev = rtcNewDevice(NULL);
-    RTCScene sc = rtcNewScene(dev);
-    rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(sc, RTC_BUILD_QUALITY_MEDIUM);
-    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                        3 * sizeof(float), 3 * n);
-    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                           3 * sizeof(unsigned), n);
-    memcpy(vb, tri, n * 9 * sizeof(float));
-    for (size_t i = 0; i < 3 * n; i++)
-        ib[i] = (unsigned)i;
-    rtcCommitGeometry(g);
-    rtcAttachGeometry(sc, g);
-    rtcReleaseGeometry(g);
-    rtcCommitScene(sc);
-    free(tri);
+    RTCScene sc = bench_embree_scene(dev, op, n, 1);
+    if (!sc) {
+        rtcReleaseDevice(dev);
+        return 0;
+    }
     const float *ce = lrr_operator_centre(op), *nr = lrr_operator_normal(op);
     double best = 0;
     for (int p = 0; p < passes; p++) {
@@ -201,4 +194,33 @@ int bench_raycast_rays(const char *name, unsigned R)
     lrr_scene_destroy(scene);
     lrr_context_destroy(ctx);
     return rc;
+}
+
+RTCScene bench_embree_scene(RTCDevice dev, const lrr_operator *op, size_t n, int like_lrr)
+{
+    RTCScene sc = rtcNewScene(dev);
+    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    if (!sc || !g)
+        return NULL;
+    if (like_lrr) {
+        rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
+        rtcSetSceneBuildQuality(sc, RTC_BUILD_QUALITY_MEDIUM);
+    }
+    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                        3 * sizeof(float), 3 * n);
+    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                           3 * sizeof(unsigned), n);
+    if (!vb || !ib) {
+        rtcReleaseGeometry(g);
+        rtcReleaseScene(sc);
+        return NULL;
+    }
+    lrr_operator_subpatch_vertices(op, vb);
+    for (size_t i = 0; i < 3 * n; i++)
+        ib[i] = (unsigned)i;
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(sc, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(sc);
+    return sc;
 }

@@ -48,6 +48,17 @@
 #define TU_TOL_DBL(k, n) ((double)(k) * (double)(n) * DBL_EPSILON)
 #define TU_TOL_FLT(k, n) ((double)(k) * (double)(n) * FLT_EPSILON)
 
+/* max over entries of |a − b| relative to max |b| (m entries each) */
+static inline double tu_max_rel(size_t m, const float *a, const float *b)
+{
+    double num = 0, den = 0;
+    for (size_t i = 0; i < m; i++) {
+        num = fmax(num, fabs((double)a[i] - b[i]));
+        den = fmax(den, fabs((double)b[i]));
+    }
+    return den > 0 ? num / den : num;
+}
+
 /* Writes the two triangles of quad (p0,p1,p2,p3) (counter-clockwise seen from the front)
  * into v (18 floats). */
 static inline void tu_quad(float *v, const double p0[3], const double p1[3], const double p2[3],

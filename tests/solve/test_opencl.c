@@ -23,16 +23,6 @@ static lrr_operator *triangle_op(lrr_context *ctx, unsigned levels)
     return op;
 }
 
-static double max_rel(size_t m, const float *a, const float *b)
-{
-    double num = 0, den = 0;
-    for (size_t i = 0; i < m; i++) {
-        num = fmax(num, fabs((double)a[i] - b[i]));
-        den = fmax(den, fabs((double)b[i]));
-    }
-    return den > 0 ? num / den : num;
-}
-
 /* An emission with every patch lit differently, so every term of F̄ matters. */
 static float *test_emission(const lrr_operator *op)
 {
@@ -74,7 +64,7 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
             memset(b, 0xff, 3 * n * sizeof *b);
             LRR_CHECK(ctx, lrr_solve(cl, e, b));
             assert_int_equal(lrr_solver_last_path(cl), LRR_PATH_FULL);
-            double r = max_rel(3 * n, b, ref);
+            double r = tu_max_rel(3 * n, b, ref);
             print_message("%s, %s %s (device: %s), %s kernel (%s): max |dB| / max |B| = %.2e\n",
                           what, lrr_storage_name(storages[si]), sl < 3 ? "panels" : "rows",
                           panels && sl < 3 ? "panels" : "rows", groups ? "group" : "row",
@@ -83,9 +73,9 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
         }
         /* a batch loops frames; the second frame is the stored emission */
         LRR_CHECK(ctx, lrr_solve_batch(cl, 2, e2, batch));
-        assert_true(max_rel(3 * n, batch, ref) <= 1e-5);
+        assert_true(tu_max_rel(3 * n, batch, ref) <= 1e-5);
         LRR_CHECK(ctx, lrr_solve(cpu, op->emission, ref));
-        assert_true(max_rel(3 * n, batch + 3 * n, ref) <= 1e-5);
+        assert_true(tu_max_rel(3 * n, batch + 3 * n, ref) <= 1e-5);
         lrr_solver_destroy(cl);
         lrr_solver_destroy(cpu);
     }

@@ -7,17 +7,6 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
     return tu_cornell_op(ctx, K, levels, 32, 2);
 }
 
-/* max over entries of |a − b| relative to max |b| */
-static double max_rel(size_t m, const float *a, const float *b)
-{
-    double num = 0, den = 0;
-    for (size_t i = 0; i < m; i++) {
-        num = fmax(num, fabs((double)a[i] - b[i]));
-        den = fmax(den, fabs((double)b[i]));
-    }
-    return den > 0 ? num / den : num;
-}
-
 /* A reference B computed on the full path by a second solver. */
 static void full_solve(lrr_context *ctx, const lrr_operator *op, const float *E, float *B)
 {
@@ -50,7 +39,7 @@ static void test_sparse_emitters(void **state)
             assert_int_equal(path, LRR_PATH_SPARSE);
         else
             assert_true(path == LRR_PATH_SPARSE || path == LRR_PATH_INCREMENTAL);
-        double e = max_rel(3 * n, b, ref);
+        double e = tu_max_rel(3 * n, b, ref);
         print_message("frame %d (path %d): max relative difference to the full path %.2e\n",
                       rep, (int)path, e);
         assert_true(e <= 1e-5);
@@ -59,7 +48,7 @@ static void test_sparse_emitters(void **state)
     LRR_CHECK(ctx, lrr_solver_set_path(sv, LRR_PATH_SPARSE));
     LRR_CHECK(ctx, lrr_solve(sv, op->emission, b));
     assert_int_equal(lrr_solver_last_path(sv), LRR_PATH_SPARSE);
-    assert_true(max_rel(3 * n, b, ref) <= 1e-5);
+    assert_true(tu_max_rel(3 * n, b, ref) <= 1e-5);
     float *zero = calloc(3 * n, sizeof *zero);
     LRR_CHECK(ctx, lrr_solve(sv, zero, b));
     for (size_t j = 0; j < 3 * n; j++)
@@ -111,7 +100,7 @@ static void test_incremental_animation(void **state)
         LRR_CHECK(ctx, lrr_solve(sv, E, b));
         counts[lrr_solver_last_path(sv)]++;
         full_solve(ctx, op, E, ref);
-        worst = fmax(worst, max_rel(3 * n, b, ref));
+        worst = fmax(worst, tu_max_rel(3 * n, b, ref));
     }
     print_message("150 frames: %d full, %d sparse, %d incremental; worst max relative "
                   "difference %.2e\n", counts[1], counts[2], counts[3], worst);
@@ -130,7 +119,7 @@ static void test_incremental_animation(void **state)
     LRR_CHECK(ctx, lrr_solve(fresh, E, b));
     assert_int_equal(lrr_solver_last_path(fresh), LRR_PATH_INCREMENTAL);
     full_solve(ctx, op, E, ref);
-    assert_true(max_rel(3 * n, b, ref) <= 1e-5);
+    assert_true(tu_max_rel(3 * n, b, ref) <= 1e-5);
     lrr_solver_destroy(fresh);
     free(E), free(ref), free(b);
     lrr_solver_destroy(sv);
@@ -162,7 +151,7 @@ static void test_batch(void **state)
         double worst = 0;
         for (size_t f = 0; f < count; f++) {
             full_solve(ctx, op, E + f * 3 * n, ref);
-            worst = fmax(worst, max_rel(3 * n, B + f * 3 * n, ref));
+            worst = fmax(worst, tu_max_rel(3 * n, B + f * 3 * n, ref));
         }
         print_message("batch of %zu (%s): worst max relative difference %.2e\n", count,
                       storage ? "f16, frame by frame" : "f32, sgemm", worst);
@@ -171,7 +160,7 @@ static void test_batch(void **state)
             LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &plain));
             float *B2 = malloc(count * 3 * n * sizeof *B2);
             LRR_CHECK(ctx, lrr_solve_batch(plain, count, E, B2));
-            assert_true(max_rel(count * 3 * n, B2, B) <= 1e-5);
+            assert_true(tu_max_rel(count * 3 * n, B2, B) <= 1e-5);
             free(B2);
             lrr_solver_destroy(plain);
         }
@@ -225,7 +214,7 @@ static void test_black_rows(void **state)
     float *ref = malloc(3 * n * sizeof *ref);
     LRR_CHECK(ctx, lrr_solver_set_path(plain, LRR_PATH_FULL));
     LRR_CHECK(ctx, lrr_solve(plain, E, ref));
-    assert_true(max_rel(3 * n, b, ref) <= 1e-5);
+    assert_true(tu_max_rel(3 * n, b, ref) <= 1e-5);
     lrr_solver_destroy(plain);
     free(rho), free(E), free(b), free(ref);
     lrr_solver_destroy(sv);
@@ -274,13 +263,13 @@ static void test_tiny(void **state)
                     LRR_CHECK(ctx, lrr_solver_set_path(sv, (lrr_path)path));
                     for (int f = 0; f < 2; f++) { /* the second frame can be incremental */
                         LRR_CHECK(ctx, lrr_solve(sv, op->emission, b));
-                        assert_true(max_rel(3 * n, b, ref) <= tol);
+                        assert_true(tu_max_rel(3 * n, b, ref) <= tol);
                     }
                     memcpy(e2, op->emission, 3 * n * sizeof *e2);
                     memcpy(e2 + 3 * n, op->emission, 3 * n * sizeof *e2);
                     LRR_CHECK(ctx, lrr_solve_batch(sv, 2, e2, b));
-                    assert_true(max_rel(3 * n, b, ref) <= tol);
-                    assert_true(max_rel(3 * n, b + 3 * n, ref) <= tol);
+                    assert_true(tu_max_rel(3 * n, b, ref) <= tol);
+                    assert_true(tu_max_rel(3 * n, b + 3 * n, ref) <= tol);
                     lrr_solver_destroy(sv);
                 }
             }

@@ -6,17 +6,6 @@
 
 static const char *const simd[] = {"c", "avx2", "avx512"};
 
-/* max over entries of |a − b| relative to max |b| */
-static double max_rel(size_t m, const float *a, const float *b)
-{
-    double num = 0, den = 0;
-    for (size_t i = 0; i < m; i++) {
-        num = fmax(num, fabs((double)a[i] - b[i]));
-        den = fmax(den, fabs((double)b[i]));
-    }
-    return den > 0 ? num / den : num;
-}
-
 /* Four closed rooms side by side, each 1 × 1 × 1 and 0.5 apart: a patch sees its own room
  * only, so at most a quarter of F̄ is nonzero. The first room's floor emits. */
 static lrr_operator *rooms_op(lrr_context *ctx, size_t K)
@@ -136,7 +125,7 @@ static void test_rooms(void **state)
                 lit++;
         }
         assert_true(lit > 0 && lit < n);
-        const double e = max_rel(3 * n, sparse, dense);
+        const double e = tu_max_rel(3 * n, sparse, dense);
         print_message("  sparse vs dense: max relative difference %.2e\n", e);
         assert_true(e <= TU_TOL_FLT(2, k));
     }
@@ -177,7 +166,7 @@ static void test_kernels(void **state)
             solve_as(ctx, op, LRR_FBAR_SPARSE, op->emission, sparse, &si);
             check_counts(op, &si);
             assert_true(si.fbar_density < 1.0);
-            const double e = max_rel(3 * n, sparse, dense);
+            const double e = tu_max_rel(3 * n, sparse, dense);
             print_message("%s %s: density %.3f, max relative difference %.2e\n",
                           lrr_storage_name(st), simd[v], si.fbar_density, e);
             assert_true(e <= TU_TOL_FLT(2, k));
@@ -215,17 +204,17 @@ static void test_paths(void **state)
             LRR_CHECK(ctx, lrr_solve(sv, op->emission, B));
             solve_as(ctx, op, LRR_FBAR_DENSE, op->emission, ref, NULL);
             print_message("path %d frame %zu (took %d): %.2e\n", (int)paths[p], f,
-                          (int)lrr_solver_last_path(sv), max_rel(3 * n, B, ref));
+                          (int)lrr_solver_last_path(sv), tu_max_rel(3 * n, B, ref));
             if (paths[p] == LRR_PATH_SPARSE || f > 0) /* the first incremental is full */
                 assert_int_equal(lrr_solver_last_path(sv), paths[p]);
-            assert_true(max_rel(3 * n, B, ref) <= 1e-5); /* M's columns: float M, k terms */
+            assert_true(tu_max_rel(3 * n, B, ref) <= 1e-5); /* M's columns: float M, k terms */
         }
     }
     lrr__solver_batch_thresholds(sv, 2, 0); /* the batched pass even for this operator */
     LRR_CHECK(ctx, lrr_solve_batch(sv, count, E, B));
     for (size_t f = 0; f < count; f++) {
         solve_as(ctx, op, LRR_FBAR_DENSE, E + 3 * n * f, ref, NULL);
-        assert_true(max_rel(3 * n, B + 3 * n * f, ref) <= TU_TOL_FLT(2, k));
+        assert_true(tu_max_rel(3 * n, B + 3 * n * f, ref) <= TU_TOL_FLT(2, k));
     }
     lrr_solver_destroy(sv);
     free(E), free(B), free(ref);
