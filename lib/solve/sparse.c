@@ -49,28 +49,49 @@ size_t lrr__sparse_strip_bytes(lrr_storage storage)
     return LRR__TILE * elem + sizeof(uint16_t);
 }
 
-/* Whether entry (i, q) is nonzero, and its value (float or code) into out. */
-static inline int entry(const lrr_operator *op, size_t i, size_t q, void *out)
+/* Where tile t's entries are: entry (16t + r, q) at base + r·si + q·sq of the stored F̄. A
+ * tile lies in one panel (LRR__PANEL is a multiple of LRR__TILE), its column a contiguous
+ * run of 16 values there, or in the row-major rows behind the panels. */
+typedef struct tile_at {
+    size_t base, si, sq, rows;
+} tile_at;
+
+_Static_assert(LRR__PANEL % LRR__TILE == 0, "a tile lies within one panel");
+
+static tile_at locate(const lrr_operator *op, size_t t)
 {
-    size_t at = lrr__fbar_index(op, i, q);
-    if (op->storage == LRR_STORAGE_F32) {
-        memcpy(out, op->fbar + at, sizeof(float));
-        return op->fbar[at] != 0.0f;
+    const size_t i0 = t * LRR__TILE, k = op->k;
+    tile_at a = {.rows = op->n - i0 < LRR__TILE ? op->n - i0 : LRR__TILE};
+    if (i0 < lrr__fbar_panel_rows(op)) {
+        const size_t p0 = i0 - i0 % LRR__PANEL;
+        a.base = p0 * k + (i0 - p0), a.si = 1, a.sq = LRR__PANEL;
+    } else {
+        a.base = i0 * k, a.si = k, a.sq = 1;
     }
-    memcpy(out, op->fbar16 + at, sizeof(uint16_t));
-    return (op->fbar16[at] & 0x7fff) != 0; /* ±0 in binary16 and bfloat16 alike */
+    return a;
+}
+
+/* Nonzero entries of tile column q: float, or 16-bit codes (±0 in binary16 and bfloat16
+ * alike: the low 15 bits 0) */
+static inline size_t column_nonzeros(const lrr_operator *op, const tile_at *a, size_t q)
+{
+    size_t c = 0, at = a->base + q * a->sq;
+    if (op->storage == LRR_STORAGE_F32)
+        for (size_t r = 0; r < a->rows; r++)
+            c += op->fbar[at + r * a->si] != 0.0f;
+    else
+        for (size_t r = 0; r < a->rows; r++)
+            c += (op->fbar16[at + r * a->si] & 0x7fff) != 0;
+    return c;
 }
 
 /* Strips and nonzeros of tile t (rows [LRR__TILE·t, …) ∩ [0, n)). */
 static void count_tile(const lrr_operator *op, size_t t, size_t *strips, size_t *nonzeros)
 {
-    const size_t i0 = t * LRR__TILE, i1 = i0 + LRR__TILE < op->n ? i0 + LRR__TILE : op->n;
+    const tile_at a = locate(op, t);
     size_t s = 0, nz = 0;
-    float v;
     for (size_t q = 0; q < op->k; q++) {
-        size_t c = 0;
-        for (size_t i = i0; i < i1; i++)
-            c += (size_t)entry(op, i, q, &v);
+        const size_t c = column_nonzeros(op, &a, q);
         nz += c;
         s += c != 0;
     }
@@ -78,24 +99,21 @@ static void count_tile(const lrr_operator *op, size_t t, size_t *strips, size_t 
     *nonzeros = nz;
 }
 
+/* Tile t's strips at sp->start[t] (rows past n stay 0, as calloc left them). */
 static void fill_tile(const lrr_operator *op, lrr__sparse *sp, size_t t)
 {
-    const size_t i0 = t * LRR__TILE, i1 = i0 + LRR__TILE < op->n ? i0 + LRR__TILE : op->n;
+    const tile_at a = locate(op, t);
     size_t s = sp->start[t];
     for (size_t q = 0; q < op->k; q++) {
-        float v32[LRR__TILE] = {0};
-        uint16_t v16[LRR__TILE] = {0};
-        int any = 0;
-        for (size_t i = i0; i < i1; i++)
-            any |= op->storage == LRR_STORAGE_F32 ? entry(op, i, q, v32 + (i - i0))
-                                                  : entry(op, i, q, v16 + (i - i0));
-        if (!any)
+        if (!column_nonzeros(op, &a, q))
             continue;
         sp->col[s] = (uint16_t)q;
-        if (sp->val)
-            memcpy(sp->val + s * LRR__TILE, v32, sizeof v32);
-        else
-            memcpy(sp->val16 + s * LRR__TILE, v16, sizeof v16);
+        const size_t at = a.base + q * a.sq;
+        for (size_t r = 0; r < a.rows; r++)
+            if (sp->val)
+                sp->val[s * LRR__TILE + r] = op->fbar[at + r * a.si];
+            else
+                sp->val16[s * LRR__TILE + r] = op->fbar16[at + r * a.si];
         s++;
     }
 }

@@ -135,9 +135,10 @@ static void test_rooms(void **state)
     lrr_context_destroy(ctx);
 }
 
-/* Every kernel this CPU runs (LRR_SIMD), every storage: sparse and dense give the same B on
- * the Cornell box, whose F̄ has zeros (a wall's patches do not see each other; the blocks
- * hide parts of the room) but is too dense for AUTO to choose sparse. */
+/* Every kernel this CPU runs (LRR_SIMD), every storage, both layouts: sparse and dense give
+ * the same B on the Cornell box, whose F̄ has zeros (a wall's patches do not see each other;
+ * the blocks hide parts of the room) but is too dense for AUTO to choose sparse. The strips
+ * are copied from panels or from rows (lrr_operator_set_layout) alike. */
 static void test_kernels(void **state)
 {
     (void)state;
@@ -145,8 +146,11 @@ static void test_kernels(void **state)
     lrr_operator *op = tu_cornell_op(ctx, 216, 1, 32, 2);
     const size_t n = op->n, k = op->k;
     float *dense = malloc(3 * n * sizeof(float)), *sparse = malloc(3 * n * sizeof(float));
-    for (lrr_storage st = LRR_STORAGE_F32; st <= LRR_STORAGE_BF16; st++) {
+    for (int cell = 0; cell < 6; cell++) {
+        const lrr_storage st = (lrr_storage)(cell % 3);
+        const lrr_layout layout = cell < 3 ? LRR_LAYOUT_PANELS : LRR_LAYOUT_ROWS;
         LRR_CHECK(ctx, lrr_operator_set_storage(op, st));
+        LRR_CHECK(ctx, lrr_operator_set_layout(op, layout));
         for (size_t v = 0; v < sizeof simd / sizeof simd[0]; v++) {
             setenv("LRR_SIMD", simd[v], 1);
             lrr_solver *sv;
@@ -167,8 +171,9 @@ static void test_kernels(void **state)
             check_counts(op, &si);
             assert_true(si.fbar_density < 1.0);
             const double e = tu_max_rel(3 * n, sparse, dense);
-            print_message("%s %s: density %.3f, max relative difference %.2e\n",
-                          lrr_storage_name(st), simd[v], si.fbar_density, e);
+            print_message("%s %s %s: density %.3f, max relative difference %.2e\n",
+                          lrr_storage_name(st), layout ? "rows" : "panels", simd[v],
+                          si.fbar_density, e);
             assert_true(e <= TU_TOL_FLT(2, k));
         }
     }
