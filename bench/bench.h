@@ -55,7 +55,8 @@ enum {
     OPT_BUDGETS,
     OPT_SAMPLES,
     OPT_RATES,
-    OPT_BUILDS
+    OPT_BUILDS,
+    OPT_TOLERANCE
 };
 
 /* ------------------------------------------------------------------ commands */

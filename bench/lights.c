@@ -16,7 +16,7 @@ static const char lights_help[] =
     "The direct light of N moving point lights on an operator's subpatches\n"
     "(lrr_lighting_direct: shadow rays against the operator's input triangles) per frame, in\n"
     "two cases: every light moves each frame (all traced), and one of them moves (the others\n"
-    "come from the cache). Reports ms per frame (median, min, max), rays per frame and rays\n"
+    "come from the cache). Reports ms per frame (median, min, max), rays per frame (mean) and rays\n"
     "per second, against Embree's occlusion rate on the same rays (an OpenMP loop of\n"
     "rtcOccluded1, and rtcOccluded16 on 16 neighbouring receivers, over a BVH of the\n"
     "subpatch triangles, nothing else per ray).\n\n"
@@ -24,17 +24,23 @@ static const char lights_help[] =
     "  --operator FILE.lrr  the operator (default: the built-in Cornell box, --patches 216\n"
     "                       --levels 2, hemicube 32, built here)\n"
     "  --lights N           point lights (1..64, default 4)\n"
+    "  --tolerance T        lrr_lighting_set_tolerance (default 0: every ray); prints\n"
+    "                       each case's error against every ray over 10 more frames (the\n"
+    "                       area-weighted relative L2 of E, the worst channel): mean, max\n"
     "  --repeat R           timed frames (default: at least 20 and 0.5 s)\n"
     "  -h, --help           show this help\n"
     "Threads: OMP_NUM_THREADS.\n";
 
 typedef struct lights_run {
     lrr_lighting *lt;
+    const lrr_operator *op;
+    double tolerance;
     lrr_light_source *light;
     size_t count, moving; /* lights, how many move each frame */
     float lo[3], hi[3];   /* the box the lights move in */
     float *e;
     unsigned long frame;
+    double rays, steps; /* rays cast and frames drawn since the last reset */
     lrr_status status;
 } lights_run;
 
@@ -55,6 +61,8 @@ static int lights_step(void *user)
     for (size_t l = 0; l < r->moving; l++)
         place(r, l, r->frame);
     r->status = lrr_lighting_direct(r->lt, r->light, r->count, r->e);
+    r->rays += (double)lrr_lighting_rays(r->lt);
+    r->steps += 1;
     return r->status != LRR_OK;
 }
 
@@ -139,10 +147,12 @@ static double embree_rate(const lrr_operator *op, size_t n, const lights_run *r,
     return best;
 }
 
-static int parse_lights(int argc, char *argv[], const char **file, size_t *count, unsigned *repeat)
+static int parse_lights(int argc, char *argv[], const char **file, size_t *count, unsigned *repeat,
+                        double *tolerance)
 {
     static const struct option longopts[] = {{"operator", required_argument, NULL, OPT_SCENE},
                                              {"lights", required_argument, NULL, OPT_SOURCES},
+                                             {"tolerance", required_argument, NULL, OPT_TOLERANCE},
                                              {"repeat", required_argument, NULL, OPT_REPEAT},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
@@ -155,6 +165,10 @@ static int parse_lights(int argc, char *argv[], const char **file, size_t *count
         case OPT_SCENE: *file = optarg; break;
         case OPT_SOURCES:
             if (cli_parse_size(prog, "--lights", optarg, 1, 64, count) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_TOLERANCE:
+            if (cli_parse_double(prog, "--tolerance", optarg, 0, 0, 0.5, tolerance) != 0)
                 return CLI_EXIT_USAGE;
             break;
         case OPT_REPEAT:
@@ -201,17 +215,58 @@ static void bounds(const lrr_operator *op, size_t n, float lo[3], float hi[3])
         }
 }
 
+/* The last frame's E against every ray for the same lights: the area-weighted relative L2
+ * error, the worst of the three channels. */
+static int frame_error(const lights_run *r, size_t n, double *err)
+{
+    lrr_lighting *exact = NULL;
+    float *e = calloc(3 * n, sizeof *e);
+    int ok = e && lrr_lighting_create(r->op, &exact) == LRR_OK &&
+             lrr_lighting_direct(exact, r->light, r->count, e) == LRR_OK;
+    const float *a = lrr_operator_area(r->op);
+    *err = 0;
+    for (int c = 0; ok && c < 3; c++) {
+        double num = 0, den = 0;
+        for (size_t i = 0; i < n; i++) {
+            double d = (double)r->e[3 * i + c] - e[3 * i + c];
+            num += a[i] * d * d;
+            den += a[i] * (double)e[3 * i + c] * e[3 * i + c];
+        }
+        *err = fmax(*err, den > 0 ? sqrt(num / den) : 0);
+    }
+    lrr_lighting_destroy(exact);
+    free(e);
+    return ok ? CLI_EXIT_OK : bench_fail("the exact frame failed");
+}
+
+#define ERROR_FRAMES 10
 static int measure(lights_run *r, size_t moving, unsigned repeat, const char *label)
 {
     r->moving = moving;
+    r->rays = r->steps = 0;
     timing t;
     if (bench_time_frames(lights_step, r, repeat, &t) != 0)
         return bench_fail("%s: lrr_lighting_direct failed (%s)", label, lrr_strerror(r->status));
-    double rays = (double)lrr_lighting_rays(r->lt);
+    double rays = r->rays / r->steps;
     printf("%s_ms: %.4f (min %.4f, max %.4f, %zu frames)\n", label, t.median, t.min, t.max,
            t.runs);
     printf("%s_rays: %.0f\n", label, rays);
     printf("%s_rays_per_s: %.4g\n", label, rays / (t.median * 1e-3));
+    if (r->tolerance > 0) {
+        lrr_operator_info oi;
+        lrr_operator_get_info(r->op, &oi, sizeof oi);
+        double err, sum = 0, most = 0;
+        for (int f = 0; f < ERROR_FRAMES; f++) {
+            if (lights_step(r) != 0)
+                return bench_fail("%s: lrr_lighting_direct failed", label);
+            if (frame_error(r, oi.n, &err) != CLI_EXIT_OK)
+                return CLI_EXIT_FAIL;
+            sum += err;
+            most = fmax(most, err);
+        }
+        printf("%s_rel_l2: %.3g (max %.3g, %d frames)\n", label, sum / ERROR_FRAMES, most,
+               ERROR_FRAMES);
+    }
     return CLI_EXIT_OK;
 }
 
@@ -220,14 +275,15 @@ int cmd_lights(int argc, char *argv[])
     const char *file = NULL;
     size_t count = 4;
     unsigned repeat = 0;
-    int rc = parse_lights(argc, argv, &file, &count, &repeat);
+    double tolerance = 0;
+    int rc = parse_lights(argc, argv, &file, &count, &repeat, &tolerance);
     if (rc != BENCH_RUN)
         return rc;
     lrr_context *ctx;
     if (lrr_context_create(&ctx) != LRR_OK)
         return bench_fail("cannot create a context");
     lrr_operator *op = NULL;
-    lights_run r = {.count = count};
+    lights_run r = {.count = count, .tolerance = tolerance};
     rc = get_operator(ctx, file, &op);
     lrr_operator_info oi = {0};
     if (rc == CLI_EXIT_OK) {
@@ -238,12 +294,14 @@ int cmd_lights(int argc, char *argv[])
             rc = bench_fail("out of memory");
     }
     lrr_status s = LRR_OK;
-    if (rc == CLI_EXIT_OK && (s = lrr_lighting_create(op, &r.lt)))
+    r.op = op;
+    if (rc == CLI_EXIT_OK && ((s = lrr_lighting_create(op, &r.lt)) ||
+                              (s = lrr_lighting_set_tolerance(r.lt, tolerance))))
         rc = bench_lib_fail(ctx, s, "lrr_lighting_create");
     if (rc == CLI_EXIT_OK) {
         bench_print_machine();
-        printf("operator: %s\nn: %zu\ntriangles: %zu\nlights: %zu\n",
-               file ? file : "cornell (built here)", oi.n, oi.triangles, count);
+        printf("operator: %s\nn: %zu\ntriangles: %zu\nlights: %zu\ntolerance: %g\n",
+               file ? file : "cornell (built here)", oi.n, oi.triangles, count, tolerance);
         bounds(op, oi.n, r.lo, r.hi);
         for (size_t l = 0; l < count; l++) {
             r.light[l].kind = LRR_LIGHT_POINT;

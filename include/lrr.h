@@ -1082,6 +1082,17 @@ LRR_API LRR_NODISCARD lrr_status lrr_lighting_direct(lrr_lighting *lighting,
     LRR_NONNULL(1, 4);
 /* Shadow rays cast by the last lrr_lighting_direct (unchanged lights cast none). */
 LRR_API uint64_t lrr_lighting_rays(const lrr_lighting *lighting) LRR_NONNULL(1);
+/* The shadow rays' error budget (docs/METHOD.md "Lights"). 0, the default: every receiver
+ * a light reaches gets its shadow rays. tolerance > 0: a point or spot light traces the
+ * receivers that carry most of its light and gives the others the visibility of their last
+ * ray from that light (visible before the first), so that per light and channel the
+ * area-weighted L2 norm of the error in rho ∘ H is at most tolerance × that of the exact
+ * rho ∘ H, whatever the scene (for several lights together: at most tolerance·√lights
+ * relative to their sum). Area and sun lights trace every receiver. A new tolerance traces
+ * every light again on the next call. Errors: LRR_ERR_INVALID_ARG unless
+ * 0 <= tolerance < 1; LRR_ERR_NOMEM (10 × n bytes of scratch). */
+LRR_API LRR_NODISCARD lrr_status lrr_lighting_set_tolerance(lrr_lighting *lighting,
+                                                            double tolerance) LRR_NONNULL(1);
 
 /* ---------------------------------------------------------------- memory */
 /* 64-byte aligned allocation for SIMD and device buffers; size 0 gives NULL. */

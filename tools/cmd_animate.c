@@ -26,6 +26,10 @@ static const char animate_help[] =
     "  --lights SCRIPT      the script (below; required)\n"
     "  -o, --output DIR     where the frames go (created if missing)\n"
     "  --format F           png (default; tone mapped) or exr (linear radiosity)\n"
+    "  --shadow-tolerance T the shadow rays' error budget (lrr_lighting_set_tolerance; 0,\n"
+    "                       the default: every ray): point and spot lights trace only the\n"
+    "                       receivers that carry most of their light, the area-weighted\n"
+    "                       L2 error of each light's direct light within T (0..0.5)\n"
     "  --exposure X         PNG: multiplier before tone mapping (> 0; default: automatic\n"
     "                       for the first frame, then kept, so the pictures do not flicker;\n"
     "                       the script's exposure statements change it)\n"
@@ -38,6 +42,7 @@ typedef struct animate_args {
     const char *file, *script, *output;
     view_args view;
     int exr;
+    double shadow_tol;
     cli_script s;
 } animate_args;
 
@@ -52,6 +57,8 @@ static const cli_opt animate_opts[] = {
      .field = CLI_FIELD(animate_args, output), .required = "-o DIR"},
     {.name = "format", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(animate_args, exr),
      .choices = formats},
+    {.name = "shadow-tolerance", .kind = CLI_OPT_DOUBLE, .field = CLI_FIELD(animate_args, shadow_tol),
+     .min = 0, .max = 0.5},
     {.name = NULL}};
 
 /* CLI_RUN with *a filled in, or the exit status. */
@@ -101,6 +108,7 @@ static int anim_open(const animate_args *a, anim_state *st)
     st->n = oi.n;
     lrr_status s;
     if ((s = lrr_lighting_create(st->op, &st->lt)) != LRR_OK ||
+        (s = lrr_lighting_set_tolerance(st->lt, a->shadow_tol)) != LRR_OK ||
         (s = lrr_solver_create(st->op, LRR_BACKEND_CPU, &st->sv)) != LRR_OK)
         return cli_lib_error(st->ctx, s);
     for (int k = 0; k < 3; k++)

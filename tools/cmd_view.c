@@ -26,6 +26,10 @@ static const char view_help[] =
     "  --target X,Y,Z       box, else a view framing the scene); needs both\n"
     "  --fov DEGREES        vertical field of view (default 39.3 Cornell, else 50)\n"
     "  --width W, --height H  window or picture size (64..8192, default 800×600)\n"
+    "  --shadow-tolerance T the shadow rays' error budget (lrr_lighting_set_tolerance; 0,\n"
+    "                       the default: every ray): point and spot lights trace only the\n"
+    "                       receivers that carry most of their light, the area-weighted\n"
+    "                       L2 error of each light's direct light within T (0..0.5)\n"
     "  --flat               one colour per subpatch (default: smooth, each corner the\n"
     "                       area-weighted mean of the subpatches meeting there in one plane)\n"
     "Headless (no window shown; ends by itself; needs an X display, e.g. xvfb-run):\n"
@@ -100,6 +104,8 @@ static const cli_opt viewer_opts[] = {
     {.name = "height", .kind = CLI_OPT_UNSIGNED, .field = CLI_FIELD(viewer_args, height),
      .min = 64, .max = 8192},
     {.name = "script", .kind = CLI_OPT_STRING, .field = CLI_FIELD(viewer_args, script)},
+    {.name = "shadow-tolerance", .kind = CLI_OPT_DOUBLE,
+     .field = CLI_FIELD(viewer_args, shadow_tol), .min = 0, .max = 0.5},
     {.name = "screenshot", .kind = CLI_OPT_STRING, .field = CLI_FIELD(viewer_args, screenshot)},
     {.name = "frames", .kind = CLI_OPT_UNSIGNED, .field = CLI_FIELD(viewer_args, frames),
      .seen = CLI_FIELD(viewer_args, have_frames), .min = 0, .max = 10000000},

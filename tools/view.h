@@ -40,6 +40,7 @@ typedef struct viewer_args {
     int have_frames;
     unsigned width, height;
     double exposure;         /* 0 = automatic */
+    double shadow_tol;       /* --shadow-tolerance (lrr_lighting_set_tolerance) */
     int emitters;            /* the scene's own emitters on at the start */
     int sync;                /* --sync: every frame waits for its own relight */
     int overlay;             /* --overlay: the split line in headless pictures too */

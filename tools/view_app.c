@@ -113,7 +113,7 @@ static int app_open(view_app *app)
     app->gl_up = 1;
     if ((!view_headless(app->a) || app->a->overlay) && view_font_init() == 0)
         app->font_up = 1;
-    if (view_worker_start(&app->w, app->op) != 0)
+    if (view_worker_start(&app->w, app->op, app->a->shadow_tol) != 0)
         return CLI_EXIT_FAIL;
     return CLI_EXIT_OK;
 }

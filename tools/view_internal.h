@@ -58,7 +58,8 @@ typedef struct view_worker {
     size_t n;
 } view_worker;
 
-int view_worker_start(view_worker *w, const lrr_operator *op);
+/* shadow_tol: lrr_lighting_set_tolerance */
+int view_worker_start(view_worker *w, const lrr_operator *op, double shadow_tol);
 void view_worker_post(view_worker *w, const lrr_light_source *lights, size_t count,
                       int emitters);
 /* If a newer B than the one shown is ready: swaps it in and returns 1 (w->shown). */

@@ -73,7 +73,7 @@ static void *worker_main(void *arg)
     return NULL;
 }
 
-int view_worker_start(view_worker *w, const lrr_operator *op)
+int view_worker_start(view_worker *w, const lrr_operator *op, double shadow_tol)
 {
     memset(w, 0, sizeof *w);
     lrr_operator_info info;
@@ -89,6 +89,8 @@ int view_worker_start(view_worker *w, const lrr_operator *op)
     lrr_status s = lrr_solver_create(op, LRR_BACKEND_CPU, &w->solver);
     if (s == LRR_OK)
         s = lrr_lighting_create(op, &w->lighting);
+    if (s == LRR_OK)
+        s = lrr_lighting_set_tolerance(w->lighting, shadow_tol);
     if (s != LRR_OK) {
         fprintf(stderr, "lrr view: cannot start the relighting: %s\n", lrr_strerror(s));
         return -1;

@@ -42,7 +42,8 @@ typedef struct lrr__shadow_batch {
 } lrr__shadow_batch;
 
 void lrr__shadow_init(lrr__shadow_batch *b, RTCScene scene, double *acc);
-/* A ray from o (already off the surface) along unit w for length t (INFINITY: unbounded). */
+/* The segment from o (already off the surface) along unit w for length t (INFINITY: a ray
+ * to infinity); finite segments are traced from their far end back towards o. */
 void lrr__shadow_push(lrr__shadow_batch *b, const float o[3], const double w[3], float t,
                       unsigned receiver, double weight);
 void lrr__shadow_flush(lrr__shadow_batch *b);
@@ -53,5 +54,24 @@ void lrr__shadow_flush(lrr__shadow_batch *b);
 void lrr__source_rays(const lrr__source *s, lrr__shadow_batch *b, size_t i, unsigned slot,
                       const float *x, const float *nv, float eps);
 void lrr__source_irradiance(const lrr__source *s, double acc, float H[3]);
+/* Point and spot lights: the weight a receiver's one shadow ray adds when unoccluded
+ * (cosine / r², times the cone), 0 when the light cannot reach it. */
+double lrr__source_weight(const lrr__source *s, const float *x, const float *nv);
+
+/* The error budget of a point or spot light's shadow rays (budget.c, docs/METHOD.md
+ * "Lights"): receivers binned by their key a ρ̄² g² (a area, ρ̄² the mean of ρ_c², g the
+ * unshadowed weight) in half octaves, bin 0 holding the largest keys; LRR__BUDGET_DARK marks
+ * receivers the light cannot reach. cost[b][c] is the sum of a ρ_c² g² over bin b: what the
+ * bin's receivers can be wrong by, squared, in channel c. */
+#define LRR__BUDGET_BINS 512
+#define LRR__BUDGET_DARK 0xFFFFu
+typedef double lrr__budget_cost[LRR__BUDGET_BINS][3];
+/* Fills g (n) and bin (n) for source s on op's receivers, and cost. OpenMP. */
+void lrr__budget_weigh(const lrr_operator *op, const lrr__source *s, double *g,
+                       uint16_t *bin, lrr__budget_cost cost);
+/* The first bin T from which on the receivers may keep a guessed visibility: the smallest T
+ * with Σ_{b ≥ T} cost[b][c] <= tol² S_c in every channel; S NULL: S_c the cost of the bins
+ * before T (every traced receiver visible, an upper bound of the traced light). */
+unsigned lrr__budget_cut(const lrr__budget_cost cost, double tol, const double *S);
 
 #endif

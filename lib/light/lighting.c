@@ -17,6 +17,10 @@ struct lrr_lighting {
     size_t count, cap;        /* lights cached, slots allocated */
     lrr_light_source *light;  /* cap: the lights of the previous call */
     float *H;                 /* cap × n × 3: their irradiance */
+    unsigned char *vis;       /* cap × n: 1 where the receiver's last ray was unoccluded */
+    double tol;               /* the error budget (0: every receiver traced) */
+    double *g;                /* n: the unshadowed weight of the light being traced */
+    uint16_t *bin;            /* n: its budget bin */
     uint64_t rays;            /* shadow rays of the last call */
 };
 
@@ -48,8 +52,31 @@ void lrr_lighting_destroy(lrr_lighting *lt)
     lrr__bvh_release(&lt->bvh);
     lrr_aligned_free(lt->light);
     lrr_aligned_free(lt->H);
+    lrr_aligned_free(lt->vis);
+    lrr_aligned_free(lt->g);
+    lrr_aligned_free(lt->bin);
     lrr__context_release(lt->ctx);
     free(lt);
+}
+
+lrr_status lrr_lighting_set_tolerance(lrr_lighting *lt, double tolerance)
+{
+    if (!(tolerance >= 0 && tolerance < 1))
+        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG,
+                          "lrr_lighting_set_tolerance: tolerance %g is not in [0, 1)", tolerance);
+    if (tolerance > 0 && !lt->g) {
+        lrr_status st;
+        if ((st = lrr__calloc(lt->ctx, &lt->g, lt->op->n, sizeof *lt->g, "light weights")) ||
+            (st = lrr__calloc(lt->ctx, &lt->bin, lt->op->n, sizeof *lt->bin, "budget bins"))) {
+            lrr_aligned_free(lt->g);
+            lt->g = NULL;
+            return st;
+        }
+    }
+    if (tolerance != lt->tol)
+        lt->count = 0; /* what was traced under another budget is traced again */
+    lt->tol = tolerance;
+    return LRR_OK;
 }
 
 uint64_t lrr_lighting_rays(const lrr_lighting *lt) { return lt->rays; }
@@ -64,29 +91,38 @@ static lrr_status reserve(lrr_lighting *lt, size_t count)
         return lrr__error(lt->ctx, LRR_ERR_OVERFLOW, "lrr_lighting_direct: n×3 overflows");
     lrr_light_source *light = NULL;
     float *H = NULL;
+    unsigned char *vis = NULL;
     lrr_status st;
     if ((st = lrr__calloc(lt->ctx, &light, count, sizeof *light, "cached lights")) ||
         (st = lrr__calloc(lt->ctx, &H, count, n3 * sizeof(float),
-                          "per-light irradiance (lights × n × 3 floats)"))) {
+                          "per-light irradiance (lights × n × 3 floats)")) ||
+        (st = lrr__calloc(lt->ctx, &vis, count, lt->op->n, "per-light visibility"))) {
         lrr_aligned_free(light);
+        lrr_aligned_free(H);
         return st;
     }
+    memset(vis, 1, count * lt->op->n); /* visible until a ray says otherwise */
     lrr_aligned_free(lt->light);
     lrr_aligned_free(lt->H);
+    lrr_aligned_free(lt->vis);
     lt->light = light;
     lt->H = H;
+    lt->vis = vis;
     lt->cap = count;
     lt->count = 0;
     return LRR_OK;
 }
 
 /* Traces light l (checked as s) into its cache slot: blocks of receivers, each with one
- * batch of shadow rays (lrr__shadow_batch: its rays go to Embree as packets). */
+ * batch of shadow rays (lrr__shadow_batch: its rays go to Embree as packets). With bin, only
+ * the receivers whose bin is in [lo, hi). */
 #define BLOCK 64
-static void trace(lrr_lighting *lt, const lrr__source *s, size_t l)
+static void trace(lrr_lighting *lt, const lrr__source *s, size_t l, const uint16_t *bin,
+                  unsigned lo, unsigned hi)
 {
     const lrr_operator *op = lt->op;
     float *H = lt->H + l * op->n * 3;
+    unsigned char *vis = lt->vis + l * op->n;
     const size_t blocks = (op->n + BLOCK - 1) / BLOCK;
     uint64_t rays = 0;
     #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays)
@@ -96,14 +132,63 @@ static void trace(lrr_lighting *lt, const lrr__source *s, size_t l)
         lrr__shadow_batch b;
         lrr__shadow_init(&b, lt->bvh.scene, acc);
         for (size_t i = i0; i < i1; i++)
-            lrr__source_rays(s, &b, i, (unsigned)(i - i0), op->centre + 3 * i,
-                             op->normal + 3 * i, lt->eps);
+            if (!bin || (bin[i] >= lo && bin[i] < hi))
+                lrr__source_rays(s, &b, i, (unsigned)(i - i0), op->centre + 3 * i,
+                                 op->normal + 3 * i, lt->eps);
         lrr__shadow_flush(&b);
         for (size_t i = i0; i < i1; i++)
-            lrr__source_irradiance(s, acc[i - i0], H + 3 * i);
+            if (!bin || (bin[i] >= lo && bin[i] < hi)) {
+                lrr__source_irradiance(s, acc[i - i0], H + 3 * i);
+                vis[i] = acc[i - i0] > 0;
+            }
         rays += b.rays;
     }
     lt->rays += rays;
+}
+
+/* Σ a ρ_c² H² (H = g · vis) over the receivers of bins [0, T), as traced. */
+static void traced_light(const lrr_lighting *lt, size_t l, unsigned T, double S[3])
+{
+    const lrr_operator *op = lt->op;
+    const unsigned char *vis = lt->vis + l * op->n;
+    double s0 = 0, s1 = 0, s2 = 0;
+    #pragma omp parallel for schedule(static) reduction(+ : s0, s1, s2)
+    for (size_t i = 0; i < op->n; i++) {
+        if (lt->bin[i] >= T || !vis[i])
+            continue;
+        const float *rho = op->rho + 3 * i;
+        double a = op->area[i] * lt->g[i] * lt->g[i];
+        s0 += a * rho[0] * rho[0];
+        s1 += a * rho[1] * rho[1];
+        s2 += a * rho[2] * rho[2];
+    }
+    S[0] = s0, S[1] = s1, S[2] = s2;
+}
+
+/* A point or spot light within the error budget (budget.c): the receivers with the largest
+ * keys first, as many more as the light they were found to carry requires, and the rest
+ * with the visibility of their last ray. */
+static void trace_budgeted(lrr_lighting *lt, const lrr__source *s, size_t l)
+{
+    const lrr_operator *op = lt->op;
+    lrr__budget_cost cost;
+    lrr__budget_weigh(op, s, lt->g, lt->bin, cost);
+    unsigned t1 = lrr__budget_cut(cost, lt->tol, NULL);
+    trace(lt, s, l, lt->bin, 0, t1);
+    double S[3];
+    traced_light(lt, l, t1, S);
+    unsigned t2 = lrr__budget_cut(cost, lt->tol, S);
+    if (t2 > t1)
+        trace(lt, s, l, lt->bin, t1, t2);
+    else
+        t2 = t1;
+    float *H = lt->H + l * op->n * 3;
+    const unsigned char *vis = lt->vis + l * op->n;
+    #pragma omp parallel for schedule(static)
+    for (size_t i = 0; i < op->n; i++)
+        if (lt->bin[i] >= t2)
+            lrr__source_irradiance(s, lt->bin[i] == LRR__BUDGET_DARK ? 0 : lt->g[i] * vis[i],
+                                   H + 3 * i);
 }
 
 lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights, size_t count,
@@ -126,7 +211,10 @@ lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights,
     for (size_t l = 0; l < count; l++) {
         if (l < lt->count && memcmp(&lt->light[l], &lights[l], sizeof *lights) == 0)
             continue; /* unchanged: its irradiance is still in the cache */
-        trace(lt, &src[l], l);
+        if (lt->tol > 0 && (src[l].kind == LRR_LIGHT_POINT || src[l].kind == LRR_LIGHT_SPOT))
+            trace_budgeted(lt, &src[l], l);
+        else
+            trace(lt, &src[l], l, NULL, 0, 0);
         lt->light[l] = lights[l];
     }
     lt->count = count;

@@ -23,13 +23,25 @@ void lrr__shadow_push(lrr__shadow_batch *b, const float o[3], const double w[3],
         lrr__shadow_flush(b);
     unsigned k = b->count++, p = k / LRR__SHADOW_LANES, l = k % LRR__SHADOW_LANES;
     struct RTCRay16 *r = &b->packet[p];
-    r->org_x[l] = o[0];
-    r->org_y[l] = o[1];
-    r->org_z[l] = o[2];
+    /* A segment towards a light at finite distance is traced from its far end back to o:
+     * the rays of one point light then share their origin, and a packet's traversal is
+     * one narrow frustum. Crytek Sponza (265k receivers, 4 point lights, 134k rays each,
+     * Zen 5): 1.07-1.15x the rays per second of the same segments traced from the receivers
+     * in the receivers' order (1.34x when sorted by direction, but the sort cost a third
+     * of what it saved); 24 grazing rays of 537k decided differently. */
+    const int back = isfinite(t);
+    float e[3], d[3];
+    for (int j = 0; j < 3; j++) {
+        d[j] = back ? -(float)w[j] : (float)w[j];
+        e[j] = back ? o[j] + t * (float)w[j] : o[j];
+    }
+    r->org_x[l] = e[0];
+    r->org_y[l] = e[1];
+    r->org_z[l] = e[2];
+    r->dir_x[l] = d[0];
+    r->dir_y[l] = d[1];
+    r->dir_z[l] = d[2];
     r->tnear[l] = 0.0f;
-    r->dir_x[l] = (float)w[0];
-    r->dir_y[l] = (float)w[1];
-    r->dir_z[l] = (float)w[2];
     r->time[l] = 0.0f;
     r->tfar[l] = t;
     r->mask[l] = UINT32_MAX;

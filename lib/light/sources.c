@@ -109,21 +109,41 @@ static double cone_factor(const lrr__source *s, double cos_theta)
     return x * x * (3 - 2 * x);
 }
 
-/* A point-like source at q: the weight cosine / r² (times the cone) with its ray. */
+/* The weight cosine / r² (times the cone) of a point-like source at q seen from receiver x
+ * (unit normal nv), with the unit direction w and distance r towards it; 0 when it sends
+ * nothing there. */
+static double point_weight(const lrr__source *s, const float *x, const float *nv,
+                           const double q[3], double w[3], double *r)
+{
+    for (int j = 0; j < 3; j++)
+        w[j] = q[j] - x[j];
+    double r2 = lrr__dot3(w, w);
+    *r = sqrt(r2);
+    if (!(*r > 0))
+        return 0;
+    for (int j = 0; j < 3; j++)
+        w[j] /= *r;
+    double cosine = nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2];
+    if (!(cosine > 0))
+        return 0;
+    double f = cosine / r2;
+    if (s->kind == LRR_LIGHT_SPOT)
+        f *= cone_factor(s, -lrr__dot3(w, s->d));
+    return f > 0 ? f : 0;
+}
+
+double lrr__source_weight(const lrr__source *s, const float *x, const float *nv)
+{
+    double w[3], r;
+    return point_weight(s, x, nv, s->p, w, &r);
+}
+
+/* A point-like source at q: its weight with its ray. */
 static void towards_point(const lrr__source *s, lrr__shadow_batch *b, unsigned slot,
                           const float *o, const float *x, const float *nv, const double q[3])
 {
-    double w[3] = {q[0] - x[0], q[1] - x[1], q[2] - x[2]};
-    double r2 = lrr__dot3(w, w), r = sqrt(r2);
-    if (!(r > 0))
-        return;
-    for (int j = 0; j < 3; j++)
-        w[j] /= r;
-    double cosine = nv[0] * w[0] + nv[1] * w[1] + nv[2] * w[2];
-    if (!(cosine > 0))
-        return;
-    double f = cosine / r2;
-    if (s->kind == LRR_LIGHT_SPOT && !((f *= cone_factor(s, -lrr__dot3(w, s->d))) > 0))
+    double w[3], r, f = point_weight(s, x, nv, q, w, &r);
+    if (!(f > 0))
         return;
     /* stop just short of the light: it is a point, not geometry */
     lrr__shadow_push(b, o, w, (float)(r * (1 - 1e-6)), slot, f);

@@ -640,11 +640,20 @@ class Solver:
 class Lighting:
     """An lrr_lighting: the BVH of an operator's triangles, for lrr_lighting_direct."""
 
-    def __init__(self, op):
+    def __init__(self, op, tolerance=0.0):
+        """tolerance: the shadow rays' error budget (set_tolerance)."""
         self.op = op
         h = ctypes.c_void_p()
         op.context.call(lib.lrr_lighting_create, op.h, ctypes.byref(h))
         self._h = h
+        if tolerance:
+            self.set_tolerance(tolerance)
+
+    def set_tolerance(self, tolerance):
+        """lrr_lighting_set_tolerance: point and spot lights trace only the receivers that
+        carry most of their light, each light's area-weighted L2 error in rho ∘ H within
+        tolerance (0: every ray)."""
+        self.op.context.call(lib.lrr_lighting_set_tolerance, self.h, float(tolerance))
 
     @property
     def h(self):

@@ -201,6 +201,7 @@ _PROTOTYPES = {
     "lrr_lighting_destroy": (None, [_P]),
     "lrr_lighting_direct": (_S, [_P, ctypes.POINTER(LightSource), c_size_t, c_float_p]),
     "lrr_lighting_rays": (ctypes.c_uint64, [_P]),
+    "lrr_lighting_set_tolerance": (_S, [_P, ctypes.c_double]),
     "lrr_render_png": (_S, [_P, c_float_p, ctypes.POINTER(RenderOptions), _STR]),
     "lrr_render_auto_exposure": (ctypes.c_double, [_P, c_float_p]),
     "lrr_export_gltf": (_S, [_P, c_float_p, ctypes.POINTER(ExportOptions), _STR]),

@@ -474,6 +474,24 @@ class Lights(unittest.TestCase):
                                            (2, 2, 2)))
         np.testing.assert_allclose(e, 0.5 * 2 * 0.5, rtol=1e-5)
 
+    def test_lighting_tolerance(self):
+        """Lighting(op, tolerance): fewer rays, each light within its error budget (the
+        area-weighted L2 norm per channel); a tolerance outside [0, 1) is refused."""
+        op = lrr.build("cornell-closed", patches=300, levels=1, hemicube=8)
+        light = [lrr.lights.Point((150, 450, 200), (1e5, 1e5, 1e5))]
+        exact, budget = lrr.Lighting(op), lrr.Lighting(op, tolerance=0.05)
+        x, e = exact.direct(light), budget.direct(light)
+        a = np.asarray(op.area, dtype=np.float64)[:, None]
+        d, x = e.astype(np.float64) - x, x.astype(np.float64)
+        err = np.sqrt((a * d ** 2).sum(0) / (a * x ** 2).sum(0))
+        self.assertTrue((err <= 0.05).all(), err)
+        self.assertLess(budget.rays, exact.rays)
+        with self.assertRaises(lrr.LrrError) as cm:
+            budget.set_tolerance(1.5)
+        self.assertIn("tolerance", str(cm.exception))
+        exact.close()
+        budget.close()
+
 
 def parse_glb(path):
     """(json, bin) of a binary glTF, checking its header and chunk framing."""

@@ -41,6 +41,16 @@ if [ "$rc" -eq 0 ] && [ "$(value frames)" = 3 ] && [ -s "$T/frames/frame_0000.pn
 else
     fail "animate (exit $rc)"; show_err
 fi
+# the shadow rays' error budget: the same frames, fewer rays; out of range is a usage error
+run animate "$LTFILE" --lights "$T/move.txt" -o "$T/budget" --width 32 --height 32 \
+    --shadow-tolerance 0.05
+if [ "$rc" -eq 0 ] && [ "$(value frames)" = 3 ] && [ -s "$T/budget/frame_0002.png" ]; then
+    pass "animate --shadow-tolerance 0.05: 3 frames"
+else
+    fail "animate --shadow-tolerance (exit $rc)"; show_err
+fi
+run animate "$LTFILE" --lights "$T/move.txt" -o "$T/budget" --shadow-tolerance 0.7
+expect_rc 2 "animate --shadow-tolerance 0.7 is rejected"
 printf 'light point pos=1,2,3\npath 0 1,2,3\n' > "$T/bad.txt"
 run animate "$LTFILE" --lights "$T/bad.txt" -o "$T/frames"
 expect_rc 2 "animate: a path of one point is rejected"
