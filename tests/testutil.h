@@ -109,6 +109,26 @@ static inline lrr_scene *tu_cornell(lrr_context *ctx, int closed, size_t K, unsi
     return s;
 }
 
+/* T triangles v (T×9, counter-clockwise fronts) with reflectance rho and emission em (T×3)
+ * subdivided into about `patches` patches and built at hemicube resolution R, the other
+ * options the defaults; lrr_operator_destroy() it. */
+static inline lrr_operator *tu_operator(lrr_context *ctx, size_t T, const float *v,
+                                        const float *rho, const float *em, size_t patches,
+                                        unsigned R)
+{
+    lrr_scene *sc;
+    LRR_CHECK(ctx, lrr_scene_create(ctx, T, v, rho, em, "test scene", &sc));
+    lrr_subdivision sd = lrr_subdivision_defaults();
+    sd.target_patches = patches;
+    LRR_CHECK(ctx, lrr_scene_subdivide(sc, &sd));
+    lrr_build_options bo = lrr_build_options_defaults();
+    bo.hemicube_resolution = R;
+    lrr_operator *op;
+    LRR_CHECK(ctx, lrr_operator_build(sc, &bo, &op));
+    lrr_scene_destroy(sc);
+    return op;
+}
+
 /* The furnace (docs/METHOD.md "Exact cases"): tu_box_inward(sx, sy, sz) with reflectance rho
  * and emission e (every channel) on every face, so B = e/(1 − rho) everywhere. */
 static inline lrr_scene *tu_furnace(lrr_context *ctx, double sx, double sy, double sz,

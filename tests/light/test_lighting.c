@@ -26,17 +26,7 @@ static lrr_operator *floor_op(lrr_context *ctx, double s, size_t patches, int oc
     for (size_t t = 0; t < T; t++)
         for (int ch = 0; ch < 3; ch++)
             rho[3 * t + ch] = RHO[ch];
-    lrr_scene *sc;
-    LRR_CHECK(ctx, lrr_scene_create(ctx, T, v, rho, em, "floor", &sc));
-    lrr_subdivision sd = lrr_subdivision_defaults();
-    sd.target_patches = patches;
-    LRR_CHECK(ctx, lrr_scene_subdivide(sc, &sd));
-    lrr_build_options bo = lrr_build_options_defaults();
-    bo.hemicube_resolution = 8;
-    lrr_operator *op;
-    LRR_CHECK(ctx, lrr_operator_build(sc, &bo, &op));
-    lrr_scene_destroy(sc);
-    return op;
+    return tu_operator(ctx, T, v, rho, em, patches, 8);
 }
 
 static size_t op_n(const lrr_operator *op)

@@ -143,16 +143,7 @@ static void test_worst_case(void **state)
     }
     for (int i = 0; i < 30; i++)
         rho[i] = 0.2f + 0.02f * (float)(i % 7);
-    lrr_scene *sc;
-    LRR_CHECK(ctx, lrr_scene_create(ctx, 10, v, rho, em, "fence", &sc));
-    lrr_subdivision sd = lrr_subdivision_defaults();
-    sd.target_patches = 3000;
-    LRR_CHECK(ctx, lrr_scene_subdivide(sc, &sd));
-    lrr_build_options bo = lrr_build_options_defaults();
-    bo.hemicube_resolution = 8;
-    lrr_operator *op;
-    LRR_CHECK(ctx, lrr_operator_build(sc, &bo, &op));
-    lrr_scene_destroy(sc);
+    lrr_operator *op = tu_operator(ctx, 10, v, rho, em, 3000, 8);
     pair p = {.ctx = ctx, .op = op};
     lrr_operator_info oi;
     lrr_operator_get_info(op, &oi, sizeof oi);
