@@ -503,11 +503,26 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
         lrr__multiplier_map_free(&mm);
         return st;
     }
+    uint32_t *patch_at = NULL;
+    if (!by_subpatch && g->origin && g->k <= UINT32_MAX &&
+        !(st = lrr__calloc(ctx, &patch_at, g->n, sizeof *patch_at, "patch of each subpatch")))
+        for (size_t p = 0; p < g->k; p++)
+            for (size_t i = g->first[p]; i < g->first[p + 1]; i++)
+                patch_at[i] = (uint32_t)p;
+    if (st) {
+        lrr_aligned_free(pre);
+        lrr_aligned_free(sx);
+        lrr_aligned_free(cells);
+        lrr__raycaster_destroy(rc);
+        lrr_aligned_free(tri);
+        lrr__multiplier_map_free(&mm);
+        return st;
+    }
     hemi_ctx h = {g, tri, &mm, 1e-7 * diag, 1e-7 * diag, by_subpatch, rc,
                   lrr__hemi_simd_pick(cpu.isa),
                   cells, sx, sx ? sx + R : NULL, sx ? sx + 2 * (size_t)R : NULL, pre,
                   pre ? pre + (size_t)R * (R + 1) : NULL,
-                  lrr__receiver_sampling(opts, method) == LRR_RECEIVER_AREA};
+                  lrr__receiver_sampling(opts, method) == LRR_RECEIVER_AREA, patch_at};
     /* pixel column x looks along sx = (x + 0.5)/(R/2) − 1 (every face is R wide), row y
      * along sy = that on the top face, (y + 0.5)/(R/2) on a side (a division per row of each
      * triangle in the depth test, else) */
@@ -526,6 +541,7 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
             st = rst;
         lrr__raycaster_destroy(rc);
     }
+    lrr_aligned_free(patch_at);
     lrr_aligned_free(pre);
     lrr_aligned_free(sx);
     lrr_aligned_free(cells);

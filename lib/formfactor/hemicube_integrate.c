@@ -30,17 +30,6 @@ void lrr__hemi_bary_setup(const lrr__tri_info *ti, const double x[3], const face
     }
 }
 
-/* The patch (or subpatch) of leaf `leaf` of triangle t; the uniform quadtree's inline. */
-static inline size_t leaf_target(const hemi_ctx *h, size_t t, size_t leaf)
-{
-    const lrr__geometry *g = h->g;
-    if (h->by_subpatch)
-        return lrr__subpatch_id(g, g->sub0[t] + leaf);
-    if (!g->origin && !g->node)
-        return g->patch0[t] + leaf;
-    return lrr__patch_of_leaf(g, t, leaf);
-}
-
 /* ------------------------------------------------------------------ leaves of a row
  * Leaf depths (a triangle's patch or subpatch levels) up to LRR__LEAF_TABLE_DEPTH take the SIMD
  * path's leaf from a table of the regular grid's cells (2·4^depth entries; deeper ones
@@ -92,8 +81,8 @@ static inline size_t leaf_at(const bary_plane *bp, double sx, double sy, unsigne
     return lrr__descend(&b0, &b1, &b2, depth);
 }
 
-/* The row's accumulation: the face's row being integrated, and leaf_target's last answer
- * (adaptive trees search). */
+/* The row's accumulation: the face's row being integrated, and lrr__hemi_leaf_target's last
+ * answer (adaptive trees search). */
 typedef struct {
     const hemi_ctx *h;
     const face *f;
@@ -110,7 +99,7 @@ typedef struct {
 static inline void put(integ *in, size_t t, size_t leaf, int x0, int x1)
 {
     if (leaf != in->last_leaf || t != in->last_t) {
-        in->last_p = leaf_target(in->h, t, leaf);
+        in->last_p = lrr__hemi_leaf_target(in->h, t, leaf);
         in->last_leaf = leaf;
         in->last_t = t;
     }
@@ -208,8 +197,8 @@ double lrr__hemi_integrate_face(const hemi_ctx *h, const double x[3], const face
         return back;
     }
     integ in = {h, f, row, NULL, 0, SIZE_MAX, 0, SIZE_MAX};
-    /* leaf_target is patch0[t] + leaf (and rows are summed, not resolved), and no run is
-     * longer than coded_run's chunks */
+    /* lrr__hemi_leaf_target is patch0[t] + leaf (and rows are summed, not resolved), and no
+     * run is longer than coded_run's chunks */
     const int flat = row && !h->by_subpatch && !h->g->origin && !h->g->node && f->W <= CHUNK;
     /* the face's bary_planes by triangle id mod BARY_CACHE: a row's runs alternate between a
      * few triangles (a set-up per run takes 5% of a Cornell R 32 profile) */

@@ -59,7 +59,26 @@ typedef struct lrr__hemi_ctx {
                                          per row, from 0): a run's weight in O(1) */
     int area_origins;      /* LRR_RECEIVER_AREA (rays only): each pixel's ray from its own
                               random point of the receiver (raycast.c) */
+    const uint32_t *patch_at; /* clusters, patch columns: the patch of each patch-major
+                                 position (n), else NULL */
 } lrr__hemi_ctx;
+
+/* The column of leaf `leaf` of triangle t (lrr__descend's index at depth[t], or at
+ * depth[t] + levels for subpatch columns): uniform quadtrees inline, clusters by table
+ * rather than a binary search over the k clusters' first positions per pixel (FZK-Haus,
+ * --clusters 2000 --hemicube 32, ray cast, Zen 5: form factors 8.87 -> 8.17 s from the
+ * centres, 12.99 -> 12.06 s over the area, F̄ bit for bit the same). */
+static inline size_t lrr__hemi_leaf_target(const lrr__hemi_ctx *h, size_t t, size_t leaf)
+{
+    const lrr__geometry *g = h->g;
+    if (h->by_subpatch)
+        return lrr__subpatch_id(g, g->sub0[t] + leaf);
+    if (h->patch_at)
+        return h->patch_at[g->order[g->sub0[t] + leaf]];
+    if (!g->origin && !g->node)
+        return g->patch0[t] + leaf;
+    return lrr__patch_of_leaf(g, t, leaf);
+}
 
 /* A SIMD leaf code (lrr__hemi_simd's leaves_run and depth_rows): with the cell table, a
  * pixel's cell (a table slot, the lookup left to the caller: once per run of equal codes) or

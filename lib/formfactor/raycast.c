@@ -138,6 +138,16 @@ static void point_in(const double v[9], uint64_t r, double out[3])
  * rasteriser's per-pixel re-intersection (pixel_target, 10–18% of a T = 9,216 profile). */
 enum { TILE = 4, PACKET = TILE * TILE };
 
+/* The column (patch, or subpatch for the full F) at barycentrics (b1, b2) of triangle t. */
+static size_t column_at(const lrr__hemi_ctx *h, size_t t, double b1, double b2)
+{
+    const lrr__geometry *g = h->g;
+    double b0;
+    lrr__clamp_bary(&b1, &b2, &b0);
+    return lrr__hemi_leaf_target(
+        h, t, lrr__descend(&b0, &b1, &b2, g->depth[t] + (h->by_subpatch ? g->levels : 0)));
+}
+
 void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N[3],
                        const double *area, uint64_t key, lrr__hemi_face *f)
 {
@@ -206,9 +216,7 @@ void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N
                     double side = lrr__dot3(w0, ti->n);
                     double tol = h->eps * sqrt(lrr__dot3(ti->n, ti->n));
                     if (side > tol)
-                        id = (int32_t)(h->by_subpatch
-                                           ? lrr__subpatch_at(h->g, t, rh.hit.u[l], rh.hit.v[l])
-                                           : lrr__patch_at(h->g, t, rh.hit.u[l], rh.hit.v[l]));
+                        id = (int32_t)column_at(h, t, rh.hit.u[l], rh.hit.v[l]);
                     else if (side < -tol)
                         id = LRR__ITEM_BACK;
                 }

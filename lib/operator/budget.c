@@ -81,6 +81,8 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
               add3(&hemi, rr + rr / 2, 1, sizeof(double)) &&
               add3(&hemi, (size_t)R + R / 2, (size_t)R + 1, sizeof(double)) && /* its prefix sums */
               add3(&hemi, n_tri, 1, LRR__HEMICUBE_TRI_BYTES) &&
+              (o->hierarchy != LRR_HIERARCHY_CLUSTER ||
+               add3(&hemi, n, 1, sizeof(uint32_t))) && /* each subpatch's cluster */
               add3(&hemi, T, 3 * rr, sizeof(float)) && add3(&hemi, T, k, sizeof(double)) &&
               add3(&hemi, T, 3 * rr, sizeof(uint32_t)) && /* the leaf codes (rasteriser) */
               add3(&hemi, n, 1, sizeof(double)); /* back-face shares (leak indicator) */
