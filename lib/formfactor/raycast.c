@@ -134,7 +134,7 @@ static void point_in(const double v[9], uint64_t r, double out[3])
 
 /* Rays of 4×4 pixel tiles go as one 16-wide packet: neighbouring pixels traverse nearly
  * the same BVH nodes. Embree's hit coordinates (u, v) are the barycentrics of v1 and v2, as
- * lrr__patch_at takes them: the item buffer gets the patch (subpatch) directly, sparing the
+ * column_at takes them: the item buffer gets the patch (subpatch) directly, sparing the
  * rasteriser's per-pixel re-intersection (pixel_target, 10–18% of a T = 9,216 profile). */
 enum { TILE = 4, PACKET = TILE * TILE };
 

@@ -121,8 +121,6 @@ size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2);
 void lrr__child_corners(const double *v, int dim, unsigned c, double *out);
 /* The patch of leaf `leaf` (lrr__descend's index, depth[t] levels) of triangle t. */
 size_t lrr__patch_of_leaf(const lrr__geometry *g, size_t t, size_t leaf);
-/* Patch index only (used by the hemicube item buffer). */
-size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2);
 /* Triangle that owns subpatch i (binary search on sub0). */
 size_t lrr__subpatch_triangle(const lrr__geometry *g, size_t i);
 /* Vertices (9 doubles) of subpatch i, in the triangle's orientation. */

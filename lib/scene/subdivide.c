@@ -278,13 +278,6 @@ size_t lrr__patch_of_leaf(const lrr__geometry *g, size_t t, size_t leaf)
     return g->patch0[t] + leaf;
 }
 
-size_t lrr__patch_at(const lrr__geometry *g, size_t t, double b1, double b2)
-{
-    double b0;
-    lrr__clamp_bary(&b1, &b2, &b0);
-    return lrr__patch_of_leaf(g, t, lrr__descend(&b0, &b1, &b2, g->depth[t]));
-}
-
 size_t lrr__subpatch_at(const lrr__geometry *g, size_t t, double b1, double b2)
 {
     double b0;
