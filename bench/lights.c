@@ -215,17 +215,18 @@ static void bounds(const lrr_operator *op, size_t n, float lo[3], float hi[3])
         }
 }
 
-/* The last frame's E against every ray for the same lights: the area-weighted relative L2
- * error, the worst of the three channels. */
-static int frame_error(const lights_run *r, size_t n, double *err)
+#define ERROR_FRAMES 10
+
+/* The last frame's E against every ray for the same lights (exact: a lighting without a
+ * tolerance, e its n×3 scratch): the area-weighted relative L2 error, the worst of the three
+ * channels. */
+static int frame_error(const lights_run *r, lrr_lighting *exact, float *e, size_t n, double *err)
 {
-    lrr_lighting *exact = NULL;
-    float *e = calloc(3 * n, sizeof *e);
-    int ok = e && lrr_lighting_create(r->op, &exact) == LRR_OK &&
-             lrr_lighting_direct(exact, r->light, r->count, e) == LRR_OK;
+    if (lrr_lighting_direct(exact, r->light, r->count, e) != LRR_OK)
+        return bench_fail("the exact frame failed");
     const float *a = lrr_operator_area(r->op);
     *err = 0;
-    for (int c = 0; ok && c < 3; c++) {
+    for (int c = 0; c < 3; c++) {
         double num = 0, den = 0;
         for (size_t i = 0; i < n; i++) {
             double d = (double)r->e[3 * i + c] - e[3 * i + c];
@@ -234,12 +235,36 @@ static int frame_error(const lights_run *r, size_t n, double *err)
         }
         *err = fmax(*err, den > 0 ? sqrt(num / den) : 0);
     }
-    lrr_lighting_destroy(exact);
-    free(e);
-    return ok ? CLI_EXIT_OK : bench_fail("the exact frame failed");
+    return CLI_EXIT_OK;
 }
 
-#define ERROR_FRAMES 10
+/* ERROR_FRAMES more frames, each against every ray: the mean and the largest error. */
+static int frames_error(lights_run *r, const char *label)
+{
+    lrr_operator_info oi;
+    lrr_operator_get_info(r->op, &oi, sizeof oi);
+    lrr_lighting *exact = NULL;
+    float *e = calloc(3 * oi.n, sizeof *e);
+    int rc = e && lrr_lighting_create(r->op, &exact) == LRR_OK
+                 ? CLI_EXIT_OK
+                 : bench_fail("%s: cannot set up the exact frames", label);
+    double err = 0, sum = 0, most = 0;
+    for (int f = 0; rc == CLI_EXIT_OK && f < ERROR_FRAMES; f++) {
+        if (lights_step(r) != 0)
+            rc = bench_fail("%s: lrr_lighting_direct failed", label);
+        else if ((rc = frame_error(r, exact, e, oi.n, &err)) == CLI_EXIT_OK) {
+            sum += err;
+            most = fmax(most, err);
+        }
+    }
+    if (rc == CLI_EXIT_OK)
+        printf("%s_rel_l2: %.3g (max %.3g, %d frames)\n", label, sum / ERROR_FRAMES, most,
+               ERROR_FRAMES);
+    lrr_lighting_destroy(exact);
+    free(e);
+    return rc;
+}
+
 static int measure(lights_run *r, size_t moving, unsigned repeat, const char *label)
 {
     r->moving = moving;
@@ -252,21 +277,8 @@ static int measure(lights_run *r, size_t moving, unsigned repeat, const char *la
            t.runs);
     printf("%s_rays: %.0f\n", label, rays);
     printf("%s_rays_per_s: %.4g\n", label, rays / (t.median * 1e-3));
-    if (r->tolerance > 0) {
-        lrr_operator_info oi;
-        lrr_operator_get_info(r->op, &oi, sizeof oi);
-        double err, sum = 0, most = 0;
-        for (int f = 0; f < ERROR_FRAMES; f++) {
-            if (lights_step(r) != 0)
-                return bench_fail("%s: lrr_lighting_direct failed", label);
-            if (frame_error(r, oi.n, &err) != CLI_EXIT_OK)
-                return CLI_EXIT_FAIL;
-            sum += err;
-            most = fmax(most, err);
-        }
-        printf("%s_rel_l2: %.3g (max %.3g, %d frames)\n", label, sum / ERROR_FRAMES, most,
-               ERROR_FRAMES);
-    }
+    if (r->tolerance > 0)
+        return frames_error(r, label);
     return CLI_EXIT_OK;
 }
 
