@@ -217,6 +217,11 @@ typedef struct cl_frame {
 int bench_cl_step(void *user);
 /* Median of the last `runs` recorded timings of a cl_frame (reorders them). */
 void bench_cl_medians(cl_frame *f, size_t runs, double *kernel_ms, double *transfer_ms);
+/* lrr-bench fbar --backend opencl (fbar_opencl.c): dense and sparse F̄ on the device for
+ * one operator and storage, strip groups groups[0..n_groups), printed and in csv. */
+int bench_fbar_opencl(lrr_context *ctx, const lrr_operator *op, const float *e, const char *file,
+                      lrr_storage st, const unsigned *groups, int n_groups, unsigned frames,
+                      FILE *csv);
 /* The solver's lrr_solver_kernel, commas replaced, into buf. */
 const char *bench_cl_device_name(const lrr_solver *s, char *buf, size_t len);
 

@@ -35,14 +35,30 @@ static const char fbar_help[] =
     "                       sparse_ratio,sparse_ratio_min,sparse_ratio_max,speedup_median,\n"
     "                       speedup_min,speedup_max,b_diff,kernel\n"
     "  -h, --help           show this help\n"
+    "  --backend B          cpu (default: the rows above) or opencl: instead, an OpenCL\n"
+    "                       solver (device from LRR_OPENCL_DEVICE) reading F̄ dense and as\n"
+    "                       strips, each row: the bytes its kernels read (F̄ as held, M, E,\n"
+    "                       rho, B), the median kernel time of FRAMES frames (profiling\n"
+    "                       events), that against the device's read floor (a plain read\n"
+    "                       kernel over a buffer of the same bytes, best of 5, measured in\n"
+    "                       the same run), transfer and whole-frame medians, and b_diff\n"
+    "                       against the CPU's dense B\n"
+    "  --strip-groups LIST  opencl: the sparse kernel's strip groups to measure, each a\n"
+    "                       power of two (LRR_OPENCL_STRIP_GROUPS; default 1,2,4,8)\n"
+    "                       (CSV impl dense or sparse_gG)\n"
+    "  --frames N           opencl: timed frames per solver (default 50)\n"
     "Threads: OMP_NUM_THREADS. LRR_SIMD forces a kernel (e.g. avx2).\n";
 
-enum { OPT_FBAR_STORAGE = 1024, OPT_FBAR_PAIRS };
+enum { OPT_FBAR_STORAGE = 1024, OPT_FBAR_PAIRS, OPT_FBAR_BACKEND, OPT_FBAR_GROUPS,
+       OPT_FBAR_FRAMES };
 
 typedef struct fbar_args {
     int storages[3], n_storages; /* lrr_storage; n_storages 0: the file's */
-    unsigned pairs;
+    unsigned pairs, frames;
     const char *csv;
+    int opencl;
+    unsigned groups[8];
+    int n_groups;
 } fbar_args;
 
 typedef struct fbar_row {
@@ -68,15 +84,35 @@ static int parse_storages(const char *prog, const char *text, fbar_args *a)
     return a->n_storages ? 0 : CLI_EXIT_USAGE;
 }
 
+static int parse_groups(const char *prog, const char *text, fbar_args *a)
+{
+    char buf[64], *end;
+    snprintf(buf, sizeof buf, "%s", text);
+    a->n_groups = 0;
+    for (char *save = NULL, *t = strtok_r(buf, ",", &save); t; t = strtok_r(NULL, ",", &save)) {
+        unsigned long g = strtoul(t, &end, 10);
+        if (a->n_groups == 8 || *end || g == 0 || g > 64 || (g & (g - 1))) {
+            fprintf(stderr, "%s: --strip-groups: '%s' is not a list of powers of two <= 64\n",
+                    prog, text);
+            return CLI_EXIT_USAGE;
+        }
+        a->groups[a->n_groups++] = (unsigned)g;
+    }
+    return a->n_groups ? 0 : CLI_EXIT_USAGE;
+}
+
 static int parse_fbar(int argc, char *argv[], fbar_args *a)
 {
     static const struct option longopts[] = {{"storage", required_argument, NULL, OPT_FBAR_STORAGE},
                                              {"pairs", required_argument, NULL, OPT_FBAR_PAIRS},
+                                             {"backend", required_argument, NULL, OPT_FBAR_BACKEND},
+                                             {"strip-groups", required_argument, NULL, OPT_FBAR_GROUPS},
+                                             {"frames", required_argument, NULL, OPT_FBAR_FRAMES},
                                              {"csv", required_argument, NULL, OPT_CSV},
                                              {"help", no_argument, NULL, 'h'},
                                              {NULL, 0, NULL, 0}};
     const char *prog = "lrr-bench fbar";
-    *a = (fbar_args){.pairs = 11};
+    *a = (fbar_args){.pairs = 11, .frames = 50, .groups = {1, 2, 4, 8}, .n_groups = 4};
     bench_start_getopt();
     int c;
     size_t v;
@@ -90,6 +126,19 @@ static int parse_fbar(int argc, char *argv[], fbar_args *a)
             if (cli_parse_size(prog, "--pairs", optarg, 1, BENCH_MAX_PAIRS, &v) != 0)
                 return CLI_EXIT_USAGE;
             a->pairs = (unsigned)v;
+            break;
+        case OPT_FBAR_BACKEND:
+            if (bench_parse_backend(prog, optarg, &a->opencl) != 0)
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_FBAR_GROUPS:
+            if (parse_groups(prog, optarg, a))
+                return CLI_EXIT_USAGE;
+            break;
+        case OPT_FBAR_FRAMES:
+            if (cli_parse_size(prog, "--frames", optarg, 1, 100000, &v) != 0)
+                return CLI_EXIT_USAGE;
+            a->frames = (unsigned)v;
             break;
         case OPT_CSV: a->csv = optarg; break;
         case 'h': fputs(fbar_help, stdout); return CLI_EXIT_OK;
@@ -265,7 +314,10 @@ static int run_file(lrr_context *ctx, const fbar_args *a, const char *file, FILE
         if (!rc && !e)
             rc = bench_fail("out of memory for E (n = %zu)", oi.n);
         fbar_row row;
-        if (!rc && !(rc = measure(ctx, op, e, a->pairs, &row))) {
+        if (!rc && a->opencl) {
+            rc = bench_fbar_opencl(ctx, op, e, file, (lrr_storage)list[i], a->groups,
+                                   a->n_groups, a->frames, csv);
+        } else if (!rc && !(rc = measure(ctx, op, e, a->pairs, &row))) {
             print_row(file, (lrr_storage)list[i], oi.n, oi.k, &row);
             if (csv)
                 csv_row(csv, file, (lrr_storage)list[i], oi.n, oi.k, &row);
@@ -288,14 +340,20 @@ int cmd_fbar(int argc, char *argv[])
     cli_outfile out = {0};
     if (a.csv && cli_outfile_open(&out, a.csv) != 0)
         return bench_fail("cannot write %s", a.csv);
-    if (a.csv)
+    if (a.csv && a.opencl)
+        fputs("file,storage,impl,mb,kernel_ms,floor_ms,ratio_to_floor,transfer_ms,frame_ms,"
+              "b_diff,device\n",
+              out.f);
+    else if (a.csv)
         fputs("file,storage,n,k,density,strip_density,dense_mb,sparse_mb,m_mb,dense_ms,"
               "sparse_ms,dense_floor_ms,sparse_floor_ms,dense_ratio,dense_ratio_min,"
               "dense_ratio_max,sparse_ratio,sparse_ratio_min,sparse_ratio_max,speedup_median,"
               "speedup_min,speedup_max,b_diff,kernel\n",
               out.f);
     lrr_context *ctx = NULL;
-    if (lrr_context_create(&ctx) != LRR_OK)
+    if (a.opencl)
+        rc = bench_start("cornell", 1, &ctx); /* fails early without a device */
+    else if (lrr_context_create(&ctx) != LRR_OK)
         rc = bench_fail("cannot create a context");
     for (int i = optind; i < argc && !rc; i++)
         rc = run_file(ctx, &a, argv[i], a.csv ? out.f : NULL);

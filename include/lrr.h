@@ -594,9 +594,11 @@ LRR_API LRR_NODISCARD lrr_status lrr_fbar_format_from_name(const char *name,
                                                            lrr_fbar_format *out)
     LRR_NONNULL(1, 2);
 /* Reads F̄ in the given format from now on (one pass over the operator's F̄ to count and
- * copy its strips); on an error the solver reads F̄ as before. LRR_ERR_UNSUPPORTED for
- * SPARSE on an OpenCL solver (its device reads F̄ dense) or with k > 65535. Thread safety:
- * one thread per object. */
+ * copy its strips); on an error the solver reads F̄ as before. An OpenCL solver holds one
+ * of the two on its device and uploads the other in its place (AUTO chooses as on the CPU;
+ * the environment variable LRR_OPENCL_STRIP_GROUPS, a power of two, tunes its sparse
+ * kernel's work-items per tile). LRR_ERR_UNSUPPORTED for SPARSE with k > 65535. Thread
+ * safety: one thread per object. */
 LRR_API LRR_NODISCARD lrr_status lrr_solver_set_fbar(lrr_solver *solver, lrr_fbar_format format)
     LRR_NONNULL(1);
 
@@ -605,8 +607,7 @@ typedef struct lrr_solver_info {
     size_t fbar_bytes;         /* bytes of F̄ a full frame reads (the sparse copy's size) */
     size_t fbar_dense_bytes;   /* n·k entries in the operator's storage */
     size_t m_bytes;            /* M_c: 3·k·k floats, read by every full frame */
-    double fbar_density;       /* nonzero entries / (n·k); 0 for an OpenCL solver (not
-                                  counted) */
+    double fbar_density;       /* nonzero entries / (n·k) */
     double fbar_strip_density; /* entries of the strips that hold a nonzero / (n·k) */
 } lrr_solver_info;
 /* info_size = sizeof *info (see Conventions). */

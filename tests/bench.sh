@@ -214,6 +214,27 @@ else
 fi
 run fbar --storage f8 "$T/fbar.lrr"
 if [ "$rc" -eq 2 ]; then pass "fbar --storage f8: exit 2"; else fail "fbar --storage f8: exit $rc"; fi
+run fbar --strip-groups 3 "$T/fbar.lrr"
+if [ "$rc" -eq 2 ]; then pass "fbar --strip-groups 3: exit 2"; else fail "fbar --strip-groups 3: exit $rc"; fi
+
+# fbar --backend opencl: dense and sparse on the device, each B the CPU's (b_diff <= 1e-5),
+# bytes, kernel times and read floors positive; skipped where no OpenCL is available
+run fbar --backend opencl --storage f16 --strip-groups 1,4 --frames 3 --csv "$T/fbar_cl.csv" \
+    "$T/fbar.lrr"
+if [ "$rc" -ne 0 ] && grep -Eq 'not built into|no OpenCL platform' "$T/err"; then
+    pass "fbar --backend opencl: skipped ($(head -n 1 "$T/err"))"
+else
+    bad=$(awk -F, 'NR == 1 { if ($10 != "b_diff") print "header: " $0; next }
+                   { rows++; if (!($4 > 0 && $5 > 0 && $6 > 0 && $7 > 0) || !($10 <= 1e-5) ||
+                                 $11 !~ /^opencl:/) print "row " NR ": " $0 }
+                   END { if (rows != 3) print "rows: " rows }' "$T/fbar_cl.csv" 2>&1)
+    if [ "$rc" -eq 0 ] && [ -z "$bad" ]; then
+        pass "fbar --backend opencl: dense and 2 sparse rows, B the CPU's (b_diff <= 1e-5)"
+    else
+        fail "fbar --backend opencl: exit $rc $bad"
+        show_err
+    fi
+fi
 
 # raycast --rays: lrr's rays/s from centres and areas and Embree's on the same rays, all
 # positive, the ray count n·3R² (Cornell: 36 triangles, R 16)

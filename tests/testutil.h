@@ -129,6 +129,34 @@ static inline lrr_operator *tu_operator(lrr_context *ctx, size_t T, const float 
     return op;
 }
 
+/* Four closed rooms side by side, each 1 × 1 × 1 and 0.5 apart: a patch sees its own room
+ * only, so at most a quarter of F̄ is nonzero (a sparse F̄, lib/solve/sparse.c). The first
+ * room's floor emits. */
+static inline lrr_operator *tu_rooms_op(lrr_context *ctx, size_t K)
+{
+    enum { ROOMS = 4, T = 12 * ROOMS };
+    float v[9 * T], rho[3 * T], e[3 * T];
+    for (int r = 0; r < ROOMS; r++) {
+        tu_box_inward(v + 108 * r, 1, 1, 1);
+        for (int j = 0; j < 36; j++)
+            v[108 * r + 3 * j] += 1.5f * (float)r;
+    }
+    for (int t = 0; t < T; t++)
+        for (int c = 0; c < 3; c++) {
+            rho[3 * t + c] = 0.3f + 0.2f * (float)c;
+            e[3 * t + c] = t == 8 || t == 9 ? 1.0f : 0.0f; /* room 0, z = 0 */
+        }
+    lrr_scene *s;
+    LRR_CHECK(ctx, lrr_scene_create(ctx, T, v, rho, e, "rooms", &s));
+    lrr_subdivision sd = {.target_patches = K, .levels = 1};
+    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
+    lrr_build_options o = {.hemicube_resolution = 32, .seed = 3};
+    lrr_operator *op;
+    LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
+    lrr_scene_destroy(s);
+    return op;
+}
+
 /* The furnace (docs/METHOD.md "Exact cases"): tu_box_inward(sx, sy, sz) with reflectance rho
  * and emission e (every channel) on every face, so B = e/(1 − rho) everywhere. */
 static inline lrr_scene *tu_furnace(lrr_context *ctx, double sx, double sy, double sz,

@@ -28,11 +28,11 @@ static const char solve_help[] =
     "                       GPU, else the first CPU device; the environment variable\n"
     "                       LRR_OPENCL_DEVICE picks another, by index P:D or by a part of\n"
     "                       \"platform / device\" name). Every OpenCL frame is a full pass\n"
-    "  --fbar F             auto (default), dense or sparse: how the CPU solver reads F̄:\n"
+    "  --fbar F             auto (default), dense or sparse: how the solver reads F̄:\n"
     "                       sparse keeps the strips of 16 rows x 1 column that hold a\n"
     "                       nonzero (a real scene's F̄ is mostly zeros), auto does so\n"
     "                       where that reads at most half the dense bytes; the same B up\n"
-    "                       to the order of the sums (dense only with --backend opencl)\n"
+    "                       to the order of the sums, on the CPU and on an OpenCL device\n"
     PROBE_LIGHT_HELP
     "  -h, --help           show this help\n"
     "Also prints storage (of F̄), fbar (dense or sparse, as read), fbar_bytes (read per full\n"
@@ -120,8 +120,7 @@ static void print_solve(const solve_args *a, const lrr_operator *op, const float
     const lrr_solver_info *si = &r->solver.info;
     printf("fbar: %s\n", lrr_fbar_format_name(si->fbar));
     printf("fbar_bytes: %zu\n", si->fbar_bytes);
-    if (a->backend != LRR_BACKEND_OPENCL)
-        printf("fbar_density: %.4f\n", si->fbar_density);
+    printf("fbar_density: %.4f\n", si->fbar_density);
     printf("m_bytes: %zu\n", si->m_bytes);
     printf("backend: %s\n", a->backend == LRR_BACKEND_OPENCL ? "opencl" : "cpu");
     printf("path: %s\n", path_names[r->used]);

@@ -137,10 +137,11 @@ lrr_status lrr_solver_set_fbar(lrr_solver *s, lrr_fbar_format format)
     if ((unsigned)format > LRR_FBAR_SPARSE)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown F̄ format %d", (int)format);
     if (s->cl) {
-        if (format == LRR_FBAR_SPARSE)
-            return lrr__error(op->ctx, LRR_ERR_UNSUPPORTED,
-                              "sparse F̄: an OpenCL solver reads F̄ dense");
-        return LRR_OK;
+        lrr__sparse_stats stats;
+        lrr_status st = lrr__cl_set_fbar(s->cl, format, &stats);
+        if (!st)
+            s->fbar_stats = stats;
+        return st;
     }
     lrr__sparse *sp = NULL;
     lrr__sparse_stats stats;
@@ -158,15 +159,14 @@ void lrr_solver_get_info(const lrr_solver *s, lrr_solver_info *out, size_t out_s
     const lrr_operator *op = s->op;
     lrr_solver_info info;
     memset(&info, 0, sizeof info);
-    info.fbar = s->sparse ? LRR_FBAR_SPARSE : LRR_FBAR_DENSE;
+    int sparse = s->sparse != NULL;
     info.fbar_dense_bytes = dense_bytes(op);
-    info.fbar_bytes = s->cl ? info.fbar_dense_bytes : fbar_bytes(s);
+    info.fbar_bytes = s->cl ? lrr__cl_fbar_bytes(s->cl, &sparse) : fbar_bytes(s);
+    info.fbar = sparse ? LRR_FBAR_SPARSE : LRR_FBAR_DENSE;
     info.m_bytes = 3 * op->k * op->k * sizeof(float);
-    if (!s->cl) {
-        const double entries = (double)op->n * (double)op->k;
-        info.fbar_density = (double)s->fbar_stats.nonzeros / entries;
-        info.fbar_strip_density = (double)s->fbar_stats.strips * LRR__TILE / entries;
-    }
+    const double entries = (double)op->n * (double)op->k;
+    info.fbar_density = (double)s->fbar_stats.nonzeros / entries;
+    info.fbar_strip_density = (double)s->fbar_stats.strips * LRR__TILE / entries;
     lrr__info_write(out, out_size, &info, sizeof info);
 }
 
@@ -180,7 +180,8 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
         return st;
     if (backend == LRR_BACKEND_OPENCL) {
         lrr__cl_solver *cl;
-        if ((st = lrr__cl_create(op, &cl)))
+        lrr__sparse_stats stats;
+        if ((st = lrr__cl_create(op, LRR_FBAR_AUTO, &stats, &cl)))
             return st;
         lrr_solver *s = lrr__zalloc(op->ctx, sizeof *s);
         if (!s) {
@@ -189,6 +190,7 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
         }
         s->op = op;
         s->cl = cl;
+        s->fbar_stats = stats;
         s->backend = backend;
         s->path = s->last = LRR_PATH_FULL;
         *out = s;
@@ -315,10 +317,18 @@ void lrr__solver_opencl_groups(lrr_solver *s, int groups)
         lrr__cl_use_groups(s->cl, groups);
 }
 
+void lrr__solver_opencl_step_times(const lrr_solver *s, double ms[3])
+{
+    ms[0] = ms[1] = ms[2] = 0;
+    if (s->cl)
+        lrr__cl_step_times(s->cl, ms);
+}
+
 lrr_status lrr__solver_opencl_panels(lrr_solver *s, int panels)
 {
     return s->cl ? lrr__cl_fbar_panels(s->cl, panels) : LRR_ERR_INVALID_ARG;
 }
+
 
 /* Four subpatches' 12 entries as three 4-float vectors (r0 g0 b0 r1 | g1 b1 r2 g2 |
  * b2 r3 g3 b3): baseline SSE2 through GCC's vector extensions, unaligned (E + 3·i). */

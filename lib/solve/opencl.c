@@ -5,6 +5,9 @@
  * product whose epilogue E + rho ∘ (…) is fused, with F̄ decoded from 16 bits in the loads.
  * F̄ (in its storage), its row scales, M and rho go to the device once, at create; per frame
  * E goes up, three kernels run on the solver's in-order queue, and B comes down.
+ * F̄ goes up dense or, where that reads at most half the bytes (lrr_solver_set_fbar, the
+ * CPU's rule), as the strips of lib/solve/sparse.c, read by fbar_strips; only one of the
+ * two is held on the device.
  * Every frame is a full pass: the CPU's sparse and incremental paths stay on the CPU.
  * The queue has CL_QUEUE_PROFILING_ENABLE: each frame's kernel time (the three kernels'
  * END - START) and transfer time (E up, B down) are kept for lrr_solver_timings.
@@ -22,8 +25,11 @@
 
 #ifndef LRR_HAVE_OPENCL
 
-lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
+lrr_status lrr__cl_create(const lrr_operator *op, lrr_fbar_format format,
+                          lrr__sparse_stats *stats, lrr__cl_solver **out)
 {
+    (void)format;
+    memset(stats, 0, sizeof *stats);
     *out = NULL;
     return lrr__error(op->ctx, LRR_ERR_UNSUPPORTED,
                       "the OpenCL backend is not built into this library (configured without "
@@ -52,10 +58,28 @@ void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 {
     (void)cl, (void)groups;
 }
+void lrr__cl_step_times(const lrr__cl_solver *cl, double ms[3])
+{
+    (void)cl;
+    ms[0] = ms[1] = ms[2] = 0;
+}
 lrr_status lrr__cl_fbar_panels(lrr__cl_solver *cl, int panels)
 {
     (void)cl, (void)panels;
     return LRR_ERR_UNSUPPORTED;
+}
+lrr_status lrr__cl_set_fbar(lrr__cl_solver *cl, lrr_fbar_format format,
+                            lrr__sparse_stats *stats)
+{
+    (void)cl, (void)format;
+    memset(stats, 0, sizeof *stats);
+    return LRR_ERR_UNSUPPORTED;
+}
+size_t lrr__cl_fbar_bytes(const lrr__cl_solver *cl, int *sparse)
+{
+    (void)cl;
+    *sparse = 0;
+    return 0;
 }
 
 #else
@@ -64,9 +88,17 @@ lrr_status lrr__cl_fbar_panels(lrr__cl_solver *cl, int panels)
 
 #include <stdio.h>
 
-/* Work-group size of fbar_groups on GPUs: a few warps/wavefronts per row keep loads
- * contiguous; lowered to the device's limit. */
+/* Work-group size of fbar_groups, smw_groups and fbar_strips on GPUs: a few warps or
+ * wavefronts per row keep loads contiguous; lowered to the device's limit. */
 #define GROUP_SIZE 128
+/* Strip groups of fbar_strips (work-items per tile / LRR__TILE): CPU devices 1 (PoCL runs
+ * a work-group's items as vector lanes), GPUs STRIP_GROUPS_GPU (H200, Crytek Sponza f16:
+ * 0.300 / 0.258 / 0.260 ms at 4 / 8 / 16 groups); the environment variable
+ * LRR_OPENCL_STRIP_GROUPS overrides both (lrr-bench fbar --backend opencl --strip-groups). */
+#define STRIP_GROUPS_GPU 8
+/* fbar_panels's loads in flight per item (realtime.cl UNROLL, measured there): f32, 16-bit */
+#define UNROLL_F32 32
+#define UNROLL_16 16
 /* Build log characters kept in an error message (the context keeps 512 bytes). */
 #define LOG_MAX 300
 
@@ -75,24 +107,37 @@ struct lrr__cl_solver {
     cl_context context;
     cl_command_queue queue;
     cl_program program;
-    cl_kernel segsum, smw, rows, groups;
+    cl_kernel segsum, segg, smw, smwg, rows, panels, groups, strips;
     cl_mem fbar, scale, m, rho, e, w, z, b, first, vw; /* vw: Vᵀ's weights (n) */
-    size_t group_size;
-    int use_groups;      /* fbar_groups (GPUs) rather than fbar_rows (CPU devices) */
+    cl_mem sval, scol, sstart; /* a sparse F̄'s strips (fbar is then NULL) */
+    size_t group_size, tiles, sparse_bytes;
+    unsigned strip_groups;
+    int cpu_device;
+    int gpu_kernels;     /* segsum_groups, smw_groups and fbar_panels or fbar_groups (GPUs)
+                            rather than segsum, smw and fbar_rows (CPU devices) */
+    cl_uint dev_np;      /* F̄'s panel rows as it went up (0: rows) */
+    double step_ms[3];   /* the last frame's w, z and B kernels */
     char name[160];      /* "opencl:<device name>" */
     double kernel_ms, transfer_ms; /* the last frame's, from profiling events (0 before one) */
 };
+
+static void release_mem(cl_mem *m)
+{
+    if (*m)
+        clReleaseMemObject(*m);
+    *m = NULL;
+}
 
 void lrr__cl_destroy(lrr__cl_solver *cl)
 {
     if (!cl)
         return;
-    cl_mem mems[] = {cl->fbar, cl->scale, cl->m, cl->rho, cl->e, cl->w, cl->z, cl->b, cl->first,
-                     cl->vw};
+    cl_mem *mems[] = {&cl->fbar, &cl->scale, &cl->m,    &cl->rho,  &cl->e,    &cl->w, &cl->z,
+                      &cl->b,    &cl->first, &cl->vw,   &cl->sval, &cl->scol, &cl->sstart};
     for (size_t i = 0; i < sizeof mems / sizeof mems[0]; i++)
-        if (mems[i])
-            clReleaseMemObject(mems[i]);
-    cl_kernel ks[] = {cl->segsum, cl->smw, cl->rows, cl->groups};
+        release_mem(mems[i]);
+    cl_kernel ks[] = {cl->segsum, cl->segg,   cl->smw,   cl->smwg,
+                      cl->rows,   cl->panels, cl->groups, cl->strips};
     for (size_t i = 0; i < sizeof ks / sizeof ks[0]; i++)
         if (ks[i])
             clReleaseKernel(ks[i]);
@@ -112,7 +157,42 @@ const char *lrr__cl_name(const lrr__cl_solver *cl)
 
 void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 {
-    cl->use_groups = groups != 0;
+    cl->gpu_kernels = groups != 0;
+}
+
+void lrr__cl_step_times(const lrr__cl_solver *cl, double ms[3])
+{
+    memcpy(ms, cl->step_ms, sizeof cl->step_ms);
+}
+
+/* LRR_OPENCL_STRIP_GROUPS: a power of two within the work-group size, else the default */
+static unsigned strip_groups(const lrr__cl_solver *cl)
+{
+    const char *env = getenv("LRR_OPENCL_STRIP_GROUPS");
+    char *end;
+    unsigned long g = env ? strtoul(env, &end, 10) : 0;
+    if (env && *end == '\0' && g > 0 && (g & (g - 1)) == 0 && g * LRR__TILE <= cl->group_size)
+        return (unsigned)g;
+    return cl->cpu_device ? 1 : STRIP_GROUPS_GPU;
+}
+
+size_t lrr__cl_fbar_bytes(const lrr__cl_solver *cl, int *sparse)
+{
+    *sparse = cl->fbar == NULL;
+    return cl->fbar ? cl->op->n * cl->op->k * lrr__fbar_elem_bytes(cl->op) : cl->sparse_bytes;
+}
+
+static lrr_status new_buffer(lrr__cl_solver *cl, cl_mem_flags flags, size_t bytes,
+                             const void *host, const char *what, cl_mem *out)
+{
+    cl_int err;
+    if (bytes == 0)
+        host = NULL; /* an empty buffer (4 bytes, never read) copies nothing */
+    *out = clCreateBuffer(cl->context, flags | (host ? CL_MEM_COPY_HOST_PTR : 0),
+                          bytes ? bytes : 4, (void *)host, &err);
+    if (err != CL_SUCCESS)
+        return lrr__cl_fail(cl->op->ctx, err, "clCreateBuffer", what);
+    return LRR_OK;
 }
 
 /* Rows of F̄ per write when a panel layout goes up as rows (whole panels) */
@@ -121,7 +201,7 @@ void lrr__cl_use_groups(lrr__cl_solver *cl, int groups)
 /* F̄ to the device in panels as the operator holds them, or as rows (panels = 0). CPU
  * devices get rows: PoCL vectorises fbar_rows across work-items better over rows (Cornell
  * n = 13824, k = 864, f32, 2 cores: rows 7.75 ms a frame, panels 8.68 ms); a GPU gets
- * panels, where neighbouring items read neighbouring addresses (unmeasured: no GPU yet). */
+ * panels, where neighbouring items read neighbouring addresses. */
 static lrr_status upload_fbar(lrr__cl_solver *cl, int panels)
 {
     const lrr_operator *op = cl->op;
@@ -148,25 +228,118 @@ static lrr_status upload_fbar(lrr__cl_solver *cl, int panels)
     }
     if (err != CL_SUCCESS)
         return lrr__cl_fail(op->ctx, err, "clEnqueueWriteBuffer", "F̄");
-    for (int i = 0; i < 2 && err == CL_SUCCESS; i++)
-        err = clSetKernelArg(i ? cl->groups : cl->rows, 8, sizeof np, &np);
+    const cl_kernel prod[3] = {cl->rows, cl->groups, cl->panels};
+    for (int i = 0; i < 3 && err == CL_SUCCESS; i++) {
+        err = clSetKernelArg(prod[i], 0, sizeof(cl_mem), &cl->fbar);
+        if (err == CL_SUCCESS)
+            err = clSetKernelArg(prod[i], 8, sizeof np, &np);
+    }
+    cl->dev_np = np;
     return err == CL_SUCCESS ? LRR_OK : lrr__cl_fail(op->ctx, err, "clSetKernelArg", "np");
 }
 
 lrr_status lrr__cl_fbar_panels(lrr__cl_solver *cl, int panels)
 {
-    return upload_fbar(cl, panels);
+    return cl->fbar ? upload_fbar(cl, panels) : LRR_ERR_INVALID_ARG;
 }
 
-static lrr_status new_buffer(lrr__cl_solver *cl, cl_mem_flags flags, size_t bytes,
-                             const void *host, const char *what, cl_mem *out)
+/* Refuses `bytes` more on the device beyond its limits (one buffer, all of them). */
+static lrr_status check_fits(lrr__cl_solver *cl, size_t largest, size_t total, const char *what)
 {
-    cl_int err;
-    *out = clCreateBuffer(cl->context, flags | (host ? CL_MEM_COPY_HOST_PTR : 0),
-                          bytes ? bytes : 4, (void *)host, &err);
+    cl_device_id dev;
+    cl_ulong global_mem = 0, max_alloc = 0;
+    cl_int err = clGetCommandQueueInfo(cl->queue, CL_QUEUE_DEVICE, sizeof dev, &dev, NULL);
+    if (err == CL_SUCCESS)
+        err = clGetDeviceInfo(dev, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof global_mem, &global_mem,
+                              NULL);
+    if (err == CL_SUCCESS)
+        err = clGetDeviceInfo(dev, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof max_alloc, &max_alloc,
+                              NULL);
     if (err != CL_SUCCESS)
-        return lrr__cl_fail(cl->op->ctx, err, "clCreateBuffer", what);
+        return lrr__cl_fail(cl->op->ctx, err, "clGetDeviceInfo", "device memory sizes");
+    const size_t n = cl->op->n, k = cl->op->k;
+    const size_t other = 4 * (3 * k * k + 4 * 3 * n + n + 7 * k + 1);
+    if ((cl_ulong)largest > max_alloc || (cl_ulong)total + other > global_mem)
+        return lrr__error(cl->op->ctx, LRR_ERR_NOMEM,
+                          "OpenCL: %s needs %zu bytes (and %zu more for M, E, B, rho); the "
+                          "device has CL_DEVICE_MAX_MEM_ALLOC_SIZE = %llu and "
+                          "CL_DEVICE_GLOBAL_MEM_SIZE = %llu bytes",
+                          what, total, other, (unsigned long long)max_alloc,
+                          (unsigned long long)global_mem);
     return LRR_OK;
+}
+
+static lrr_status set_dense(lrr__cl_solver *cl)
+{
+    const lrr_operator *op = cl->op;
+    const size_t bytes = op->n * op->k * lrr__fbar_elem_bytes(op);
+    lrr_status st;
+    if (cl->fbar)
+        return LRR_OK;
+    release_mem(&cl->sval), release_mem(&cl->scol), release_mem(&cl->sstart);
+    if ((st = check_fits(cl, bytes, bytes, "F̄")) ||
+        (st = new_buffer(cl, CL_MEM_READ_ONLY, bytes, NULL, "F̄", &cl->fbar)) ||
+        (st = upload_fbar(cl, !cl->cpu_device)))
+        release_mem(&cl->fbar);
+    return st;
+}
+
+/* The strips of sp on the device (start as 32-bit offsets), the dense F̄ released. */
+static lrr_status set_sparse(lrr__cl_solver *cl, const lrr__sparse *sp)
+{
+    lrr_context *ctx = cl->op->ctx;
+    if (sp->strips > UINT32_MAX)
+        return lrr__error(ctx, LRR_ERR_OVERFLOW,
+                          "OpenCL: %zu strips of sparse F̄ exceed the kernels' 32-bit offsets",
+                          sp->strips);
+    const size_t es = sp->val ? sizeof(float) : sizeof(uint16_t);
+    const size_t vbytes = sp->strips * LRR__TILE * es, cbytes = sp->strips * sizeof(uint16_t);
+    const size_t sbytes = (sp->tiles + 1) * sizeof(cl_uint);
+    lrr_status st = check_fits(cl, vbytes, vbytes + cbytes + sbytes, "sparse F̄");
+    cl_uint *start = st ? NULL : lrr__alloc(ctx, sbytes);
+    if (!st && !start)
+        st = lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate %zu strip offsets", sp->tiles + 1);
+    for (size_t t = 0; !st && t <= sp->tiles; t++)
+        start[t] = (cl_uint)sp->start[t];
+    cl_mem v = NULL, c = NULL, o = NULL;
+    const cl_mem_flags ro = CL_MEM_READ_ONLY;
+    if (!st && !(st = new_buffer(cl, ro, vbytes, sp->val ? (void *)sp->val : (void *)sp->val16,
+                                 "sparse F̄ values", &v)) &&
+        !(st = new_buffer(cl, ro, cbytes, sp->col, "sparse F̄ columns", &c)))
+        st = new_buffer(cl, ro, sbytes, start, "sparse F̄ tiles", &o);
+    free(start);
+    const cl_uint un = (cl_uint)cl->op->n, uk = (cl_uint)cl->op->k;
+    const cl_mem *args[] = {&v, &c, &o, &cl->scale, &cl->z, &cl->e, &cl->rho};
+    cl_int err = CL_SUCCESS;
+    for (cl_uint j = 0; !st && j < 7 && err == CL_SUCCESS; j++)
+        err = clSetKernelArg(cl->strips, j, sizeof(cl_mem), args[j]);
+    if (!st && err == CL_SUCCESS && (err = clSetKernelArg(cl->strips, 7, sizeof un, &un)) ==
+                                        CL_SUCCESS &&
+        (err = clSetKernelArg(cl->strips, 8, sizeof uk, &uk)) == CL_SUCCESS)
+        err = clSetKernelArg(cl->strips, 9, sizeof(cl_mem), &cl->b);
+    if (!st && err != CL_SUCCESS)
+        st = lrr__cl_fail(ctx, err, "clSetKernelArg", "fbar_strips");
+    if (st) {
+        release_mem(&v), release_mem(&c), release_mem(&o);
+        return st;
+    }
+    release_mem(&cl->fbar);
+    release_mem(&cl->sval), release_mem(&cl->scol), release_mem(&cl->sstart);
+    cl->sval = v, cl->scol = c, cl->sstart = o;
+    cl->tiles = sp->tiles;
+    cl->sparse_bytes = vbytes + cbytes + sbytes;
+    return LRR_OK;
+}
+
+lrr_status lrr__cl_set_fbar(lrr__cl_solver *cl, lrr_fbar_format format,
+                            lrr__sparse_stats *stats)
+{
+    lrr__sparse *sp = NULL;
+    lrr_status st = lrr__sparse_create(cl->op, format, stats, &sp);
+    if (!st)
+        st = sp ? set_sparse(cl, sp) : set_dense(cl);
+    lrr__sparse_destroy(sp);
+    return st;
 }
 
 /* Builds the program once per solver for the operator's storage; a failed build returns
@@ -179,12 +352,12 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
     cl->program = clCreateProgramWithSource(cl->context, 1, &src, NULL, &err);
     if (err != CL_SUCCESS)
         return lrr__cl_fail(ctx, err, "clCreateProgramWithSource", "lib/solve/realtime.cl");
-    char opts[64];
+    char opts[128];
     const int storage = cl->op->storage == LRR_STORAGE_F16    ? 1
                         : cl->op->storage == LRR_STORAGE_BF16 ? 2
                                                               : 0;
-    snprintf(opts, sizeof opts, "-DSTORAGE=%d -DWG=%zu -DPANEL=%d", storage, cl->group_size,
-             LRR__PANEL);
+    snprintf(opts, sizeof opts, "-DSTORAGE=%d -DWG=%zu -DPANEL=%d -DTILE=%d -DUNROLL=%d", storage,
+             cl->group_size, LRR__PANEL, LRR__TILE, storage ? UNROLL_16 : UNROLL_F32);
     err = clBuildProgram(cl->program, 1, &dev, opts, NULL, NULL);
     if (err != CL_SUCCESS) {
         char log[LOG_MAX + 1] = "";
@@ -205,9 +378,12 @@ static lrr_status build_program(lrr__cl_solver *cl, cl_device_id dev)
                           opts, lrr__cl_code_name(err), (int)err, log[0] ? log : "(empty)",
                           len > LOG_MAX + 1 ? " [...]" : "");
     }
-    static const char *const names[] = {"segsum", "smw", "fbar_rows", "fbar_groups"};
-    cl_kernel *ks[] = {&cl->segsum, &cl->smw, &cl->rows, &cl->groups};
-    for (int i = 0; i < 4; i++) {
+    static const char *const names[] = {"segsum",    "segsum_groups", "smw",
+                                        "smw_groups", "fbar_rows",     "fbar_panels",
+                                        "fbar_groups", "fbar_strips"};
+    cl_kernel *ks[] = {&cl->segsum, &cl->segg,   &cl->smw,    &cl->smwg,
+                       &cl->rows,   &cl->panels, &cl->groups, &cl->strips};
+    for (int i = 0; i < 8; i++) {
         *ks[i] = clCreateKernel(cl->program, names[i], &err);
         if (err != CL_SUCCESS)
             return lrr__cl_fail(ctx, err, "clCreateKernel", names[i]);
@@ -236,18 +412,28 @@ static lrr_status set_args(lrr__cl_solver *cl)
         {cl->smw, 1, sizeof(cl_mem), &cl->w, "smw w"},
         {cl->smw, 2, sizeof uk, &uk, "smw k"},
         {cl->smw, 3, sizeof(cl_mem), &cl->z, "smw z"},
+        {cl->segg, 0, sizeof(cl_mem), &cl->e, "segsum_groups E"},
+        {cl->segg, 1, sizeof uk, &uk, "segsum_groups k"},
+        {cl->segg, 2, sizeof(cl_mem), &cl->first, "segsum_groups first"},
+        {cl->segg, 3, sizeof(cl_mem), &cl->w, "segsum_groups w"},
+        {cl->segg, 4, sizeof(cl_mem), &cl->vw, "segsum_groups Vᵀ weights"},
+        {cl->smwg, 0, sizeof(cl_mem), &cl->m, "smw_groups M"},
+        {cl->smwg, 1, sizeof(cl_mem), &cl->w, "smw_groups w"},
+        {cl->smwg, 2, sizeof uk, &uk, "smw_groups k"},
+        {cl->smwg, 3, sizeof(cl_mem), &cl->z, "smw_groups z"},
     };
     for (size_t i = 0; i < sizeof a / sizeof a[0]; i++) {
         cl_int err = clSetKernelArg(a[i].kn, a[i].index, a[i].size, a[i].value);
         if (err != CL_SUCCESS)
             return lrr__cl_fail(op->ctx, err, "clSetKernelArg", a[i].what);
     }
-    const cl_kernel prod[2] = {cl->rows, cl->groups};
+    const cl_kernel prod[3] = {cl->rows, cl->groups, cl->panels};
+    /* arguments 0 (F̄) and 8 (its panel rows) are set where it goes up (upload_fbar) */
     const cl_mem *bufs[6] = {&cl->fbar, &cl->scale, &cl->z, &cl->e, &cl->rho, &cl->b};
-    for (int i = 0; i < 2; i++) {
-        const char *what = i ? "fbar_groups" : "fbar_rows";
+    for (int i = 0; i < 3; i++) {
+        const char *what = i == 2 ? "fbar_panels" : i ? "fbar_groups" : "fbar_rows";
         cl_int err = CL_SUCCESS;
-        for (cl_uint j = 0; j < 5 && err == CL_SUCCESS; j++)
+        for (cl_uint j = 1; j < 5 && err == CL_SUCCESS; j++)
             err = clSetKernelArg(prod[i], j, sizeof(cl_mem), bufs[j]);
         if (err == CL_SUCCESS)
             err = clSetKernelArg(prod[i], 5, sizeof un, &un);
@@ -261,7 +447,8 @@ static lrr_status set_args(lrr__cl_solver *cl)
     return LRR_OK;
 }
 
-lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
+lrr_status lrr__cl_create(const lrr_operator *op, lrr_fbar_format format,
+                          lrr__sparse_stats *stats, lrr__cl_solver **out)
 {
     lrr_context *ctx = op->ctx;
     *out = NULL;
@@ -274,26 +461,6 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
     if (st)
         return st;
 
-    /* F̄ must fit one buffer and, with everything else, the device's memory */
-    const int half = op->storage != LRR_STORAGE_F32;
-    const size_t fbar_bytes = n * k * (half ? 2 : 4); /* the operator holds it: no overflow */
-    const size_t other = 4 * (3 * k * k + 4 * 3 * n + n + 7 * k + 1);
-    cl_ulong global_mem = 0, max_alloc = 0;
-    cl_int err = clGetDeviceInfo(dev, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof global_mem,
-                                 &global_mem, NULL);
-    if (err == CL_SUCCESS)
-        err = clGetDeviceInfo(dev, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof max_alloc, &max_alloc,
-                              NULL);
-    if (err != CL_SUCCESS)
-        return lrr__cl_fail(ctx, err, "clGetDeviceInfo", "device memory sizes");
-    if ((cl_ulong)fbar_bytes > max_alloc || (cl_ulong)fbar_bytes + other > global_mem)
-        return lrr__error(ctx, LRR_ERR_NOMEM,
-                          "OpenCL: F̄ needs %zu bytes (and %zu more for M, E, B, rho); the "
-                          "device has CL_DEVICE_MAX_MEM_ALLOC_SIZE = %llu and "
-                          "CL_DEVICE_GLOBAL_MEM_SIZE = %llu bytes",
-                          fbar_bytes, other, (unsigned long long)max_alloc,
-                          (unsigned long long)global_mem);
-
     lrr__cl_solver *cl = lrr__zalloc(ctx, sizeof *cl);
     if (!cl)
         return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate an OpenCL solver");
@@ -305,17 +472,19 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
     clGetDeviceInfo(dev, CL_DEVICE_TYPE, sizeof type, &type, NULL);
     clGetDeviceInfo(dev, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
     snprintf(cl->name, sizeof cl->name, "opencl:%s", dn);
-    /* A group per row coalesces the loads of a row-major F̄ on a GPU; in panels, the items
-     * of fbar_rows (one per row) already read adjacent addresses at every step, as a GPU
-     * wants, without the reduction. Neither measured on a GPU yet (none was lent). */
-    const int cpu_device = (type & CL_DEVICE_TYPE_CPU) != 0;
-    cl->use_groups = !cpu_device && lrr__fbar_panel_rows(op) == 0;
+    /* GPUs get F̄ in panels, where the items of fbar_panels (one per row) read adjacent
+     * addresses at every step, and a work-group per row where F̄ is row-major */
+    cl->cpu_device = (type & CL_DEVICE_TYPE_CPU) != 0;
+    cl->gpu_kernels = !cl->cpu_device;
     cl->group_size = 1;
     while (cl->group_size * 2 <= GROUP_SIZE && cl->group_size * 2 <= max_wg)
         cl->group_size *= 2;
+    cl->strip_groups = strip_groups(cl);
 
+    const int half = op->storage != LRR_STORAGE_F32;
     const cl_mem_flags ro = CL_MEM_READ_ONLY, rw = CL_MEM_READ_WRITE;
     const float one = 1.0f;
+    cl_int err;
     /* patch offsets as 32-bit (n <= UINT32_MAX): the segmented sum's ranges */
     cl_uint *first = lrr__alloc(ctx, (k + 1) * sizeof(cl_uint));
     if (!first) {
@@ -333,7 +502,6 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
             st = lrr__cl_fail(ctx, err, "clCreateCommandQueue", dn);
     }
     if (st || (st = build_program(cl, dev)) ||
-        (st = new_buffer(cl, ro, fbar_bytes, NULL, "F̄", &cl->fbar)) ||
         (st = new_buffer(cl, ro, half ? n * 4 : 4, half ? op->row_scale : &one, "row scales",
                          &cl->scale)) ||
         (st = new_buffer(cl, ro, 3 * k * k * 4, op->m, "M (3×k×k)", &cl->m)) ||
@@ -345,7 +513,7 @@ lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out)
         (st = new_buffer(cl, ro, (k + 1) * sizeof(cl_uint), first, "patch offsets (k+1)",
                          &cl->first)) ||
         (st = new_buffer(cl, ro, n * 4, op->weight, "Vᵀ weights (n)", &cl->vw)) ||
-        (st = set_args(cl)) || (st = upload_fbar(cl, !cpu_device))) {
+        (st = set_args(cl)) || (st = lrr__cl_set_fbar(cl, format, stats))) {
         free(first);
         lrr__cl_destroy(cl);
         return st;
@@ -387,14 +555,39 @@ lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B)
     call = "clEnqueueNDRangeKernel";
     size_t g1 = k, g2[2] = {k, 3};
     what = "segsum";
-    err = clEnqueueNDRangeKernel(cl->queue, cl->segsum, 1, NULL, &g1, NULL, 0, NULL, &ev[1]);
+    if (cl->gpu_kernels) {
+        size_t local = cl->group_size, global = k * cl->group_size;
+        err = clEnqueueNDRangeKernel(cl->queue, cl->segg, 1, NULL, &global, &local, 0, NULL,
+                                     &ev[1]);
+    } else {
+        err = clEnqueueNDRangeKernel(cl->queue, cl->segsum, 1, NULL, &g1, NULL, 0, NULL, &ev[1]);
+    }
     if (err != CL_SUCCESS)
         goto fail;
     what = "smw";
-    err = clEnqueueNDRangeKernel(cl->queue, cl->smw, 2, NULL, g2, NULL, 0, NULL, &ev[2]);
+    if (cl->gpu_kernels) {
+        size_t local = cl->group_size, global = 3 * k * cl->group_size;
+        err = clEnqueueNDRangeKernel(cl->queue, cl->smwg, 1, NULL, &global, &local, 0, NULL,
+                                     &ev[2]);
+    } else {
+        err = clEnqueueNDRangeKernel(cl->queue, cl->smw, 2, NULL, g2, NULL, 0, NULL, &ev[2]);
+    }
     if (err != CL_SUCCESS)
         goto fail;
-    if (cl->use_groups) {
+    if (!cl->fbar) {
+        const cl_uint sg = cl->strip_groups;
+        size_t local = LRR__TILE * sg, global = cl->tiles * local;
+        what = "fbar_strips";
+        err = clSetKernelArg(cl->strips, 10, sizeof sg, &sg);
+        if (err == CL_SUCCESS)
+            err = clEnqueueNDRangeKernel(cl->queue, cl->strips, 1, NULL, &global, &local, 0,
+                                         NULL, &ev[3]);
+    } else if (cl->gpu_kernels && cl->dev_np > 0) {
+        size_t local = cl->group_size, global = (n + local - 1) / local * local;
+        what = "fbar_panels";
+        err = clEnqueueNDRangeKernel(cl->queue, cl->panels, 1, NULL, &global, &local, 0, NULL,
+                                     &ev[3]);
+    } else if (cl->gpu_kernels) {
         size_t local = cl->group_size, global = n * cl->group_size;
         what = "fbar_groups";
         err = clEnqueueNDRangeKernel(cl->queue, cl->groups, 1, NULL, &global, &local, 0, NULL,
@@ -413,7 +606,9 @@ lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B)
     if (err != CL_SUCCESS)
         goto fail;
     /* the in-order queue has finished every command once the blocking read returned */
-    cl->kernel_ms = event_ms(ev[1]) + event_ms(ev[2]) + event_ms(ev[3]);
+    for (int i = 0; i < 3; i++)
+        cl->step_ms[i] = event_ms(ev[1 + i]);
+    cl->kernel_ms = cl->step_ms[0] + cl->step_ms[1] + cl->step_ms[2];
     cl->transfer_ms = event_ms(ev[0]) + event_ms(ev[4]);
     for (int i = 0; i < 5; i++)
         clReleaseEvent(ev[i]);

@@ -11,7 +11,9 @@
  *     0  float
  *     1  IEEE binary16 (vload_half, which needs no cl_khr_fp16), row i times scale[i]
  *     2  bfloat16 (the high half of a float), row i times scale[i] (all 1)
- * -DWG= is the work-group size of fbar_groups (a power of two).
+ * -DWG= is the work-group size of fbar_groups and smw_groups (a power of two).
+ * A sparse F̄ (lib/solve/sparse.c) is read by fbar_strips instead: tiles of TILE rows, tile
+ * t's strips [start[t], start[t+1]) each TILE values in the same storage and one column.
  * Kept to OpenCL C 1.2 and plain ASCII: it is embedded in the library as a C string.
  */
 #ifndef STORAGE
@@ -23,6 +25,11 @@
 #ifndef PANEL
 #define PANEL 32
 #endif
+#ifndef TILE
+#define TILE 16
+#endif
+/* z entries a work-group of fbar_panels holds in local memory at a time */
+#define ZCHUNK 256
 
 /* Row i's first entry and the distance between its entries: in a panel, consecutive rows
  * are adjacent, so the work-items of fbar_rows read contiguous memory (coalesced on a GPU,
@@ -64,6 +71,40 @@ __kernel void segsum(__global const float *E, uint k, __global const uint *first
         w[c * k + p] = s[c];
 }
 
+/* GPUs: w as segsum, one work-group of WG items per patch (group id p), item l summing
+ * subpatches first[p] + l, + WG, ... (coalesced), then a tree reduction (whose error
+ * grows as log WG, so no compensation). segsum's k items, each walking a patch's
+ * subpatches alone, are too few to hide a GPU's latency (H200, Sponza: this 0.009 ms;
+ * the three item-per-row kernels of the first version 6.2 ms together with B). */
+__kernel __attribute__((reqd_work_group_size(WG, 1, 1)))
+void segsum_groups(__global const float *E, uint k, __global const uint *first,
+                   __global float *w, __global const float *vw)
+{
+    __local float red[3 * WG];
+    const uint p = get_group_id(0), l = get_local_id(0);
+    float s0 = 0, s1 = 0, s2 = 0;
+    for (uint i = first[p] + l; i < first[p + 1]; i += WG) {
+        const float v = vw[i];
+        s0 += v * E[3 * i];
+        s1 += v * E[3 * i + 1];
+        s2 += v * E[3 * i + 2];
+    }
+    red[l] = s0;
+    red[WG + l] = s1;
+    red[2 * WG + l] = s2;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint h = WG / 2; h > 0; h >>= 1) {
+        if (l < h) {
+            red[l] += red[l + h];
+            red[WG + l] += red[WG + l + h];
+            red[2 * WG + l] += red[2 * WG + l + h];
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (l < 3)
+        w[l * k + p] = red[l * WG];
+}
+
 /* z[c*k + r] = row r of M_c times w_c; global size (k, 3). */
 __kernel void smw(__global const float *m, __global const float *w, uint k, __global float *z)
 {
@@ -76,6 +117,31 @@ __kernel void smw(__global const float *m, __global const float *w, uint k, __gl
     for (uint q = 0; q < k; q++)
         t += row[q] * x[q];
     z[(size_t)c * k + r] = t;
+}
+
+/* GPUs: z[c*k + r] with one work-group of WG items per row r and channel c (group id
+ * r + k*c), item l reading entries l, l + WG, ... (coalesced), then a tree reduction. The
+ * item-per-row smw reads k rows k floats apart from k*3 items, too few to hide a GPU's
+ * latency (H200, k 2000: this 0.019 ms, 48 MB of M at 2.5 TB/s). */
+__kernel __attribute__((reqd_work_group_size(WG, 1, 1)))
+void smw_groups(__global const float *m, __global const float *w, uint k, __global float *z)
+{
+    __local float red[WG];
+    const uint g = get_group_id(0), l = get_local_id(0), r = g % k, c = g / k;
+    __global const float *row = m + ((size_t)c * k + r) * k;
+    __global const float *x = w + (size_t)c * k;
+    float t = 0;
+    for (uint q = l; q < k; q += WG)
+        t += row[q] * x[q];
+    red[l] = t;
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint h = WG / 2; h > 0; h >>= 1) {
+        if (l < h)
+            red[l] += red[l + h];
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    if (l == 0)
+        z[(size_t)c * k + r] = red[0];
 }
 
 /* One work-item per row, walking its k entries in order: CPU devices (which get F̄ as rows,
@@ -98,6 +164,68 @@ __kernel void fbar_rows(__global const FBAR_T *fbar, __global const float *scale
         t1 += f * z[k + j];
         t2 += f * z[2 * k + j];
     }
+#if STORAGE != 0
+    const float s = scale[i];
+    t0 *= s;
+    t1 *= s;
+    t2 *= s;
+#endif
+    const size_t b = 3 * (size_t)i;
+    B[b] = E[b] + rho[b] * t0;
+    B[b + 1] = E[b + 1] + rho[b + 1] * t1;
+    B[b + 2] = E[b + 2] + rho[b + 2] * t2;
+}
+
+/* GPUs, F̄ in panels: fbar_rows's item per row, z read from local memory (ZCHUNK entries
+ * of each channel at a time, loaded by the whole group) and UNROLL loads of F̄ in flight per
+ * item, so that a GPU's many rows keep its memory busy. Items past n compute row n - 1 and
+ * write nothing (every item must reach the barriers). Measured on an H200 (Crytek Sponza,
+ * n 293,682, k 2000; bench/results/2026-12-04-opencl-h200.md), ms for this kernel: f16
+ * 0.519 / 0.451 / 0.454 at UNROLL 8 / 16 / 32, f32 0.644 / 0.640 / 0.608; two rows per
+ * item as one 2-vector load was slower in every storage (f16 0.648, f32 0.853 at 16). */
+#ifndef UNROLL
+#define UNROLL 16
+#endif
+
+__kernel __attribute__((reqd_work_group_size(WG, 1, 1)))
+void fbar_panels(__global const FBAR_T *fbar, __global const float *scale,
+                 __global const float *z, __global const float *E, __global const float *rho,
+                 uint n, uint k, __global float *B, uint np)
+{
+    __local float zl[3 * ZCHUNK];
+    const uint i = get_global_id(0), l = get_local_id(0), ii = i < n ? i : n - 1;
+    __global const FBAR_T *row = fbar + ROW_BASE(ii);
+    const size_t step = ROW_STEP(ii);
+    float t0 = 0, t1 = 0, t2 = 0;
+    for (uint j0 = 0; j0 < k; j0 += ZCHUNK) {
+        const uint m = k - j0 < ZCHUNK ? k - j0 : ZCHUNK;
+        barrier(CLK_LOCAL_MEM_FENCE);
+        for (uint q = l; q < 3 * ZCHUNK; q += WG) {
+            const uint c = q / ZCHUNK, jj = q % ZCHUNK;
+            zl[q] = jj < m ? z[c * k + j0 + jj] : 0.0f;
+        }
+        barrier(CLK_LOCAL_MEM_FENCE);
+        __global const FBAR_T *p = row + (size_t)j0 * step;
+        uint jj = 0;
+        for (; jj + UNROLL <= m; jj += UNROLL) {
+            float f[UNROLL];
+            for (int u = 0; u < UNROLL; u++)
+                f[u] = LOAD(p, (jj + u) * step);
+            for (int u = 0; u < UNROLL; u++) {
+                t0 += f[u] * zl[jj + u];
+                t1 += f[u] * zl[ZCHUNK + jj + u];
+                t2 += f[u] * zl[2 * ZCHUNK + jj + u];
+            }
+        }
+        for (; jj < m; jj++) {
+            const float f = LOAD(p, jj * step);
+            t0 += f * zl[jj];
+            t1 += f * zl[ZCHUNK + jj];
+            t2 += f * zl[2 * ZCHUNK + jj];
+        }
+    }
+    if (i >= n)
+        return;
 #if STORAGE != 0
     const float s = scale[i];
     t0 *= s;
@@ -150,5 +278,52 @@ void fbar_groups(__global const FBAR_T *fbar, __global const float *scale,
         B[b] = E[b] + rho[b] * (red[0] * s);
         B[b + 1] = E[b + 1] + rho[b + 1] * (red[WG] * s);
         B[b + 2] = E[b + 2] + rho[b + 2] * (red[2 * WG] * s);
+    }
+}
+
+/* Sparse F̄: one work-group of TILE * sg items per tile (group id t), sg <= WG / TILE
+ * strip groups: item l takes row r = l % TILE of strips start[t] + l / TILE, + sg, ..., so
+ * the TILE items of a strip read its TILE contiguous values (one 32- or 64-byte run) and
+ * share its column; the sg partial sums of a row meet in local memory. */
+__kernel void fbar_strips(__global const FBAR_T *val, __global const ushort *col,
+                          __global const uint *start, __global const float *scale,
+                          __global const float *z, __global const float *E,
+                          __global const float *rho, uint n, uint k, __global float *B, uint sg)
+{
+    __local float red[3 * WG];
+    const uint t = get_group_id(0), l = get_local_id(0), r = l % TILE, g = l / TILE;
+    float t0 = 0, t1 = 0, t2 = 0;
+    for (uint s = start[t] + g; s < start[t + 1]; s += sg) {
+        const uint q = col[s];
+        const float f = LOAD(val, (size_t)s * TILE + r);
+        t0 += f * z[q];
+        t1 += f * z[k + q];
+        t2 += f * z[2 * k + q];
+    }
+    if (sg > 1) {
+        red[l] = t0;
+        red[WG + l] = t1;
+        red[2 * WG + l] = t2;
+        barrier(CLK_LOCAL_MEM_FENCE);
+        for (uint h = sg / 2; h > 0; h >>= 1) {
+            if (g < h) {
+                red[l] += red[l + h * TILE];
+                red[WG + l] += red[WG + l + h * TILE];
+                red[2 * WG + l] += red[2 * WG + l + h * TILE];
+            }
+            barrier(CLK_LOCAL_MEM_FENCE);
+        }
+        t0 = red[l], t1 = red[WG + l], t2 = red[2 * WG + l];
+    }
+    const uint i = t * TILE + r;
+    if (g == 0 && i < n) {
+        float s = 1;
+#if STORAGE != 0
+        s = scale[i];
+#endif
+        const size_t b = 3 * (size_t)i;
+        B[b] = E[b] + rho[b] * (t0 * s);
+        B[b + 1] = E[b + 1] + rho[b + 1] * (t1 * s);
+        B[b + 2] = E[b + 2] + rho[b + 2] * (t2 * s);
     }
 }

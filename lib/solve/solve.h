@@ -118,15 +118,27 @@ lrr_status lrr__emission_error(lrr_context *ctx, const float *E, size_t bad);
 /* The device side of an OpenCL solver (solve_opencl.c); without OpenCL support create
  * returns LRR_ERR_UNSUPPORTED. */
 typedef struct lrr__cl_solver lrr__cl_solver;
-lrr_status lrr__cl_create(const lrr_operator *op, lrr__cl_solver **out);
+/* F̄ goes up as `format` says (lrr__sparse_create's choice; stats its counts). */
+lrr_status lrr__cl_create(const lrr_operator *op, lrr_fbar_format format,
+                          lrr__sparse_stats *stats, lrr__cl_solver **out);
+/* F̄ on the device dense or as strips from now on (lrr_solver_set_fbar). */
+lrr_status lrr__cl_set_fbar(lrr__cl_solver *cl, lrr_fbar_format format,
+                            lrr__sparse_stats *stats);
+/* The bytes of F̄ a frame reads on the device: dense, or (*sparse = 1) the strips with their
+ * indices. */
+size_t lrr__cl_fbar_bytes(const lrr__cl_solver *cl, int *sparse);
 void lrr__cl_destroy(lrr__cl_solver *cl);
 const char *lrr__cl_name(const lrr__cl_solver *cl); /* "opencl:<device name>" */
 /* One full pass for validated E: E up, three kernels, B down. */
 lrr_status lrr__cl_solve(lrr__cl_solver *cl, const float *E, float *B);
 /* The last frame's kernel and transfer times (profiling events; 0 before the first frame). */
 void lrr__cl_timings(const lrr__cl_solver *cl, double *kernel_ms, double *transfer_ms);
-/* Tests only: the work-group-per-row kernel (GPUs) instead of item-per-row (CPU devices). */
+/* Tests only: the GPU kernels (segsum_groups, smw_groups, fbar_panels or fbar_groups) or
+ * the CPU devices' (segsum, smw, fbar_rows). */
 void lrr__cl_use_groups(lrr__cl_solver *cl, int groups);
+/* The last frame's kernel times for w, z and B (ms; tests and diagnostics). */
+void lrr__cl_step_times(const lrr__cl_solver *cl, double ms[3]);
+void lrr__solver_opencl_step_times(const lrr_solver *s, double ms[3]);
 void lrr__solver_opencl_groups(lrr_solver *s, int groups);
 /* Tests only: F̄ uploaded again in the operator's panels (1, what GPUs get) or as rows (0,
  * what CPU devices get). */

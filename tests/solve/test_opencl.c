@@ -54,6 +54,7 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
         LRR_CHECK(ctx, lrr_solve(cpu, e, ref));
         LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl));
         assert_int_equal(strncmp(lrr_solver_kernel(cl), "opencl:", 7), 0);
+        LRR_CHECK(ctx, lrr_solver_set_fbar(cl, LRR_FBAR_DENSE));
         /* F̄ on the device as the operator's panels (what GPUs get) and as rows (CPU
          * devices), each through both product kernels */
         for (int up = 0; up < 4; up++) {
@@ -84,6 +85,78 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
     free(b);
     free(ref);
     free(e);
+}
+
+/* Sparse F̄ on the device (fbar_strips) against the CPU's dense pass: every storage and
+ * layout, 1 to 8 strip groups (LRR_OPENCL_STRIP_GROUPS), both smw kernels; AUTO chooses as
+ * the CPU solver does; DENSE goes back to the dense kernels. */
+static void compare_sparse(lrr_context *ctx, lrr_operator *op, const char *what)
+{
+    static const lrr_storage storages[] = {LRR_STORAGE_F32, LRR_STORAGE_F16, LRR_STORAGE_BF16};
+    const size_t n = op->n;
+    float *e = test_emission(op);
+    float *ref = malloc(3 * n * sizeof *ref), *b = malloc(3 * n * sizeof *b);
+    assert_true(ref && b);
+    for (int sl = 0; sl < 6; sl++) {
+        LRR_CHECK(ctx, lrr_operator_set_storage(op, storages[sl % 3]));
+        LRR_CHECK(ctx, lrr_operator_set_layout(op, sl < 3 ? LRR_LAYOUT_PANELS : LRR_LAYOUT_ROWS));
+        lrr_solver *cpu, *cl;
+        lrr_solver_info ci, gi;
+        LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &cpu));
+        lrr_solver_get_info(cpu, &ci, sizeof ci);
+        LRR_CHECK(ctx, lrr_solver_set_fbar(cpu, LRR_FBAR_DENSE));
+        LRR_CHECK(ctx, lrr_solver_set_path(cpu, LRR_PATH_FULL));
+        LRR_CHECK(ctx, lrr_solve(cpu, e, ref));
+        for (unsigned sg = 1; sg <= 8; sg *= 2) {
+            char env[8];
+            snprintf(env, sizeof env, "%u", sg);
+            setenv("LRR_OPENCL_STRIP_GROUPS", env, 1);
+            LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl));
+            unsetenv("LRR_OPENCL_STRIP_GROUPS");
+            lrr_solver_get_info(cl, &gi, sizeof gi);
+            assert_int_equal(gi.fbar, ci.fbar); /* AUTO: the CPU's choice */
+            assert_true(gi.fbar_density == ci.fbar_density);
+            LRR_CHECK(ctx, lrr_solver_set_fbar(cl, LRR_FBAR_SPARSE));
+            lrr_solver_get_info(cl, &gi, sizeof gi);
+            assert_int_equal(gi.fbar, LRR_FBAR_SPARSE);
+            lrr__solver_opencl_groups(cl, sg & 1); /* both smw kernels */
+            memset(b, 0xff, 3 * n * sizeof *b);
+            LRR_CHECK(ctx, lrr_solve(cl, e, b));
+            const double r = tu_max_rel(3 * n, b, ref);
+            print_message("%s, %s %s, sparse on the device (%.1f%% of dense bytes), %u strip "
+                          "groups: max |dB| / max |B| = %.2e\n",
+                          what, lrr_storage_name(storages[sl % 3]), sl < 3 ? "panels" : "rows",
+                          100.0 * (double)gi.fbar_bytes / (double)gi.fbar_dense_bytes, sg, r);
+            assert_true(r <= 1e-5);
+            if (sg == 8) { /* and back to dense */
+                LRR_CHECK(ctx, lrr_solver_set_fbar(cl, LRR_FBAR_DENSE));
+                lrr_solver_get_info(cl, &gi, sizeof gi);
+                assert_int_equal(gi.fbar, LRR_FBAR_DENSE);
+                assert_int_equal(gi.fbar_bytes, gi.fbar_dense_bytes);
+                memset(b, 0xff, 3 * n * sizeof *b);
+                LRR_CHECK(ctx, lrr_solve(cl, e, b));
+                assert_true(tu_max_rel(3 * n, b, ref) <= 1e-5);
+            }
+            lrr_solver_destroy(cl);
+        }
+        lrr_solver_destroy(cpu);
+    }
+    free(b);
+    free(ref);
+    free(e);
+}
+
+static void test_sparse(void **state)
+{
+    (void)state;
+    lrr_context *ctx = tu_context();
+    lrr_operator *op = tu_rooms_op(ctx, 96); /* n not a multiple of 16: a partial tile */
+    compare_sparse(ctx, op, "four rooms");
+    lrr_operator_destroy(op);
+    op = triangle_op(ctx, 1); /* F̄ = 0: no strips at all */
+    compare_sparse(ctx, op, "one triangle");
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
 }
 
 static void test_odd_sizes(void **state)
@@ -183,8 +256,13 @@ static void test_timings(void **state)
         LRR_CHECK(ctx, lrr_solve(cl, e, b));
         double wall_ms = (lrr__now() - t0) * 1e3;
         LRR_CHECK(ctx, lrr_solver_timings(cl, &kms, &tms));
-        print_message("n = %zu, k = %zu: kernel %.4f ms + transfer %.4f ms, wall %.4f ms\n",
-                      n, op->k, kms, tms, wall_ms);
+        double step[3];
+        lrr__solver_opencl_step_times(cl, step);
+        print_message("n = %zu, k = %zu: kernel %.4f ms (w %.4f, z %.4f, B %.4f) + transfer "
+                      "%.4f ms, wall %.4f ms\n",
+                      n, op->k, kms, step[0], step[1], step[2], tms, wall_ms);
+        assert_true(step[0] > 0 && step[1] > 0 && step[2] > 0);
+        assert_true(fabs(step[0] + step[1] + step[2] - kms) <= 1e-9 * kms);
         assert_true(isfinite(kms) && kms > 0);
         assert_true(isfinite(tms) && tms > 0);
         /* slack: device and host clocks differ in resolution */
@@ -235,6 +313,7 @@ int main(void)
     /* any other failure is a real one and shows up in the tests below */
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_odd_sizes),
+        cmocka_unit_test(test_sparse),
         cmocka_unit_test(test_cornell_216),
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_timings),

@@ -6,33 +6,6 @@
 
 static const char *const simd[] = {"c", "avx2", "avx512"};
 
-/* Four closed rooms side by side, each 1 × 1 × 1 and 0.5 apart: a patch sees its own room
- * only, so at most a quarter of F̄ is nonzero. The first room's floor emits. */
-static lrr_operator *rooms_op(lrr_context *ctx, size_t K)
-{
-    enum { ROOMS = 4, T = 12 * ROOMS };
-    float v[9 * T], rho[3 * T], e[3 * T];
-    for (int r = 0; r < ROOMS; r++) {
-        tu_box_inward(v + 108 * r, 1, 1, 1);
-        for (int j = 0; j < 36; j++)
-            v[108 * r + 3 * j] += 1.5f * (float)r;
-    }
-    for (int t = 0; t < T; t++)
-        for (int c = 0; c < 3; c++) {
-            rho[3 * t + c] = 0.3f + 0.2f * (float)c;
-            e[3 * t + c] = t == 8 || t == 9 ? 1.0f : 0.0f; /* room 0, z = 0 */
-        }
-    lrr_scene *s;
-    LRR_CHECK(ctx, lrr_scene_create(ctx, T, v, rho, e, "rooms", &s));
-    lrr_subdivision sd = {.target_patches = K, .levels = 1};
-    LRR_CHECK(ctx, lrr_scene_subdivide(s, &sd));
-    lrr_build_options o = {.hemicube_resolution = 32, .seed = 3};
-    lrr_operator *op;
-    LRR_CHECK(ctx, lrr_operator_build(s, &o, &op));
-    lrr_scene_destroy(s);
-    return op;
-}
-
 /* B with F̄ read in `format` on the full path. */
 static void solve_as(lrr_context *ctx, const lrr_operator *op, lrr_fbar_format format,
                      const float *E, float *B, lrr_solver_info *info)
@@ -90,7 +63,7 @@ static void test_rooms(void **state)
 {
     (void)state;
     lrr_context *ctx = tu_context();
-    lrr_operator *op = rooms_op(ctx, 96);
+    lrr_operator *op = tu_rooms_op(ctx, 96);
     const size_t n = op->n, k = op->k;
     float *dense = malloc(3 * n * sizeof(float)), *sparse = malloc(3 * n * sizeof(float));
     for (lrr_storage st = LRR_STORAGE_F32; st <= LRR_STORAGE_BF16; st++) {
@@ -190,7 +163,7 @@ static void test_paths(void **state)
 {
     (void)state;
     lrr_context *ctx = tu_context();
-    lrr_operator *op = rooms_op(ctx, 96);
+    lrr_operator *op = tu_rooms_op(ctx, 96);
     const size_t n = op->n, k = op->k, count = 5;
     float *E = malloc(count * 3 * n * sizeof *E), *B = malloc(count * 3 * n * sizeof *B),
           *ref = malloc(3 * n * sizeof *ref);
@@ -243,7 +216,7 @@ static void test_errors(void **state)
     assert_null(lrr_fbar_format_name((lrr_fbar_format)3));
     lrr_fbar_format back;
     assert_int_equal(lrr_fbar_format_from_name("csr", &back), LRR_ERR_INVALID_ARG);
-    lrr_operator *op = rooms_op(ctx, 24);
+    lrr_operator *op = tu_rooms_op(ctx, 24);
     const size_t n = op->n;
     float *b0 = malloc(3 * n * sizeof *b0), *b1 = malloc(3 * n * sizeof *b1);
     lrr_solver *sv;
@@ -271,14 +244,31 @@ static void test_errors(void **state)
     lrr_solver_get_info(sv, &info, sizeof info);
     assert_int_equal(info.fbar, LRR_FBAR_SPARSE);
     lrr_solver_destroy(sv);
+    /* an OpenCL solver likewise: a failed sparse copy leaves F̄ dense on the device */
     lrr_solver *cl;
     lrr_status s = lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl);
     if (s == LRR_OK) {
-        assert_int_equal(lrr_solver_set_fbar(cl, LRR_FBAR_SPARSE), LRR_ERR_UNSUPPORTED);
-        LRR_CHECK(ctx, lrr_solver_set_fbar(cl, LRR_FBAR_AUTO));
+        LRR_CHECK(ctx, lrr_solver_set_fbar(cl, LRR_FBAR_DENSE));
+        LRR_CHECK(ctx, lrr_solve(cl, op->emission, b0));
+        for (fail = 1;; fail++) {
+            lrr__context_fail_after(ctx, fail);
+            s = lrr_solver_set_fbar(cl, LRR_FBAR_SPARSE);
+            lrr__context_fail_after(ctx, 0);
+            if (s == LRR_OK)
+                break;
+            assert_int_equal(s, LRR_ERR_NOMEM);
+            lrr_solver_get_info(cl, &info, sizeof info);
+            assert_int_equal(info.fbar, LRR_FBAR_DENSE);
+            LRR_CHECK(ctx, lrr_solve(cl, op->emission, b1));
+            assert_memory_equal(b0, b1, 3 * n * sizeof *b0);
+        }
+        print_message("OpenCL sparse copy: allocations 1..%lu failed cleanly\n", fail - 1);
+        assert_true(fail > 3);
         lrr_solver_get_info(cl, &info, sizeof info);
-        assert_int_equal(info.fbar, LRR_FBAR_DENSE);
-        assert_int_equal(info.fbar_bytes, info.fbar_dense_bytes);
+        assert_int_equal(info.fbar, LRR_FBAR_SPARSE);
+        assert_true(info.fbar_bytes < info.fbar_dense_bytes);
+        LRR_CHECK(ctx, lrr_solve(cl, op->emission, b1));
+        assert_true(tu_max_rel(3 * n, b1, b0) <= 1e-5);
         lrr_solver_destroy(cl);
     } else {
         print_message("no OpenCL solver here (%s)\n", lrr_strerror(s));
