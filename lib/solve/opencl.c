@@ -276,12 +276,15 @@ static lrr_status set_dense(lrr__cl_solver *cl)
     lrr_status st;
     if (cl->fbar)
         return LRR_OK;
-    release_mem(&cl->sval), release_mem(&cl->scol), release_mem(&cl->sstart);
+    /* the strips stay until F̄ is up: on an error the solver reads them as before */
     if ((st = check_fits(cl, bytes, bytes, "F̄")) ||
         (st = new_buffer(cl, CL_MEM_READ_ONLY, bytes, NULL, "F̄", &cl->fbar)) ||
-        (st = upload_fbar(cl, !cl->cpu_device)))
+        (st = upload_fbar(cl, !cl->cpu_device))) {
         release_mem(&cl->fbar);
-    return st;
+        return st;
+    }
+    release_mem(&cl->sval), release_mem(&cl->scol), release_mem(&cl->sstart);
+    return LRR_OK;
 }
 
 /* The strips of sp on the device (start as 32-bit offsets), the dense F̄ released. */
