@@ -131,6 +131,10 @@ __attribute__((target("avx2,fma,f16c"))) static inline __m256 ld8_f16(const uint
 {
     return _mm256_cvtph_ps(_mm_loadu_si128((const __m128i *)p));
 }
+/* A widening load and a shift per 8 codes. Two unpacks with zero per 16 codes (rows
+ * {0-3, 8-11} and {4-7, 12-15}, put back in order per panel) were slower: 221184 × 216,
+ * LRR_SIMD=avx2, Zen 5, 2 rounds interleaved with this: 2.53 and 2.66× the floor against
+ * 2.29 and 1.86× (lrr-bench realtime, a busy hour). */
 __attribute__((target("avx2,fma,f16c"))) static inline __m256 ld8_bf16(const uint16_t *p)
 {
     return _mm256_castsi256_ps(
