@@ -361,7 +361,8 @@ LRR_API LRR_NODISCARD lrr_status lrr_operator_build(const lrr_scene *scene,
                                                     lrr_operator **out) LRR_NONNULL(1, 3);
 LRR_API void lrr_operator_destroy(lrr_operator *op);
 
-/* Writes the operator, its scene emission and the geometry needed to draw it, atomically:
+/* Writes the operator, its scene emission and the geometry needed to draw it (F̄ sparse
+ * where that is at most half the dense bytes: lrr_operator_save_fbar's AUTO), atomically:
  * to a temporary file "path.tmp.XXXXXX" in the same directory, flushed and fsynced, then
  * renamed onto path. Whatever fails (a full disk, a file-size limit, a read-only directory)
  * or wherever the process dies, path is either untouched (absent, or the previous file byte
@@ -371,7 +372,8 @@ LRR_API void lrr_operator_destroy(lrr_operator *op);
  * lrr_operator_load; delete it once no save is running). Thread safety: any thread. */
 LRR_API LRR_NODISCARD lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     LRR_NONNULL(1, 2);
-/* Truncated, corrupted or foreign files give LRR_ERR_CORRUPT / LRR_ERR_VERSION. */
+/* Reads files of any version (1 to 5). Truncated, corrupted or foreign files give
+ * LRR_ERR_CORRUPT / LRR_ERR_VERSION. */
 LRR_API LRR_NODISCARD lrr_status lrr_operator_load(lrr_context *ctx, const char *path,
                                                    lrr_operator **out) LRR_NONNULL(1, 2, 3);
 
@@ -580,7 +582,8 @@ LRR_API LRR_NODISCARD lrr_status lrr_solver_set_cache(lrr_solver *solver, size_t
  * only the strips of 16 rows × 1 column that hold a nonzero, in F̄'s storage with a 16-bit
  * column index each (k <= 65535), copied once from the operator; B equals the dense pass's
  * up to the order of the sums. AUTO, what lrr_solver_create chooses, is SPARSE where that
- * reads at most half of the dense bytes. The operator and its files keep F̄ dense. */
+ * reads at most half of the dense bytes. The operator keeps F̄ dense; its files store the
+ * strips where AUTO would read them (lrr_operator_save_fbar). */
 typedef enum lrr_fbar_format {
     LRR_FBAR_AUTO = 0,
     LRR_FBAR_DENSE = 1,
@@ -592,6 +595,16 @@ LRR_API const char *lrr_fbar_format_name(lrr_fbar_format format);
 /* The inverse of lrr_fbar_format_name; LRR_ERR_INVALID_ARG for an unknown name. */
 LRR_API LRR_NODISCARD lrr_status lrr_fbar_format_from_name(const char *name,
                                                            lrr_fbar_format *out)
+    LRR_NONNULL(1, 2);
+/* lrr_operator_save with F̄ stored as chosen: DENSE, all n·k entries (file versions 1 to 4,
+ * which every lrr reads); SPARSE, only the strips that hold a nonzero, as the solver's
+ * sparse copy (file version 5, which older readers refuse by its version;
+ * LRR_ERR_UNSUPPORTED when k > 65535); AUTO, what lrr_operator_save does: SPARSE where a
+ * solver's AUTO reads F̄ sparse (at most half the dense bytes), else DENSE. F̄ loads back
+ * bit for bit either way. Thread safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_save_fbar(const lrr_operator *op,
+                                                        const char *path,
+                                                        lrr_fbar_format fbar)
     LRR_NONNULL(1, 2);
 /* Reads F̄ in the given format from now on (one pass over the operator's F̄ to count and
  * copy its strips); on an error the solver reads F̄ as before. An OpenCL solver holds one

@@ -11,10 +11,12 @@ static const char info_help[] =
     "       lrr info FILE.lrr\n"
     "Prints scene statistics as 'key: value' lines (scene, triangles, skipped, patches,\n"
     "subpatches, d, area, emitters, max_patch_area, bounds_min, bounds_max), or for an\n"
-    "operator file (a .lrr of 'lrr preprocess') what 'lrr preprocess' printed of it: n, k,\n"
-    "d, hierarchy, hemicube, receiver, seed, build_seconds, the condition estimates,\n"
-    "storage, memory_mb and, when it was verified (--verify), verify_rel_l2,\n"
-    "verify_noise, verify_subpatches, verify_samples, verify_seconds, verify_emission;\n"
+    "operator file (a .lrr of 'lrr preprocess') file_version (5: F̄ stored as strips; 1 to\n"
+    "4: dense; 'lrr preprocess --fbar-file'), file_bytes, then what 'lrr preprocess'\n"
+    "printed of it: n, k, d, hierarchy, hemicube, receiver, seed, build_seconds, the\n"
+    "condition estimates, storage, memory_mb and, when it was verified (--verify),\n"
+    "verify_rel_l2, verify_noise, verify_subpatches, verify_samples, verify_seconds,\n"
+    "verify_emission;\n"
     "then how 'lrr solve' reads F̄ (a CPU solver's --fbar auto): fbar (dense or sparse),\n"
     "fbar_bytes (read per full frame), fbar_dense_bytes, fbar_density (nonzero entries /\n"
     "n·k), fbar_strip_density (entries of the 16-row strips that hold a nonzero / n·k).\n"
@@ -38,17 +40,20 @@ static int print_fbar_info(lrr_context *ctx, const lrr_operator *op)
     return CLI_EXIT_OK;
 }
 
-/* 1 when the file starts with the .lrr magic ("LRROPER\0"). */
-static int is_operator_file(const char *path)
+/* 1 when the file starts with the .lrr magic ("LRROPER\0"); then *version is its format
+ * version (bytes 8..11, little-endian) and *bytes its size. */
+static int is_operator_file(const char *path, unsigned *version, long *bytes)
 {
-    char magic[8] = {0};
+    unsigned char head[12] = {0};
     const char *why = NULL;
     FILE *f = cli_open_regular(path, &why); /* a FIFO would block fopen */
     if (!f)
         return 0; /* the scene loader reports why */
-    size_t got = fread(magic, 1, sizeof magic, f);
+    size_t got = fread(head, 1, sizeof head, f);
+    *bytes = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
     fclose(f);
-    return got == sizeof magic && memcmp(magic, "LRROPER", 8) == 0;
+    *version = head[8] | head[9] << 8 | head[10] << 16 | (unsigned)head[11] << 24;
+    return got == sizeof head && memcmp(head, "LRROPER", 8) == 0;
 }
 
 int cmd_info(int argc, char *argv[])
@@ -86,11 +91,15 @@ int cmd_info(int argc, char *argv[])
     lrr_status s = lrr_context_create(&ctx);
     if (s != LRR_OK)
         return cli_lib_error(NULL, s);
-    if (is_operator_file(name)) {
+    unsigned version;
+    long bytes;
+    if (is_operator_file(name, &version, &bytes)) {
         lrr_operator *op = NULL;
         rc = load_operator(ctx, name, &op);
         if (rc == CLI_EXIT_OK) {
             printf("file: %s\n", name);
+            printf("file_version: %u\n", version);
+            printf("file_bytes: %ld\n", bytes);
             print_operator_info(op);
             rc = print_fbar_info(ctx, op);
         }

@@ -31,6 +31,11 @@ static const char preprocess_help[] =
     "  --storage S          f32 (default), f16 or bf16: how F̄ is stored. 16-bit halves the\n"
     "                       file, the memory and the bytes each frame reads; f16 rows carry\n"
     "                       a power-of-two scale, and M is recomputed from the rounded F̄\n"
+    "  --fbar-file F        auto (default), dense or sparse: how FILE.lrr stores F̄. sparse\n"
+    "                       keeps only the strips of 16 rows × 1 column that hold a nonzero\n"
+    "                       (file version 5, which older lrr refuse; k <= 65535), dense\n"
+    "                       every entry (versions 1 to 4); auto is sparse where that is at\n"
+    "                       most half the dense bytes (as 'lrr solve --fbar auto' decides)\n"
     "  --backend B          cpu (default) or opencl: where the hemicube pixels are integrated\n"
     "                       into F̄ (rasterisation stays on the CPU; LRR_OPENCL_DEVICE picks\n"
     "                       the device as for 'lrr solve'; the same F̄ to rounding)\n"
@@ -81,6 +86,7 @@ typedef struct preprocess_args {
     int adaptive_split, adaptive_only;
     size_t budget;
     int auto_hierarchy;    /* no hierarchy or subdivision option: chosen by the scene */
+    int fbar_file;         /* --fbar-file: lrr_fbar_format */
     int verify;            /* --verify given */
     size_t verify_samples; /* its S; 0 = automatic */
 } preprocess_args;
@@ -122,6 +128,15 @@ static int preprocess_option(preprocess_args *a, int c, const char *arg)
             return -1;
         }
         return 1;
+    case OPT_FBAR_FILE: {
+        lrr_fbar_format f;
+        if (lrr_fbar_format_from_name(arg, &f) != LRR_OK) {
+            cli_usage_error(prog, "--fbar-file: '%s' is not one of auto, dense, sparse", arg);
+            return -1;
+        }
+        a->fbar_file = (int)f;
+        return 1;
+    }
     case OPT_MEMORY_BUDGET:
         return parse_operator_budget(prog, arg, &a->budget) != 0 ? -1 : 1;
     case OPT_VERIFY:
@@ -189,6 +204,7 @@ static int parse_preprocess(preprocess_args *a, int argc, char *argv[])
     static const struct option longopts[] = {
         {"output", required_argument, NULL, 'o'},
         {"storage", required_argument, NULL, OPT_STORAGE},
+        {"fbar-file", required_argument, NULL, OPT_FBAR_FILE},
         {"backend", required_argument, NULL, OPT_BACKEND},
         {"adaptive", required_argument, NULL, OPT_ADAPTIVE},
         {"clusters", required_argument, NULL, OPT_CLUSTERS},
@@ -308,7 +324,7 @@ static int build_and_save(lrr_context *ctx, const preprocess_args *a, const lrr_
         if (a->verify)
             s = verify(*op, a, scene);
         if (s == LRR_OK)
-            s = lrr_operator_save(*op, a->output);
+            s = lrr_operator_save_fbar(*op, a->output, (lrr_fbar_format)a->fbar_file);
     }
     if (s != LRR_OK)
         rc = cli_lib_error(ctx, s);

@@ -89,7 +89,8 @@ enum {
     OPT_SAMPLES,
     OPT_FORMFACTOR,
     OPT_RECEIVER,
-    OPT_VERIFY
+    OPT_VERIFY,
+    OPT_FBAR_FILE
 };
 
 /* ------------------------------------------------------------------ help fragments */

@@ -20,22 +20,15 @@ static const char *section_name(uint32_t id)
 {
     static const char *const names[] = {"?",    "GEOMETRY", "RHO",      "EMISSION", "FBAR",
                                         "M",    "INFO",     "ROWSCALE", "PATCHES",
-                                        "CLUSTERS", "VERIFY"};
+                                        "CLUSTERS", "VERIFY", "FBAR_STRIPS"};
     return id >= 1 && id <= SEC_KNOWN ? names[id] : "unknown";
 }
 
 /* ------------------------------------------------------------ loading */
-struct reader {
-    lrr_context *ctx;
-    const char *path;
-    int fd;
-    uint64_t file_size;
-};
-
-/* Reads len bytes at offset. The ranges were checked against the size fstat reported, so a
- * short read means the file shrank underneath us: report it as truncation. */
-static lrr_status read_at(struct reader *r, uint64_t offset, void *buf, size_t len,
-                          const char *what)
+/* The ranges were checked against the size fstat reported, so a short read means the file
+ * shrank underneath us: report it as truncation. */
+lrr_status lrr__file_read_at(struct reader *r, uint64_t offset, void *buf, size_t len,
+                             const char *what)
 {
     unsigned char *p = buf;
     while (len > 0) {
@@ -62,7 +55,7 @@ static lrr_status read_at(struct reader *r, uint64_t offset, void *buf, size_t l
 /* Reads a section into buf and verifies its checksum. */
 static lrr_status read_section(struct reader *r, const struct section *s, void *buf)
 {
-    lrr_status st = read_at(r, s->offset, buf, (size_t)s->size, section_name(s->id));
+    lrr_status st = lrr__file_read_at(r, s->offset, buf, (size_t)s->size, section_name(s->id));
     if (st)
         return st;
     uint64_t h = lrr__file_checksum(buf, (size_t)s->size);
@@ -97,7 +90,8 @@ struct header {
     uint64_t n, k, d;
     bool adaptive;  /* d = 0: version 2 (PATCHES) or 3 (CLUSTERS) */
     bool clusters;  /* version 3 or 4 */
-    bool visibility; /* version 4: Vᵀ's weights from F̄'s row sums */
+    bool visibility; /* version 4 (5: INFO bit 2): Vᵀ's weights from F̄'s row sums */
+    bool strips;     /* version 5: F̄ as FBAR_STRIPS, any hierarchy */
 };
 
 /* Reads the header into h and checks that it is one this library reads: magic, version and
@@ -106,7 +100,7 @@ struct header {
 static lrr_status read_header(struct reader *r, unsigned char h[HEADER_SIZE])
 {
     size_t have = r->file_size < HEADER_SIZE ? (size_t)r->file_size : HEADER_SIZE;
-    lrr_status st = read_at(r, 0, h, have, "header");
+    lrr_status st = lrr__file_read_at(r, 0, h, have, "header");
     if (st)
         return st;
     if (memcmp(h, MAGIC, have < 8 ? have : 8) != 0)
@@ -117,11 +111,11 @@ static lrr_status read_header(struct reader *r, unsigned char h[HEADER_SIZE])
                           "file %s: truncated: the header needs bytes 0..%u, file has %" PRIu64,
                           r->path, HEADER_SIZE, r->file_size);
     uint32_t version = get32(h + 8), mark = get32(h + 12);
-    if (version < FILE_VERSION || version > FILE_VERSION_VISIBILITY)
+    if (version < FILE_VERSION || version > FILE_VERSION_STRIPS)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
                           "file %s: format version %" PRIu32 ", this library reads versions "
                           "%u to %u",
-                          r->path, version, FILE_VERSION, FILE_VERSION_VISIBILITY);
+                          r->path, version, FILE_VERSION, FILE_VERSION_STRIPS);
     if (mark == 0x04030201u)
         return lrr__error(r->ctx, LRR_ERR_VERSION,
                           "file %s: written with the other byte order (big-endian)", r->path);
@@ -160,10 +154,16 @@ static lrr_status check_header(struct reader *r, const unsigned char h[HEADER_SI
                           "1 = binary16, 2 = bfloat16)",
                           r->path, hd->dtype);
     /* versions 2 to 4: adaptive or cluster hierarchy, d = 0, patch sizes from PATCHES or
-     * CLUSTERS */
-    hd->adaptive = hd->version != FILE_VERSION;
-    hd->clusters = hd->version >= FILE_VERSION_CLUSTER;
+     * CLUSTERS; version 5 any of them (find_sections tells which, info_weights the
+     * weights) */
+    hd->strips = hd->version == FILE_VERSION_STRIPS;
+    hd->adaptive = hd->strips ? hd->d == 0 : hd->version != FILE_VERSION;
+    hd->clusters = !hd->strips && hd->version >= FILE_VERSION_CLUSTER;
     hd->visibility = hd->version == FILE_VERSION_VISIBILITY;
+    if (hd->strips && hd->k > UINT16_MAX)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: version 5 with k = %" PRIu64 " (its strips' columns are "
+                          "16-bit: k <= %u)", r->path, hd->k, (unsigned)UINT16_MAX);
     if (hd->adaptive != (hd->d == 0))
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: version %" PRIu32 " with d = %" PRIu64 " (version 1 has "
@@ -194,7 +194,7 @@ static lrr_status read_table(struct reader *r, uint32_t count,
                           "file %s: truncated: the section table needs bytes %u..%zu, file has "
                           "%" PRIu64,
                           r->path, HEADER_SIZE, HEADER_SIZE + *tsize, r->file_size);
-    lrr_status st = read_at(r, HEADER_SIZE, table, *tsize, "section table");
+    lrr_status st = lrr__file_read_at(r, HEADER_SIZE, table, *tsize, "section table");
     if (st)
         return st;
     if (lrr__file_checksum(table, *tsize - 8) != get64(table + *tsize - 8))
@@ -203,9 +203,54 @@ static lrr_status read_table(struct reader *r, uint32_t count,
     return LRR_OK;
 }
 
+/* Whether a file of this kind reads section id; it skips the others (a later minor addition,
+ * or a section its kind ignores). */
+static bool wanted(const struct header *hd, uint32_t id)
+{
+    switch (id) {
+    case SEC_ROWSCALE:
+        return hd->dtype != DTYPE_F32;
+    case SEC_PATCHES:
+        return hd->adaptive && (hd->strips || !hd->clusters);
+    case SEC_CLUSTERS:
+        return hd->strips ? hd->adaptive : hd->clusters;
+    case SEC_FBAR_STRIPS:
+        return hd->strips;
+    default:
+        return id >= 1 && id <= SEC_KNOWN;
+    }
+}
+
+/* Whether a file of this kind must have section id (version 5's hierarchy is checked after). */
+static bool required(const struct header *hd, uint32_t id)
+{
+    if (id == SEC_FBAR || id == SEC_FBAR_STRIPS)
+        return (id == SEC_FBAR_STRIPS) == hd->strips;
+    return id <= SEC_COUNT || (id == SEC_ROWSCALE && hd->dtype != DTYPE_F32) ||
+           (!hd->strips && ((id == SEC_PATCHES && hd->adaptive && !hd->clusters) ||
+                            (id == SEC_CLUSTERS && hd->clusters)));
+}
+
+/* Version 5: F̄ only as strips, and with d = 0 exactly one of PATCHES and CLUSTERS, which
+ * says the hierarchy (hd->clusters). */
+static lrr_status strips_kind(struct reader *r, struct header *hd, const bool seen[SEC_KNOWN])
+{
+    if (seen[SEC_FBAR - 1])
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: version 5 holds F̄ as FBAR_STRIPS, yet has a section FBAR",
+                          r->path);
+    if (hd->adaptive && seen[SEC_PATCHES - 1] == seen[SEC_CLUSTERS - 1])
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: version 5 with d = 0 has %s of PATCHES and CLUSTERS "
+                          "(needs exactly one)", r->path,
+                          seen[SEC_PATCHES - 1] ? "both" : "neither");
+    hd->clusters = seen[SEC_CLUSTERS - 1];
+    return LRR_OK;
+}
+
 /* Collects the known sections of the table into sec (indexed by id-1), each once, inside the
  * file and after the table, and checks that none this file's kind needs is missing. */
-static lrr_status find_sections(struct reader *r, const struct header *hd,
+static lrr_status find_sections(struct reader *r, struct header *hd,
                                 const unsigned char *table, size_t tsize,
                                 struct section sec[SEC_KNOWN])
 {
@@ -213,10 +258,8 @@ static lrr_status find_sections(struct reader *r, const struct header *hd,
     for (uint32_t i = 0; i < hd->count; i++) {
         const unsigned char *e = table + i * ENTRY_SIZE;
         struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24), NULL};
-        if (s.id < 1 || s.id > SEC_KNOWN || (s.id == SEC_ROWSCALE && hd->dtype == DTYPE_F32) ||
-            (s.id == SEC_PATCHES && (!hd->adaptive || hd->clusters)) ||
-            (s.id == SEC_CLUSTERS && !hd->clusters))
-            continue; /* a later minor addition, or a section this file's kind ignores */
+        if (!wanted(hd, s.id))
+            continue;
         if (seen[s.id - 1])
             return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s appears twice",
                               r->path, section_name(s.id));
@@ -235,13 +278,11 @@ static lrr_status find_sections(struct reader *r, const struct header *hd,
         seen[s.id - 1] = true;
         sec[s.id - 1] = s;
     }
-    for (int i = 0; i < SEC_KNOWN; i++)
-        if (!seen[i] && (i < SEC_COUNT || (i == SEC_ROWSCALE - 1 && hd->dtype != DTYPE_F32) ||
-                         (i == SEC_PATCHES - 1 && hd->adaptive && !hd->clusters) ||
-                         (i == SEC_CLUSTERS - 1 && hd->clusters)))
+    for (uint32_t id = 1; id <= SEC_KNOWN; id++)
+        if (!seen[id - 1] && required(hd, id))
             return lrr__error(r->ctx, LRR_ERR_CORRUPT, "file %s: section %s is missing",
-                              r->path, section_name((uint32_t)i + 1));
-    return LRR_OK;
+                              r->path, section_name(id));
+    return hd->strips ? strips_kind(r, hd, seen) : LRR_OK;
 }
 
 /* Checks each section's size against n and k (GEOMETRY's against its triangle count comes
@@ -264,9 +305,10 @@ static lrr_status check_section_sizes(struct reader *r, const struct header *hd,
                           "file %s: implausible sizes n = %" PRIu64 ", k = %" PRIu64
                           " (n·k overflows)",
                           r->path, n, k);
-    if ((st = expect_size(r, &sec[SEC_FBAR - 1], nk_elems,
-                          dtype == DTYPE_F32 ? sizeof(float) : sizeof(uint16_t),
-                          dtype == DTYPE_F32 ? "n·k floats" : "n·k 16-bit values")) ||
+    if ((!hd->strips && (st = expect_size(r, &sec[SEC_FBAR - 1], nk_elems,
+                                          dtype == DTYPE_F32 ? sizeof(float) : sizeof(uint16_t),
+                                          dtype == DTYPE_F32 ? "n·k floats"
+                                                             : "n·k 16-bit values"))) ||
         (dtype != DTYPE_F32 &&
          (st = expect_size(r, &sec[SEC_ROWSCALE - 1], n, sizeof(float), "n floats"))) ||
         (st = expect_size(r, &sec[SEC_M - 1], kk_elems, 3 * sizeof(float), "3·k·k floats")) ||
@@ -277,6 +319,12 @@ static lrr_status check_section_sizes(struct reader *r, const struct header *hd,
         (sec[SEC_VERIFY - 1].id &&
          (st = expect_size(r, &sec[SEC_VERIFY - 1], 1, VERIFY_SIZE, "the VERIFY record"))))
         return st;
+    /* the strip counts are read first: at least their bytes (the rest follows from them) */
+    if (hd->strips && sec[SEC_FBAR_STRIPS - 1].size < strips_counts_bytes(n))
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section FBAR_STRIPS has %" PRIu64 " bytes, less than its "
+                          "%" PRIu64 " bytes of strip counts",
+                          r->path, sec[SEC_FBAR_STRIPS - 1].size, strips_counts_bytes(n));
     if (sec[SEC_GEOMETRY - 1].size < GEOM_PREFIX)
         return lrr__error(r->ctx, LRR_ERR_CORRUPT,
                           "file %s: section GEOMETRY has %" PRIu64 " bytes (at least %u)",
@@ -284,27 +332,19 @@ static lrr_status check_section_sizes(struct reader *r, const struct header *hd,
     return LRR_OK;
 }
 
-/* Reads and validates header and section table into sec[SEC_KNOWN] (indexed by id-1). */
-static lrr_status read_layout(struct reader *r, uint64_t *n, uint64_t *k, uint64_t *d,
-                              uint32_t *dtype_out, bool *clusters, bool *visibility,
-                              struct section sec[SEC_KNOWN])
+/* Reads and validates header (into hd) and section table into sec[SEC_KNOWN] (indexed by
+ * id-1). */
+static lrr_status read_layout(struct reader *r, struct header *hd, struct section sec[SEC_KNOWN])
 {
     unsigned char h[HEADER_SIZE];
     unsigned char table[MAX_SECTIONS * ENTRY_SIZE + 8];
-    struct header hd = {0};
     size_t tsize;
     lrr_status st;
-    if ((st = read_header(r, h)) || (st = check_header(r, h, &hd)) ||
-        (st = read_table(r, hd.count, table, &tsize)) ||
-        (st = find_sections(r, &hd, table, tsize, sec)) ||
-        (st = check_section_sizes(r, &hd, sec)))
+    if ((st = read_header(r, h)) || (st = check_header(r, h, hd)) ||
+        (st = read_table(r, hd->count, table, &tsize)) ||
+        (st = find_sections(r, hd, table, tsize, sec)) ||
+        (st = check_section_sizes(r, hd, sec)))
         return st;
-    *n = hd.n;
-    *k = hd.k;
-    *d = hd.d;
-    *dtype_out = hd.dtype;
-    *clusters = hd.clusters;
-    *visibility = hd.visibility;
     return LRR_OK;
 }
 
@@ -426,78 +466,6 @@ done:
     return st;
 }
 
-static lrr_status check_values(struct reader *r, const lrr_operator *op)
-{
-    size_t n3 = op->n * 3;
-    for (size_t i = 0; i < n3; i++) {
-        float v = op->rho[i];
-        if (!(v >= 0.0f && v < 1.0f))
-            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
-                              "file %s: section RHO: subpatch %zu channel %zu has reflectance "
-                              "%g outside [0,1)",
-                              r->path, i / 3, i % 3, (double)v);
-        float e = op->emission[i];
-        if (!(e >= 0.0f) || isinf(e))
-            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
-                              "file %s: section EMISSION: subpatch %zu channel %zu has emission "
-                              "%g (must be finite and >= 0)",
-                              r->path, i / 3, i % 3, (double)e);
-    }
-    /* A non-finite F̄ or M would turn every solve into silent NaN. */
-    size_t nk = op->n * op->k;
-    /* binary16 and bfloat16 mark Inf/NaN by an all-ones exponent */
-    const uint16_t expmask = op->storage == LRR_STORAGE_F16 ? 0x7c00u : 0x7f80u;
-    for (size_t i = 0; i < nk; i++)
-        if (op->fbar ? !isfinite(op->fbar[i]) : (op->fbar16[i] & expmask) == expmask)
-            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
-                              "file %s: section FBAR: entry (%zu, %zu) is not finite", r->path,
-                              i / op->k, i % op->k);
-    for (size_t i = 0; op->row_scale && i < op->n; i++) {
-        int e;
-        if (!(op->row_scale[i] > 0) || !isfinite(op->row_scale[i]) ||
-            frexpf(op->row_scale[i], &e) != 0.5f)
-            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
-                              "file %s: section ROWSCALE: row %zu has scale %g (must be a "
-                              "positive power of two)",
-                              r->path, i, (double)op->row_scale[i]);
-        /* bfloat16 has float's range and is stored unscaled (storage.c). The kernels fold
-         * the scale in after the dot product, so huge stored values under a tiny scale
-         * would overflow there although the decoded F̄ is small. */
-        if (op->storage == LRR_STORAGE_BF16 && op->row_scale[i] != 1.0f)
-            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
-                              "file %s: section ROWSCALE: row %zu has scale %g (bfloat16 rows "
-                              "are stored unscaled: 1)",
-                              r->path, i, (double)op->row_scale[i]);
-    }
-    /* F̄ holds form factors divided by d: each in [0, 1] (FBAR_MAX allows for the rounding
-     * of 16-bit storage). Anything else is corruption, and could make a solve overflow. */
-    float *row = NULL;
-    lrr_status st = lrr__calloc(r->ctx, &row, op->k, sizeof(float), "F̄ row");
-    if (st)
-        return st;
-    for (size_t i = 0; i < op->n && st == LRR_OK; i++) {
-        lrr_operator_fbar_row(op, i, row);
-        for (size_t j = 0; j < op->k; j++)
-            if (!(row[j] >= 0.0f && row[j] <= FBAR_MAX)) {
-                st = lrr__error(r->ctx, LRR_ERR_CORRUPT,
-                                "file %s: section FBAR: entry (%zu, %zu) is %g (form factors "
-                                "divided by d lie in [0, 1])",
-                                r->path, i, j, (double)row[j]);
-                break;
-            }
-    }
-    lrr_aligned_free(row);
-    if (st)
-        return st;
-    size_t kk = op->k * op->k;
-    for (size_t i = 0; i < 3 * kk; i++)
-        if (!isfinite(op->m[i]))
-            return lrr__error(r->ctx, LRR_ERR_CORRUPT,
-                              "file %s: section M: channel %zu entry (%zu, %zu) is not finite",
-                              r->path, i / kk, i % kk / op->k, i % op->k);
-    return LRR_OK;
-}
-
 /* The optional VERIFY record (lrr_file.c) into op->verify, its values checked. */
 static lrr_status read_verify(struct reader *r, const struct section *s, lrr_operator *op)
 {
@@ -527,6 +495,41 @@ static lrr_status read_verify(struct reader *r, const struct section *s, lrr_ope
     return LRR_OK;
 }
 
+/* Version 5 keeps version 4's weights in INFO flags bit 2 (clusters only); versions 1 to 4
+ * say them by their number and never set it. */
+static lrr_status info_weights(struct reader *r, struct header *hd, uint32_t flags)
+{
+    if (!hd->strips)
+        return LRR_OK;
+    if ((flags & INFO_VISIBILITY) && !hd->clusters)
+        return lrr__error(r->ctx, LRR_ERR_CORRUPT,
+                          "file %s: section INFO: flag bit 2 (clusters' weights from F̄'s row "
+                          "sums) on a file without clusters", r->path);
+    hd->visibility = (flags & INFO_VISIBILITY) != 0;
+    return LRR_OK;
+}
+
+/* F̄ (and its row scales) into op: dense FBAR as rows, checked after reading; or FBAR_STRIPS
+ * expanded straight into panels (the zeroed F̄ is valid in any layout), the row scales
+ * checked first since the strips' checks decode with them. */
+static lrr_status read_fbar(struct reader *r, const struct header *hd,
+                            const struct section sec[SEC_KNOWN], lrr_operator *op)
+{
+    lrr_status st;
+    if (hd->dtype != DTYPE_F32 && (st = read_section(r, &sec[SEC_ROWSCALE - 1], op->row_scale)))
+        return st;
+    if (hd->strips) {
+        if ((st = lrr__check_row_scales(r, op)))
+            return st;
+        op->panels = 1;
+        return lrr__strips_load(r, &sec[SEC_FBAR_STRIPS - 1], op);
+    }
+    if ((st = read_section(r, &sec[SEC_FBAR - 1],
+                           hd->dtype == DTYPE_F32 ? (void *)op->fbar : (void *)op->fbar16)))
+        return st;
+    return lrr__check_fbar(r, op);
+}
+
 lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **out)
 {
     *out = NULL;
@@ -545,10 +548,8 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     }
     r.file_size = (uint64_t)sb.st_size;
 
-    uint64_t n = 0, k = 0, d = 0;
+    struct header hd = {0};
     struct section sec[SEC_KNOWN] = {{0}};
-    uint32_t dtype = 0;
-    bool clusters = false, visibility = false;
     unsigned char *geom_buf = NULL;
     lrr__geometry g;
     memset(&g, 0, sizeof g);
@@ -557,30 +558,28 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     int builtin = 0;
     double selection_seconds = 0;
 
-    lrr_status st = read_layout(&r, &n, &k, &d, &dtype, &clusters, &visibility, sec);
+    lrr_status st = read_layout(&r, &hd, sec);
     if (st)
         goto done;
     const struct section *gs = &sec[SEC_GEOMETRY - 1];
     if ((st = lrr__calloc(ctx, &geom_buf, (size_t)gs->size, 1, "GEOMETRY section")) ||
         (st = read_section(&r, gs, geom_buf)) ||
-        (st = parse_geometry(&r, geom_buf, gs->size, n, k, d, &g, &builtin)) ||
-        (d == 0 && !clusters &&
-         (st = parse_patches(&r, &sec[SEC_PATCHES - 1], k, &g, &selection_seconds))) ||
-        (clusters &&
-         (st = parse_clusters(&r, &sec[SEC_CLUSTERS - 1], k, &g, &selection_seconds))) ||
-        (st = read_section(&r, &sec[SEC_INFO - 1], info)))
-        goto done;
-    if ((st = lrr__operator_new(ctx, &g, (lrr_storage)dtype, &op)))
+        (st = parse_geometry(&r, geom_buf, gs->size, hd.n, hd.k, hd.d, &g, &builtin)) ||
+        (hd.adaptive && !hd.clusters &&
+         (st = parse_patches(&r, &sec[SEC_PATCHES - 1], hd.k, &g, &selection_seconds))) ||
+        (hd.clusters &&
+         (st = parse_clusters(&r, &sec[SEC_CLUSTERS - 1], hd.k, &g, &selection_seconds))) ||
+        (st = read_section(&r, &sec[SEC_INFO - 1], info)) ||
+        (st = info_weights(&r, &hd, get32(info + 36))) ||
+        (st = lrr__operator_new(ctx, &g, (lrr_storage)hd.dtype, &op)))
         goto done;
     if ((st = read_section(&r, &sec[SEC_RHO - 1], op->rho)) ||
         (st = read_section(&r, &sec[SEC_EMISSION - 1], op->emission)) ||
-        (st = read_section(&r, &sec[SEC_FBAR - 1],
-                           dtype == DTYPE_F32 ? (void *)op->fbar : (void *)op->fbar16)) ||
-        (dtype != DTYPE_F32 && (st = read_section(&r, &sec[SEC_ROWSCALE - 1], op->row_scale))) ||
-        (st = read_section(&r, &sec[SEC_M - 1], op->m)) || (st = check_values(&r, op)) ||
-        (op->weighting = visibility ? LRR__WEIGHTS_VISIBILITY : LRR__WEIGHTS_AREA,
+        (st = lrr__check_materials(&r, op)) || (st = read_fbar(&r, &hd, sec, op)) ||
+        (st = read_section(&r, &sec[SEC_M - 1], op->m)) || (st = lrr__check_m(&r, op)) ||
+        (op->weighting = hd.visibility ? LRR__WEIGHTS_VISIBILITY : LRR__WEIGHTS_AREA,
          st = lrr__visibility_weights(op)) || /* the weights M was factorised with */
-        (st = lrr__fbar_set_panels(op, 1))) /* files hold rows; the kernels read panels */
+        (st = lrr__fbar_set_panels(op, 1))) /* the kernels read panels (no-op for strips) */
         goto done;
     for (int c = 0; c < 3; c++)
         memcpy(&op->cond[c], info + 8 * c, 8);

@@ -1,28 +1,36 @@
 /* The versioned binary operator file (.lrr): lrr_operator_save here, lrr_operator_load in
- * load.c; the constants and helpers both share are in format.h.
+ * load.c (its value checks in check.c), FBAR_STRIPS both ways in strips.c; the constants and
+ * helpers they share are in format.h.
  *
- * Format, versions 1 to 4. All integers and floats are little-endian (IEEE 754); offsets and
+ * Format, versions 1 to 5. All integers and floats are little-endian (IEEE 754); offsets and
  * sizes are in bytes from the start of the file. Version 2 adds the adaptive hierarchy
  * (d = 0 and a PATCHES section), version 3 the cluster hierarchy (d = 0 and a CLUSTERS
  * section), version 4 the same sections as 3 for clusters whose Vᵀ weights follow F̄'s row
  * sums (lib/operator/weights.c; M was factorised with them, so a reader that knows only
  * version 3's area weights must refuse the file); uniform operators are still written as
  * version 1, adaptive ones as version 2 and area-weighted clusters (loaded from version 3)
- * as version 3, so readers that know only those keep reading them.
+ * as version 3, so readers that know only those keep reading them. Version 5 is any of these
+ * with F̄ stored as strips (FBAR_STRIPS instead of FBAR; lrr_operator_save_fbar, which by
+ * default chooses it where the solver's sparse copy would take at most half of FBAR's bytes,
+ * lrr_solver_create's AUTO): a reader of versions 1 to 4 refuses it by its version rather
+ * than missing FBAR. Files with dense F̄ keep the versions 1 to 4 and their bytes.
  *
  *   Header, 64 bytes at offset 0
  *      0  magic        8 bytes  "LRROPER\0"
- *      8  version      u32      1 (uniform), 2 (adaptive), 3 or 4 (clusters)
+ *      8  version      u32      1 (uniform), 2 (adaptive), 3 or 4 (clusters), 5 (any, F̄
+ *                               as strips)
  *     12  endianness   u32      0x01020304 (reads 0x04030201 on a byte-swapped file)
  *     16  header_size  u32      64
- *     20  sections     u32      number of entries in the section table (6, plus ROWSCALE
- *                               and PATCHES or CLUSTERS where present)
+ *     20  sections     u32      number of entries in the section table (6, plus ROWSCALE,
+ *                               PATCHES or CLUSTERS and VERIFY where present)
  *     24  n            u64      subpatches
  *     32  k            u64      patches
  *     40  d            u64      subpatches per patch (n = k·d, d = 4^levels); 0 in
  *                               versions 2 to 4: patch sizes vary, given by PATCHES
- *                               or CLUSTERS
- *     48  dtype        u32      storage of FBAR: 0 = float32, 1 = binary16, 2 = bfloat16
+ *                               or CLUSTERS; in version 5 either (d = 0: exactly one of
+ *                               PATCHES and CLUSTERS says which hierarchy)
+ *     48  dtype        u32      storage of F̄ (FBAR or FBAR_STRIPS): 0 = float32,
+ *                               1 = binary16, 2 = bfloat16
  *                               (RHO, EMISSION, M and ROWSCALE are float32 always)
  *     52  reserved     u32      0
  *     56  checksum     u64      checksum of bytes 0..55
@@ -32,7 +40,7 @@
  *   Section table at offset 64: `sections` entries of 32 bytes
  *      0  id u32   4  reserved u32 (0)   8  offset u64   16  size u64   24  checksum u64
  *   followed by a u64 checksum of the entries. Readers skip unknown ids; each known id
- *   appears exactly once.
+ *   appears exactly once. Writers list the sections in id order, FBAR_STRIPS in FBAR's place.
  *
  *   Sections, each starting at a multiple of 64 (zero padding in between; padding is covered
  *   by no checksum and readers ignore it). Section checksums cover exactly `size` bytes.
@@ -42,13 +50,14 @@
  *                 with the header.
  *     2 RHO       n×3 float, each in [0,1)
  *     3 EMISSION  n×3 float, finite and >= 0
- *     4 FBAR      n×k elements of dtype, row-major (64-byte aligned so the file could be
- *                 mapped); for dtype 1 and 2 row i holds F̄_i / ROWSCALE_i
+ *     4 FBAR      (versions 1 to 4) n×k elements of dtype, row-major (64-byte aligned so the
+ *                 file could be mapped); for dtype 1 and 2 row i holds F̄_i / ROWSCALE_i
  *     5 M         3×k×k float, row-major, channel-major
  *     6 INFO      cond[3] f64, build_seconds f64, hemicube_resolution u32, flags u32
  *                 (bit 0: built without the random rotation; bit 1: hemicubes sampled
- *                 over the receivers' areas, LRR_RECEIVER_AREA; other bits 0), seed u64:
- *                 size 48
+ *                 over the receivers' areas, LRR_RECEIVER_AREA; bit 2, version 5 with
+ *                 CLUSTERS only: the clusters' Vᵀ weights follow F̄'s row sums, as in
+ *                 version 4, else those of version 3; other bits 0), seed u64: size 48
  *     7 ROWSCALE  n float, positive powers of two; present exactly when dtype is 1 or 2
  *     8 PATCHES   (version 2, adaptive hierarchy only) selection_seconds f64, then k u8:
  *                 the quadtree depth of each patch within its triangle, in patch order;
@@ -64,6 +73,24 @@
  *                 seconds f64, subpatches u64 (1..n), samples u64 (>= 2), flags u32 (bit 0:
  *                 verified for the uniform emission), reserved u32: size 48. Readers that do
  *                 not know it skip it.
+ *    11 FBAR_STRIPS  (version 5 only, instead of FBAR) F̄ in tiles of 16 rows, tile t the
+ *                 rows 16t .. 16t+15 (T = ⌈n/16⌉ tiles, the last one cut at n), kept as
+ *                 strips: the columns q of a tile with a nonzero entry (any bit set, so −0
+ *                 counts), in the file's dtype (for dtype 1 and 2 divided by ROWSCALE, as
+ *                 FBAR); every other entry is +0. k <= 65535. The section holds
+ *                   counts  T u16: tile t's number of strips m_t (at most k), zero-padded
+ *                           to a multiple of 4 entries (8 bytes)
+ *                 then for each tile t in order a block of
+ *                   columns m_t u16, strictly ascending, each < k, zero-padded to a
+ *                           multiple of 4 entries
+ *                   values  m_t × 16 elements of dtype: strip j's entries of rows 16t .. 16t+15
+ *                           in order (rows >= n: 0)
+ *                 size 2·⌈T/4⌉·4 + Σ_t (2·⌈m_t/4⌉·4 + 16·m_t·e), e = 4 or 2 the bytes of
+ *                 dtype; each part a multiple of 8 bytes. Writers keep only strips with a
+ *                 nonzero entry (readers accept others). A reader checks the counts against
+ *                 k and the size, then streams the tiles straight into F̄'s dense storage,
+ *                 checking every column and value as FBAR's (finite, in [0, 1 + 2^-7]) and
+ *                 the checksum on the way: no second copy of F̄.
  *   Centres, normals and areas are not stored: they are recomputed from the geometry.
  *   (dtype 1 and 2 came after the first files: a reader that knows only float32 refuses them
  *   by their dtype, so the version stayed 1.)
@@ -83,7 +110,9 @@
  * An error removes the temporary file; a process killed while saving cannot, and leaves it
  * (tests/file/test_save_faults.c kills saves at every step).
  * Loading checks every size against the real file size before allocating anything, so a
- * corrupted header cannot make it allocate (or read) more than the file holds.
+ * corrupted header cannot make it allocate (or read) more than the file holds; the one
+ * exception is version 5's dense F̄, n·k entries expanded from its strips, which RHO (n×3
+ * floats) and M (3×k×k floats) still bound by the file size: n·k <= (size/12)^1.5.
  */
 #include "config.h"
 #include "core/atomic_file.h"
@@ -123,37 +152,51 @@ static uint64_t checksum_run(uint64_t h, const void *data, size_t len)
     return h;
 }
 
-static uint64_t checksum_begin(uint64_t len) { return 0xcbf29ce484222325ULL ^ len; }
-static uint64_t checksum_end(uint64_t h, uint64_t len) { return fmix64(h ^ len); }
+uint64_t lrr__checksum_run(uint64_t h, const void *data, size_t len)
+{
+    return checksum_run(h, data, len);
+}
+uint64_t lrr__checksum_begin(uint64_t len) { return 0xcbf29ce484222325ULL ^ len; }
+uint64_t lrr__checksum_end(uint64_t h, uint64_t len) { return fmix64(h ^ len); }
 
 uint64_t lrr__file_checksum(const void *data, size_t len)
 {
-    return checksum_end(checksum_run(checksum_begin(len), data, len), len);
+    return lrr__checksum_end(checksum_run(lrr__checksum_begin(len), data, len), len);
+}
+
+/* The checksum of a payload given as pieces. */
+static uint64_t pieces_checksum(struct pieces *p, uint64_t len)
+{
+    uint64_t h = lrr__checksum_begin(len);
+    size_t cursor = 0, got;
+    const void *data;
+    while ((got = p->next(p, &cursor, &data)) != 0)
+        h = checksum_run(h, data, got);
+    return lrr__checksum_end(h, len);
 }
 
 /* FBAR is written as rows whatever the operator's layout (operator.h), a block of
  * LRR__PANEL rows at a time through a scratch block: a block's bytes are a multiple of 8
- * (LRR__PANEL·k·2), so the checksum runs over the blocks as over one buffer. */
+ * (LRR__PANEL·k·2), as pieces need. */
 struct rows_out {
+    struct pieces base;
     const lrr_operator *op;
     void *blk;     /* LRR__PANEL rows as stored */
     size_t row_bytes;
 };
 
-/* The rows of the block from row i into ro->blk; their bytes. */
-static size_t rows_block(struct rows_out *ro, size_t i)
+/* The rows of the block from row *cursor into ro->blk; their bytes. */
+static size_t rows_next(struct pieces *p, size_t *cursor, const void **data)
 {
-    size_t i1 = i + LRR__PANEL < ro->op->n ? i + LRR__PANEL : ro->op->n;
+    struct rows_out *ro = (struct rows_out *)(void *)p;
+    const size_t i = *cursor, n = ro->op->n;
+    if (i >= n)
+        return 0;
+    const size_t i1 = i + LRR__PANEL < n ? i + LRR__PANEL : n;
     lrr__fbar_copy_rows(ro->op, i, i1, ro->blk);
+    *cursor = i1;
+    *data = ro->blk;
     return (i1 - i) * ro->row_bytes;
-}
-
-static uint64_t rows_checksum(struct rows_out *ro, uint64_t len)
-{
-    uint64_t h = checksum_begin(len);
-    for (size_t i = 0; i < ro->op->n; i += LRR__PANEL)
-        h = checksum_run(h, ro->blk, rows_block(ro, i));
-    return checksum_end(h, len);
 }
 
 static uint64_t align_up(uint64_t x) { return (x + (ALIGN - 1)) & ~(uint64_t)(ALIGN - 1); }
@@ -232,17 +275,28 @@ static lrr_status build_payloads(const lrr_operator *op, uint64_t geom_size, int
     return LRR_OK;
 }
 
+/* The version a file of op has: 5 with F̄ as strips, else by its hierarchy (1 to 4). */
+static uint32_t file_version(const lrr_operator *op, int adaptive, int strips)
+{
+    if (strips)
+        return FILE_VERSION_STRIPS;
+    if (adaptive == 2)
+        return op->weighting == LRR__WEIGHTS_VISIBILITY ? FILE_VERSION_VISIBILITY
+                                                        : FILE_VERSION_CLUSTER;
+    return adaptive ? FILE_VERSION_ADAPTIVE : FILE_VERSION;
+}
+
 /* Places the count sections of sec (offsets and checksums) and writes the section table and
- * the header for them; returns the size of the table. */
-static size_t lay_out(const lrr_operator *op, int adaptive, struct section *sec, int count,
+ * the header for a file of the given version; returns the size of the table. */
+static size_t lay_out(const lrr_operator *op, uint32_t version, struct section *sec, int count,
                       unsigned char *table, unsigned char header[HEADER_SIZE])
 {
     const size_t tsize = (size_t)count * ENTRY_SIZE + 8;
     uint64_t pos = HEADER_SIZE + tsize;
     for (int s = 0; s < count; s++) {
         sec[s].offset = align_up(pos);
-        sec[s].checksum = sec[s].rows ? rows_checksum(sec[s].rows, sec[s].size)
-                                      : lrr__file_checksum(sec[s].data, (size_t)sec[s].size);
+        sec[s].checksum = sec[s].pieces ? pieces_checksum(sec[s].pieces, sec[s].size)
+                                        : lrr__file_checksum(sec[s].data, (size_t)sec[s].size);
         pos = sec[s].offset + sec[s].size; /* below the in-memory sizes: cannot overflow */
         unsigned char *e = table + s * ENTRY_SIZE;
         put32(e, sec[s].id);
@@ -254,9 +308,7 @@ static size_t lay_out(const lrr_operator *op, int adaptive, struct section *sec,
           lrr__file_checksum(table, (size_t)count * ENTRY_SIZE));
 
     memcpy(header, MAGIC, 8);
-    put32(header + 8, adaptive == 2 ? (op->weighting == LRR__WEIGHTS_VISIBILITY
-                                           ? FILE_VERSION_VISIBILITY : FILE_VERSION_CLUSTER)
-                      : adaptive  ? FILE_VERSION_ADAPTIVE : FILE_VERSION);
+    put32(header + 8, version);
     put32(header + 12, ENDIAN_MARK);
     put32(header + 16, HEADER_SIZE);
     put32(header + 20, (uint32_t)count);
@@ -282,10 +334,12 @@ static lrr_status write_file(lrr_context *ctx, const char *path, const unsigned 
         w_bytes(&w, table, tsize);
         for (int s = 0; s < count; s++) {
             w_pad_to(&w, sec[s].offset);
-            struct rows_out *ro = sec[s].rows;
-            for (size_t i = 0; ro && i < ro->op->n && !w.file.err; i += LRR__PANEL)
-                w_bytes(&w, ro->blk, rows_block(ro, i));
-            if (!ro)
+            struct pieces *p = sec[s].pieces;
+            size_t cursor = 0, got;
+            const void *data;
+            while (p && !w.file.err && (got = p->next(p, &cursor, &data)) != 0)
+                w_bytes(&w, data, got);
+            if (!p)
                 w_bytes(&w, sec[s].data, (size_t)sec[s].size);
         }
         lrr__atomic_commit(&w.file);
@@ -295,12 +349,60 @@ static lrr_status write_file(lrr_context *ctx, const char *path, const unsigned 
     return st;
 }
 
+/* Whether F̄ goes into the file as FBAR_STRIPS (*strips; so then holds them) or as FBAR. */
+static lrr_status choose_fbar(const lrr_operator *op, const char *path, lrr_fbar_format format,
+                              struct strips_out *so, uint64_t *strips_size, int *strips)
+{
+    *strips = 0;
+    if (format == LRR_FBAR_DENSE)
+        return LRR_OK;
+    if (op->k > UINT16_MAX) /* beyond the 16-bit column index: dense unless forced */
+        return format == LRR_FBAR_AUTO
+                   ? LRR_OK
+                   : lrr__error(op->ctx, LRR_ERR_UNSUPPORTED,
+                                "file %s: F̄ as strips: k = %zu patches exceeds the 16-bit "
+                                "column index (at most %u)", path, op->k, (unsigned)UINT16_MAX);
+    int pays;
+    lrr_status st = lrr__strips_out_init(op, so, strips_size, &pays);
+    if (st)
+        return st;
+    *strips = format == LRR_FBAR_SPARSE || pays;
+    if (!*strips)
+        lrr__strips_out_free(so);
+    return LRR_OK;
+}
+
+/* The table's sections in id order (FBAR's place taken by FBAR_STRIPS in a strips file),
+ * those this operator has; their count. */
+static int list_sections(const lrr_operator *op, int adaptive, struct section all[SEC_KNOWN],
+                         struct section *sec)
+{
+    int count = SEC_COUNT;
+    memcpy(sec, all, SEC_COUNT * sizeof *sec);
+    if (op->storage != LRR_STORAGE_F32)
+        sec[count++] = all[SEC_ROWSCALE - 1];
+    if (adaptive)
+        sec[count++] = all[adaptive == 2 ? SEC_CLUSTERS - 1 : SEC_PATCHES - 1];
+    if (op->verify.subpatches)
+        sec[count++] = all[SEC_VERIFY - 1];
+    return count;
+}
+
 lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
+{
+    return lrr_operator_save_fbar(op, path, LRR_FBAR_AUTO);
+}
+
+lrr_status lrr_operator_save_fbar(const lrr_operator *op, const char *path,
+                                  lrr_fbar_format fbar)
 {
     lrr_context *ctx = op->ctx;
     if (!LRR__FILE_LITTLE_ENDIAN)
         return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
                           "file %s: .lrr files are little-endian; this host is not", path);
+    if (fbar != LRR_FBAR_AUTO && fbar != LRR_FBAR_DENSE && fbar != LRR_FBAR_SPARSE)
+        return lrr__error(ctx, LRR_ERR_INVALID_ARG, "file %s: unknown F̄ format %d", path,
+                          (int)fbar);
     const lrr__geometry *g = &op->geom;
     const int half = op->storage != LRR_STORAGE_F32;
     if (!g->vert || !g->depth || !op->rho || !op->emission || !op->m ||
@@ -325,31 +427,33 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
                       __builtin_add_overflow(clusters_size, CLUSTERS_PREFIX, &clusters_size)))
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "file %s: section sizes overflow 64 bits",
                           path);
+    struct strips_out so = {0};
+    uint64_t strips_size = 0;
+    int strips = 0;
+    lrr_status st = choose_fbar(op, path, fbar, &so, &strips_size, &strips);
+    if (st)
+        return st;
     unsigned char *geom = NULL, *patches = NULL;
     unsigned char info[INFO_SIZE] = {0}, verify[VERIFY_SIZE] = {0};
-    lrr_status st = build_payloads(op, geom_size, adaptive, &geom, &patches, info);
+    struct rows_out ro = {{rows_next}, op, NULL, op->k * lrr__fbar_elem_bytes(op)};
+    if ((st = build_payloads(op, geom_size, adaptive, &geom, &patches, info)) ||
+        (!strips && op->panels &&
+         (st = lrr__calloc(ctx, &ro.blk, LRR__PANEL, ro.row_bytes, "a block of F̄ rows"))))
+        goto done;
+    if (strips && adaptive == 2 && op->weighting == LRR__WEIGHTS_VISIBILITY)
+        put32(info + 36, get32(info + 36) | INFO_VISIBILITY); /* version 4's meaning */
     memcpy(verify, &op->verify.rel_l2, 8);
     memcpy(verify + 8, &op->verify.noise, 8);
     memcpy(verify + 16, &op->verify.seconds, 8);
     put64(verify + 24, op->verify.subpatches);
     put64(verify + 32, op->verify.samples);
     put32(verify + 40, op->verify.uniform ? 1u : 0u);
-    if (st)
-        return st;
 
-    const void *fbar_data = lrr__fbar_data(op);
-    struct rows_out ro = {op, NULL, op->k * lrr__fbar_elem_bytes(op)};
-    if (op->panels && (st = lrr__calloc(ctx, &ro.blk, LRR__PANEL, ro.row_bytes,
-                                        "a block of F̄ rows"))) {
-        lrr_aligned_free(geom);
-        lrr_aligned_free(patches);
-        return st;
-    }
-    struct section sec[SEC_KNOWN] = {
+    struct section all[SEC_KNOWN] = {
         {SEC_GEOMETRY, geom, geom_size, 0, 0, NULL},
         {SEC_RHO, op->rho, rho_size, 0, 0, NULL},
         {SEC_EMISSION, op->emission, rho_size, 0, 0, NULL},
-        {SEC_FBAR, fbar_data, fbar_size, 0, 0, op->panels ? &ro : NULL},
+        {SEC_FBAR, lrr__fbar_data(op), fbar_size, 0, 0, op->panels ? &ro.base : NULL},
         {SEC_M, op->m, m_size, 0, 0, NULL},
         {SEC_INFO, info, INFO_SIZE, 0, 0, NULL},
         {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0, NULL},
@@ -357,18 +461,17 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
         {SEC_CLUSTERS, patches, clusters_size, 0, 0, NULL},
         {SEC_VERIFY, verify, VERIFY_SIZE, 0, 0, NULL},
     };
-    int count = SEC_COUNT;
-    if (half)
-        count++;
-    if (adaptive)
-        sec[count++] = sec[adaptive == 2 ? SEC_CLUSTERS - 1 : SEC_PATCHES - 1];
-    if (op->verify.subpatches)
-        sec[count++] = sec[SEC_VERIFY - 1];
+    if (strips)
+        all[SEC_FBAR - 1] = (struct section){SEC_FBAR_STRIPS, NULL, strips_size, 0, 0, &so.base};
+    struct section sec[SEC_KNOWN];
+    const int count = list_sections(op, adaptive, all, sec);
     unsigned char table[SEC_KNOWN * ENTRY_SIZE + 8] = {0};
     unsigned char header[HEADER_SIZE] = {0};
-    const size_t tsize = lay_out(op, adaptive, sec, count, table, header);
-
+    const size_t tsize =
+        lay_out(op, file_version(op, adaptive, strips), sec, count, table, header);
     st = write_file(ctx, path, header, table, tsize, sec, count);
+done:
+    lrr__strips_out_free(&so);
     lrr_aligned_free(ro.blk);
     lrr_aligned_free(geom);
     lrr_aligned_free(patches);

@@ -5,6 +5,8 @@
 
 #include "scene/scene.h"
 
+#include <string.h>
+
 struct lrr_operator {
     lrr_context *ctx;
     int builtin;               /* LRR__SCENE_* of the source scene */
@@ -96,6 +98,64 @@ static inline size_t lrr__fbar_index(const lrr_operator *op, size_t i, size_t q)
 lrr_status lrr__fbar_set_panels(lrr_operator *op, int panels);
 /* Rows [i0, i1) of F̄ as stored (float, or the 16-bit codes), row-major into out. */
 void lrr__fbar_copy_rows(const lrr_operator *op, size_t i0, size_t i1, void *out);
+
+/* tiles.c: F̄ in tiles of LRR__TILE consecutive rows, and a tile's strips (one column of
+ * it that holds a nonzero): what the sparse solver reads (lib/solve/sparse.c) and what
+ * sparse .lrr files store (section FBAR_STRIPS, lib/file/). A tile lies in one panel
+ * (LRR__PANEL is a multiple of LRR__TILE) or in the rows behind the panels. */
+#define LRR__TILE 16
+/* LRR_FBAR_AUTO keeps strips where they take at most this share of the dense bytes
+ * (docs/METHOD.md "Sparse F̄": measured per-byte speeds of the two passes). */
+#define LRR__SPARSE_AUTO_SHARE 0.5
+/* Where tile t's entries are: entry (LRR__TILE·t + r, q) at element base + r·si + q·sq of
+ * the stored F̄ (a panel's tile column is 16 contiguous elements); rows of them below n. */
+typedef struct lrr__tile_at {
+    size_t base, si, sq, rows;
+} lrr__tile_at;
+static inline lrr__tile_at lrr__fbar_tile(const lrr_operator *op, size_t t)
+{
+    const size_t i0 = t * LRR__TILE, k = op->k;
+    lrr__tile_at a = {0, k, 1, op->n - i0 < LRR__TILE ? op->n - i0 : LRR__TILE};
+    if (i0 < lrr__fbar_panel_rows(op)) {
+        const size_t p0 = i0 - i0 % LRR__PANEL;
+        a.base = p0 * k + (i0 - p0), a.si = 1, a.sq = LRR__PANEL;
+    } else {
+        a.base = i0 * k;
+    }
+    return a;
+}
+/* Entries of tile column q whose bits are not all zero (a −0 counts: its strip is kept, so
+ * a file's F̄ loads back bit for bit; its products add nothing to a sum). */
+static inline size_t lrr__fbar_tile_nonzeros(const lrr_operator *op, const lrr__tile_at *a,
+                                             size_t q)
+{
+    size_t c = 0, at = a->base + q * a->sq;
+    if (op->storage == LRR_STORAGE_F32) {
+        for (size_t r = 0; r < a->rows; r++) {
+            uint32_t bits;
+            memcpy(&bits, &op->fbar[at + r * a->si], sizeof bits);
+            c += bits != 0;
+        }
+    } else {
+        for (size_t r = 0; r < a->rows; r++)
+            c += op->fbar16[at + r * a->si] != 0;
+    }
+    return c;
+}
+typedef struct lrr__strip_count {
+    size_t tiles, strips, nonzeros;
+} lrr__strip_count;
+/* Counts every tile's strips into count_at[t] (tiles entries; NULL: totals only) and the
+ * totals; with parallel, in OpenMP threads for large F̄ (not while saving: a process that
+ * forked after using OpenMP must not start threads, and lrr_operator_save used none). */
+void lrr__fbar_count_strips(const lrr_operator *op, size_t *count_at, int parallel,
+                            lrr__strip_count *out);
+/* Bytes of one strip in memory (LRR__TILE values in `storage`, a u16 column) and of the
+ * solver's sparse copy of `strips` strips (with its start array), and whether AUTO prefers
+ * that copy: at most LRR__SPARSE_AUTO_SHARE of the dense bytes, and k within the u16 index. */
+size_t lrr__sparse_strip_bytes(lrr_storage storage);
+size_t lrr__sparse_bytes(const lrr_operator *op, size_t strips);
+int lrr__sparse_pays(const lrr_operator *op, size_t strips);
 
 /* budget.c: the bytes an operator build holds at its peak (the layout is described there),
  * for n_tri input triangles, n subpatches, k patches, F̄ in `storage` and the resolved build

@@ -9,11 +9,8 @@
 struct lrr__kernel;
 
 /* ------------------------------------------------------------ sparse F̄ (sparse.c) */
-/* Rows per tile: a strip is LRR__TILE rows × one column (sparse.c says why 16). */
-#define LRR__TILE 16
-/* LRR_FBAR_AUTO reads F̄ sparse where that reads at most this share of the dense bytes
- * (docs/METHOD.md "Sparse F̄": measured per-byte speeds of the two passes). */
-#define LRR__SPARSE_AUTO_SHARE 0.5
+/* Tiles of LRR__TILE rows and the AUTO rule are in operator.h (tiles.c; sparse.c says why
+ * 16 rows). */
 typedef struct lrr__sparse {
     size_t n, k, tiles, strips, nonzeros, bytes;
     lrr_storage storage;
@@ -34,7 +31,6 @@ typedef struct lrr__sparse_stats {
 lrr_status lrr__sparse_create(const lrr_operator *op, lrr_fbar_format format,
                               lrr__sparse_stats *stats, lrr__sparse **out);
 void lrr__sparse_destroy(lrr__sparse *sp);
-size_t lrr__sparse_strip_bytes(lrr_storage storage);
 /* B_c = E_c + rho_c ∘ (F̄ z_c) for count frames (as lrr__fbar_apply_frames) */
 void lrr__sparse_apply_frames(const struct lrr__kernel *kn, const lrr__sparse *sp,
                               size_t count, const float *z, const float *E, const float *rho,

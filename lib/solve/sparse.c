@@ -16,9 +16,10 @@
  * dense binary16) and 16 rows fill one AVX-512 register per strip, half the instructions.
  * Per-entry indices (CSR) would read 4 bytes per nonzero (0.11×, 0.25×) and need gathers.
  *
- * The operator and its files keep F̄ dense: everything else (M's factorisation, the
- * weights, export, verification) reads it there. The solver's copy is made once, when it
- * is created (lrr_solver_set_fbar). */
+ * The operator keeps F̄ dense: everything else (M's factorisation, the weights, export,
+ * verification) reads it there. Files store the same strips where AUTO would read them
+ * (lib/file/strips.c; the counting is shared, lib/operator/tiles.c) but load them back into
+ * the dense F̄. The solver's copy is made once, when it is created (lrr_solver_set_fbar). */
 #include "config.h"
 #include "solve/solve.h"
 
@@ -43,69 +44,13 @@ void lrr__sparse_destroy(lrr__sparse *sp)
     free(sp);
 }
 
-size_t lrr__sparse_strip_bytes(lrr_storage storage)
-{
-    size_t elem = storage == LRR_STORAGE_F32 ? sizeof(float) : sizeof(uint16_t);
-    return LRR__TILE * elem + sizeof(uint16_t);
-}
-
-/* Where tile t's entries are: entry (16t + r, q) at base + r·si + q·sq of the stored F̄. A
- * tile lies in one panel (LRR__PANEL is a multiple of LRR__TILE), its column a contiguous
- * run of 16 values there, or in the row-major rows behind the panels. */
-typedef struct tile_at {
-    size_t base, si, sq, rows;
-} tile_at;
-
-_Static_assert(LRR__PANEL % LRR__TILE == 0, "a tile lies within one panel");
-
-static tile_at locate(const lrr_operator *op, size_t t)
-{
-    const size_t i0 = t * LRR__TILE, k = op->k;
-    tile_at a = {.rows = op->n - i0 < LRR__TILE ? op->n - i0 : LRR__TILE};
-    if (i0 < lrr__fbar_panel_rows(op)) {
-        const size_t p0 = i0 - i0 % LRR__PANEL;
-        a.base = p0 * k + (i0 - p0), a.si = 1, a.sq = LRR__PANEL;
-    } else {
-        a.base = i0 * k, a.si = k, a.sq = 1;
-    }
-    return a;
-}
-
-/* Nonzero entries of tile column q: float, or 16-bit codes (±0 in binary16 and bfloat16
- * alike: the low 15 bits 0) */
-static inline size_t column_nonzeros(const lrr_operator *op, const tile_at *a, size_t q)
-{
-    size_t c = 0, at = a->base + q * a->sq;
-    if (op->storage == LRR_STORAGE_F32)
-        for (size_t r = 0; r < a->rows; r++)
-            c += op->fbar[at + r * a->si] != 0.0f;
-    else
-        for (size_t r = 0; r < a->rows; r++)
-            c += (op->fbar16[at + r * a->si] & 0x7fff) != 0;
-    return c;
-}
-
-/* Strips and nonzeros of tile t (rows [LRR__TILE·t, …) ∩ [0, n)). */
-static void count_tile(const lrr_operator *op, size_t t, size_t *strips, size_t *nonzeros)
-{
-    const tile_at a = locate(op, t);
-    size_t s = 0, nz = 0;
-    for (size_t q = 0; q < op->k; q++) {
-        const size_t c = column_nonzeros(op, &a, q);
-        nz += c;
-        s += c != 0;
-    }
-    *strips = s;
-    *nonzeros = nz;
-}
-
 /* Tile t's strips at sp->start[t] (rows past n stay 0, as calloc left them). */
 static void fill_tile(const lrr_operator *op, lrr__sparse *sp, size_t t)
 {
-    const tile_at a = locate(op, t);
+    const lrr__tile_at a = lrr__fbar_tile(op, t);
     size_t s = sp->start[t];
     for (size_t q = 0; q < op->k; q++) {
-        if (!column_nonzeros(op, &a, q))
+        if (!lrr__fbar_tile_nonzeros(op, &a, q))
             continue;
         sp->col[s] = (uint16_t)q;
         const size_t at = a.base + q * a.sq;
@@ -157,28 +102,19 @@ lrr_status lrr__sparse_create(const lrr_operator *op, lrr_fbar_format format,
         lrr__sparse_destroy(sp);
         return st;
     }
-    size_t nonzeros = 0;
-    #pragma omp parallel for schedule(dynamic, 64) reduction(+ : nonzeros) \
-        if (op->n * op->k >= LRR__PARALLEL_MIN)
-    for (size_t t = 0; t < sp->tiles; t++) {
-        size_t nz;
-        count_tile(op, t, &sp->start[t + 1], &nz);
-        nonzeros += nz;
-    }
+    lrr__strip_count count;
+    lrr__fbar_count_strips(op, sp->start + 1, 1, &count); /* start[t + 1]: tile t's strips */
     for (size_t t = 0; t < sp->tiles; t++)
         sp->start[t + 1] += sp->start[t];
-    sp->strips = sp->start[sp->tiles];
-    sp->nonzeros = nonzeros;
-    /* strips × strip bytes ≤ n·k·4 bytes + small: no overflow once F̄ itself fits */
-    sp->bytes = sp->strips * lrr__sparse_strip_bytes(op->storage) +
-                (sp->tiles + 1) * sizeof(size_t);
-    stats->nonzeros = nonzeros;
+    sp->strips = count.strips;
+    sp->nonzeros = count.nonzeros;
+    sp->bytes = lrr__sparse_bytes(op, sp->strips);
+    stats->nonzeros = count.nonzeros;
     stats->strips = sp->strips;
     stats->bytes = sp->bytes;
-    /* auto: sparse where it reads at most SPARSE_AUTO_SHARE of the dense bytes */
-    const size_t dense = op->n * op->k * lrr__fbar_elem_bytes(op);
+    /* auto: sparse where it reads at most LRR__SPARSE_AUTO_SHARE of the dense bytes */
     const int want = format == LRR_FBAR_SPARSE ||
-                     (format == LRR_FBAR_AUTO && (double)sp->bytes <= LRR__SPARSE_AUTO_SHARE * dense);
+                     (format == LRR_FBAR_AUTO && lrr__sparse_pays(op, sp->strips));
     if (!want || op->k > UINT16_MAX) {
         lrr__sparse_destroy(sp);
         if (format == LRR_FBAR_SPARSE)

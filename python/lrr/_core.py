@@ -459,9 +459,15 @@ class Operator:
             self._solver.close()
             self._solver = None
 
-    def save(self, path):
-        """lrr_operator_save (atomic)."""
-        self.context.call(lib.lrr_operator_save, self.h, _path(path))
+    def save(self, path, fbar="auto"):
+        """lrr_operator_save_fbar (atomic): F̄ stored "dense", "sparse" (its 16-row strips that
+        hold a nonzero, file version 5) or "auto" (sparse where that is at most half the
+        bytes, as lrr_operator_save)."""
+        if fbar not in Solver.FBAR:
+            raise LrrError(ERR_INVALID_ARG, "save: fbar '%s' is not one of %s"
+                           % (fbar, ", ".join(Solver.FBAR)))
+        self.context.call(lib.lrr_operator_save_fbar, self.h, _path(path),
+                          Solver.FBAR.index(fbar))
 
     # ------------------------------------------------------------ solving
     def solver(self, backend="cpu", fbar="auto"):

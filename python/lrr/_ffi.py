@@ -171,6 +171,7 @@ _PROTOTYPES = {
     "lrr_operator_build": (_S, [_P, ctypes.POINTER(BuildOptions), ctypes.POINTER(_P)]),
     "lrr_operator_destroy": (None, [_P]),
     "lrr_operator_save": (_S, [_P, _STR]),
+    "lrr_operator_save_fbar": (_S, [_P, _STR, ctypes.c_int]),
     "lrr_operator_load": (_S, [_P, _STR, ctypes.POINTER(_P)]),
     "lrr_operator_set_reflectance": (_S, [_P, c_float_p]),
     "lrr_operator_set_storage": (_S, [_P, ctypes.c_int]),

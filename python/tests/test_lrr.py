@@ -229,6 +229,21 @@ class Solve(unittest.TestCase):
         back = lrr.load(path)
         np.testing.assert_array_equal(back.solve(), b)
 
+    def test_save_fbar(self):
+        """F̄ saved as strips (file version 5) or dense (version 1) loads back bit for bit."""
+        op = lrr.build("cornell", patches=36, levels=1, hemicube=16)
+        backs = {}
+        for fbar, version in (("sparse", 5), ("dense", 1)):
+            path = os.path.join(tmpdir(), "fbar-%s.lrr" % fbar)
+            op.save(path, fbar=fbar)
+            with open(path, "rb") as f:
+                self.assertEqual(f.read(12)[8], version)
+            backs[fbar] = lrr.load(path)
+            np.testing.assert_array_equal(backs[fbar].fbar(), op.fbar())
+        np.testing.assert_array_equal(backs["sparse"].solve(), backs["dense"].solve())
+        with self.assertRaises(lrr.LrrError):
+            op.save(os.path.join(tmpdir(), "bad.lrr"), fbar="csr")
+
     def test_progress_cancels(self):
         """A progress callback sees done <= total and cancels the build by returning True."""
         seen = []

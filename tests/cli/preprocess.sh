@@ -18,6 +18,33 @@ leftover=""
 for f in "$T"/*tmp*; do [ -e "$f" ] && leftover="$leftover $f"; done
 if [ -n "$leftover" ]; then fail "preprocess left temporary files:$leftover"; else pass "preprocess left no temporary file"; fi
 
+# --fbar-file: the same operator stored as strips (version 5) and dense (version 1) gives the
+# same radiosity to the last digit; a bad value is a usage error
+ok=1
+for f in sparse dense; do
+    run preprocess cornell -o "$T/fbar-$f.lrr" --patches 30 --levels 1 --hemicube 32 --threads 2 \
+        --fbar-file "$f"
+    [ "$rc" -eq 0 ] || ok=0
+    run info "$T/fbar-$f.lrr"
+    eval "version_$f=\$(value file_version) bytes_$f=\$(value file_bytes)"
+    run solve "$T/fbar-$f.lrr" --csv "$T/fbar-$f.csv" --repeat 1 --fbar dense
+    [ "$rc" -eq 0 ] || ok=0
+done
+if [ "$ok" = 1 ] && [ "$version_sparse" = 5 ] && [ "$version_dense" = 1 ] &&
+    [ "$bytes_dense" = "$(wc -c <"$T/fbar-dense.lrr" | tr -d ' ')" ] &&
+    cmp -s "$T/fbar-sparse.csv" "$T/fbar-dense.csv"; then
+    pass "--fbar-file sparse (version 5, $bytes_sparse bytes) and dense (version 1, $bytes_dense bytes): identical B"
+else
+    fail "--fbar-file: versions '$version_sparse' '$version_dense', B identical: $(cmp "$T/fbar-sparse.csv" "$T/fbar-dense.csv" 2>&1)"
+    show_err
+fi
+run preprocess cornell -o "$T/fbar-bad.lrr" --fbar-file strips
+if [ "$rc" -eq 2 ] && grep -q "fbar-file: 'strips' is not one of auto, dense, sparse" "$T/err"; then
+    pass "--fbar-file strips: usage error"
+else
+    fail "--fbar-file strips: exit $rc"; show_err
+fi
+
 # the light-leak indicator: the share of hemicube pixels seeing back faces, and the worst
 # triangles. A cube with all faces outward: no receiver sees a back. The same cube with face
 # 5 flipped inwards: that face sees only backs (share 1), 1 of 12 triangles → 1/12.

@@ -9,6 +9,10 @@
  * mutations reach the size, layout and value checks behind them, while inputs with byte 52
  * set still exercise the checksum tests themselves. The checksum is the one lib/file/lrr_file.c
  * documents (FNV-style word loop, MurmurHash3 fmix64).
+ *
+ * Seeds strips_*.lrr hold F̄ as strips (version 5, section FBAR_STRIPS). Such a file expands
+ * to a dense F̄ larger than itself, but RHO and M bound n and k by its size: below MAX_INPUT
+ * at most (2^20/12)^1.5 entries, 100 MB of floats, within the smoke's -malloc_limit_mb.
  */
 #include <math.h>
 #include <stdlib.h>

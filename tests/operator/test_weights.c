@@ -252,8 +252,9 @@ static void test_exact_limit(void **state)
     lrr_context_destroy(ctx);
 }
 
-/* Saved and loaded (version 4), the weights are recomputed bit for bit from the stored F̄; an
- * operator with area weights is written as version 3 and loads with them. */
+/* Saved and loaded (version 4, or 5 with F̄ as strips), the weights are recomputed bit for bit
+ * from the stored F̄; an operator with area weights is written as version 3 (or 5) and loads
+ * with them. */
 static void test_file_versions(void **state)
 {
     (void)state;
@@ -271,17 +272,21 @@ static void test_file_versions(void **state)
             lrr__patch_weights(&op->geom, op->weight);
             LRR_CHECK(ctx, lrr__smw_factor(op));
         }
-        LRR_CHECK(ctx, lrr_operator_save(op, path));
-        FILE *f = fopen(path, "rb");
-        unsigned char h[12];
-        assert_int_equal(fread(h, 1, 12, f), 12);
-        fclose(f);
-        assert_int_equal(h[8], version);
-        LRR_CHECK(ctx, lrr_operator_load(ctx, path, &back));
-        assert_int_equal(back->weighting, op->weighting);
-        assert_memory_equal(back->weight, op->weight, op->n * sizeof(float));
-        assert_memory_equal(back->m, op->m, 3 * op->k * op->k * sizeof(float));
-        lrr_operator_destroy(back);
+        /* F̄ dense: the version says the weights; as strips (version 5): INFO's bit 2 */
+        for (int sparse = 0; sparse < 2; sparse++) {
+            LRR_CHECK(ctx, lrr_operator_save_fbar(op, path,
+                                                  sparse ? LRR_FBAR_SPARSE : LRR_FBAR_DENSE));
+            FILE *f = fopen(path, "rb");
+            unsigned char h[12];
+            assert_int_equal(fread(h, 1, 12, f), 12);
+            fclose(f);
+            assert_int_equal(h[8], sparse ? 5 : version);
+            LRR_CHECK(ctx, lrr_operator_load(ctx, path, &back));
+            assert_int_equal(back->weighting, op->weighting);
+            assert_memory_equal(back->weight, op->weight, op->n * sizeof(float));
+            assert_memory_equal(back->m, op->m, 3 * op->k * op->k * sizeof(float));
+            lrr_operator_destroy(back);
+        }
     }
     unlink(path);
     lrr_operator_destroy(op);
