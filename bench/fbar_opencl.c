@@ -9,13 +9,14 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define WARMUPS 3 /* untimed frames per solver */
+
 #ifdef LRR_HAVE_OPENCL
 #define CL_TARGET_OPENCL_VERSION 120
 #include <CL/cl.h>
 
 #define FLOOR_RUNS 5
 #define FLOOR_ITEMS 2048 /* work-items per compute unit: enough loads in flight on a GPU */
-#define WARMUPS 3
 
 /* every 16-byte word read once, grid-strided (coalesced), one value per item written */
 static const char read_src[] =
