@@ -229,6 +229,8 @@ const char *bench_cl_device_name(const lrr_solver *s, char *buf, size_t len);
 /* Area-weighted relative L2 over all channels (area NULL: unweighted) and the largest
  * relative error over entries above 1e-3 of the largest reference value (max_rel may be
  * NULL). With e the emission is subtracted from both (the reflected part only). */
+/* max |a − b| / max |b| over m entries (|a − b| alone when b is 0): a whole-array error. */
+double bench_max_rel(size_t m, const float *a, const float *b);
 void bench_compare_b(size_t n, const float *area, const float *b, const float *ref, const float *e,
                      double *rel_l2, double *max_rel);
 /* 12.2 GB, 4.3 GB, 35.4 MB: decimal units */

@@ -192,3 +192,13 @@ void bench_csv_num(FILE *f, double v, int last)
         fprintf(f, "%.6g", v);
     fputc(last ? '\n' : ',', f);
 }
+
+double bench_max_rel(size_t m, const float *a, const float *b)
+{
+    double num = 0, den = 0;
+    for (size_t i = 0; i < m; i++) {
+        num = fmax(num, fabs((double)a[i] - b[i]));
+        den = fmax(den, fabs((double)b[i]));
+    }
+    return den > 0 ? num / den : num;
+}

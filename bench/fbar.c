@@ -163,16 +163,6 @@ static int solver_as(lrr_context *ctx, const lrr_operator *op, lrr_fbar_format f
     return s ? bench_lib_fail(ctx, s, "solver") : 0;
 }
 
-static double max_rel(size_t m, const float *a, const float *b)
-{
-    double num = 0, den = 0;
-    for (size_t i = 0; i < m; i++) {
-        num = fmax(num, fabs((double)a[i] - b[i]));
-        den = fmax(den, fabs((double)b[i]));
-    }
-    return den > 0 ? num / den : num;
-}
-
 /* the best of `reps` frames, in ms */
 static int best_ms(ours_frame *f, unsigned reps, double *ms)
 {
@@ -226,7 +216,7 @@ static int measure(lrr_context *ctx, const lrr_operator *op, const float *e, uns
         lrr_solver_get_info(sv[0], &row->dense, sizeof row->dense);
         lrr_solver_get_info(sv[1], &row->sparse, sizeof row->sparse);
         snprintf(row->kernel, sizeof row->kernel, "%s", lrr_solver_kernel(sv[0]));
-        row->b_diff = max_rel(3 * n, b[1], b[0]);
+        row->b_diff = bench_max_rel(3 * n, b[1], b[0]);
         const double io = 24.0 * n + 12.0 * k; /* E and B, n×3 floats each; w and z */
         rc = bench_interleave(bench_ours_step, &f[0],
                               row->dense.fbar_bytes + row->dense.m_bytes + io, 0, pairs,

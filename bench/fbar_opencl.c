@@ -122,16 +122,6 @@ typedef struct cl_row {
     char device[160];
 } cl_row;
 
-static double max_rel(size_t m, const float *a, const float *b)
-{
-    double num = 0, den = 0;
-    for (size_t i = 0; i < m; i++) {
-        num = fmax(num, fabs((double)a[i] - b[i]));
-        den = fmax(den, fabs((double)b[i]));
-    }
-    return den > 0 ? num / den : num;
-}
-
 /* One OpenCL solver reading F̄ as `format` (strip groups g when sparse, 0: the default):
  * `frames` timed frames after WARMUPS, medians; B against ref. */
 static int measure_cl(lrr_context *ctx, const lrr_operator *op, lrr_fbar_format format,
@@ -169,7 +159,7 @@ static int measure_cl(lrr_context *ctx, const lrr_operator *op, lrr_fbar_format 
         row->wall_ms = cli_median(t, frames);
         row->kernel_ms = cli_median(t + frames, frames);
         row->transfer_ms = cli_median(t + 2 * frames, frames);
-        row->b_diff = max_rel(3 * oi.n, b, ref);
+        row->b_diff = bench_max_rel(3 * oi.n, b, ref);
         row->bytes = row->info.fbar_bytes + row->info.m_bytes + 36 * oi.n;
         row->floor_ms = read_floor_ms(lrr_solver_kernel(sv), row->bytes);
     }

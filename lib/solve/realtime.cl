@@ -71,6 +71,34 @@ __kernel void segsum(__global const float *E, uint k, __global const uint *first
         w[c * k + p] = s[c];
 }
 
+/* B of row i from its three sums t: E + rho * (t times the row's scale in 16 bits) */
+static void put_b(__global float *B, __global const float *E, __global const float *rho,
+                  __global const float *scale, uint i, const float t[3])
+{
+    const float s = STORAGE != 0 ? scale[i] : 1.0f;
+    const size_t b = 3 * (size_t)i;
+    for (int c = 0; c < 3; c++)
+        B[b + c] = E[b + c] + rho[b + c] * (t[c] * s);
+}
+
+/* A work-group's three partial sums t of item l = g * step + r added up over the `count`
+ * items g = 0 .. count - 1 (a power of two) that share r, through local memory red (3 * WG
+ * floats): the totals come back in t of the items with g = 0. Every item must call it. */
+static void sum3(__local float *red, uint l, uint g, uint count, uint step, float t[3])
+{
+    for (int c = 0; c < 3; c++)
+        red[c * WG + l] = t[c];
+    barrier(CLK_LOCAL_MEM_FENCE);
+    for (uint h = count / 2; h > 0; h >>= 1) {
+        if (g < h)
+            for (int c = 0; c < 3; c++)
+                red[c * WG + l] += red[c * WG + l + h * step];
+        barrier(CLK_LOCAL_MEM_FENCE);
+    }
+    for (int c = 0; c < 3; c++)
+        t[c] = red[c * WG + l];
+}
+
 /* GPUs: w as segsum, one work-group of WG items per patch (group id p), item l summing
  * subpatches first[p] + l, + WG, ... (coalesced), then a tree reduction (whose error
  * grows as log WG, so no compensation). segsum's k items, each walking a patch's
@@ -82,27 +110,17 @@ void segsum_groups(__global const float *E, uint k, __global const uint *first,
 {
     __local float red[3 * WG];
     const uint p = get_group_id(0), l = get_local_id(0);
-    float s0 = 0, s1 = 0, s2 = 0;
+    float s[3] = {0, 0, 0};
     for (uint i = first[p] + l; i < first[p + 1]; i += WG) {
         const float v = vw[i];
-        s0 += v * E[3 * i];
-        s1 += v * E[3 * i + 1];
-        s2 += v * E[3 * i + 2];
+        s[0] += v * E[3 * i];
+        s[1] += v * E[3 * i + 1];
+        s[2] += v * E[3 * i + 2];
     }
-    red[l] = s0;
-    red[WG + l] = s1;
-    red[2 * WG + l] = s2;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (uint h = WG / 2; h > 0; h >>= 1) {
-        if (l < h) {
-            red[l] += red[l + h];
-            red[WG + l] += red[WG + l + h];
-            red[2 * WG + l] += red[2 * WG + l + h];
-        }
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
-    if (l < 3)
-        w[l * k + p] = red[l * WG];
+    sum3(red, l, l, WG, 1, s);
+    if (l == 0)
+        for (int c = 0; c < 3; c++)
+            w[c * k + p] = s[c];
 }
 
 /* z[c*k + r] = row r of M_c times w_c; global size (k, 3). */
@@ -250,35 +268,16 @@ void fbar_groups(__global const FBAR_T *fbar, __global const float *scale,
     const uint i = get_group_id(0), l = get_local_id(0);
     __global const FBAR_T *row = fbar + ROW_BASE(i);
     const size_t step = ROW_STEP(i);
-    float t0 = 0, t1 = 0, t2 = 0;
+    float t[3] = {0, 0, 0};
     for (uint j = l; j < k; j += WG) {
         const float f = LOAD(row, j * step);
-        t0 += f * z[j];
-        t1 += f * z[k + j];
-        t2 += f * z[2 * k + j];
+        t[0] += f * z[j];
+        t[1] += f * z[k + j];
+        t[2] += f * z[2 * k + j];
     }
-    red[l] = t0;
-    red[WG + l] = t1;
-    red[2 * WG + l] = t2;
-    barrier(CLK_LOCAL_MEM_FENCE);
-    for (uint h = WG / 2; h > 0; h >>= 1) {
-        if (l < h) {
-            red[l] += red[l + h];
-            red[WG + l] += red[WG + l + h];
-            red[2 * WG + l] += red[2 * WG + l + h];
-        }
-        barrier(CLK_LOCAL_MEM_FENCE);
-    }
-    if (l == 0 && i < n) {
-        float s = 1;
-#if STORAGE != 0
-        s = scale[i];
-#endif
-        const size_t b = 3 * (size_t)i;
-        B[b] = E[b] + rho[b] * (red[0] * s);
-        B[b + 1] = E[b + 1] + rho[b + 1] * (red[WG] * s);
-        B[b + 2] = E[b + 2] + rho[b + 2] * (red[2 * WG] * s);
-    }
+    sum3(red, l, l, WG, 1, t);
+    if (l == 0 && i < n)
+        put_b(B, E, rho, scale, i, t);
 }
 
 /* Sparse F̄: one work-group of TILE * sg items per tile (group id t), sg <= WG / TILE
@@ -291,39 +290,18 @@ __kernel void fbar_strips(__global const FBAR_T *val, __global const ushort *col
                           __global const float *rho, uint n, uint k, __global float *B, uint sg)
 {
     __local float red[3 * WG];
-    const uint t = get_group_id(0), l = get_local_id(0), r = l % TILE, g = l / TILE;
-    float t0 = 0, t1 = 0, t2 = 0;
-    for (uint s = start[t] + g; s < start[t + 1]; s += sg) {
+    const uint tile = get_group_id(0), l = get_local_id(0), r = l % TILE, g = l / TILE;
+    float t[3] = {0, 0, 0};
+    for (uint s = start[tile] + g; s < start[tile + 1]; s += sg) {
         const uint q = col[s];
         const float f = LOAD(val, (size_t)s * TILE + r);
-        t0 += f * z[q];
-        t1 += f * z[k + q];
-        t2 += f * z[2 * k + q];
+        t[0] += f * z[q];
+        t[1] += f * z[k + q];
+        t[2] += f * z[2 * k + q];
     }
-    if (sg > 1) {
-        red[l] = t0;
-        red[WG + l] = t1;
-        red[2 * WG + l] = t2;
-        barrier(CLK_LOCAL_MEM_FENCE);
-        for (uint h = sg / 2; h > 0; h >>= 1) {
-            if (g < h) {
-                red[l] += red[l + h * TILE];
-                red[WG + l] += red[WG + l + h * TILE];
-                red[2 * WG + l] += red[2 * WG + l + h * TILE];
-            }
-            barrier(CLK_LOCAL_MEM_FENCE);
-        }
-        t0 = red[l], t1 = red[WG + l], t2 = red[2 * WG + l];
-    }
-    const uint i = t * TILE + r;
-    if (g == 0 && i < n) {
-        float s = 1;
-#if STORAGE != 0
-        s = scale[i];
-#endif
-        const size_t b = 3 * (size_t)i;
-        B[b] = E[b] + rho[b] * (t0 * s);
-        B[b + 1] = E[b + 1] + rho[b + 1] * (t1 * s);
-        B[b + 2] = E[b + 2] + rho[b + 2] * (t2 * s);
-    }
+    if (sg > 1)
+        sum3(red, l, g, sg, TILE, t);
+    const uint i = tile * TILE + r;
+    if (g == 0 && i < n)
+        put_b(B, E, rho, scale, i, t);
 }

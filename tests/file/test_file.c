@@ -8,54 +8,13 @@
 #include <unistd.h>
 
 #include "testutil.h"
+#include "file_bytes.h"
 #include "operator/operator.h"
 
 /* ------------------------------------------------------------ format, from the docs */
 enum { HDR = 64, ENTRY = 32, NSEC = 6 };
 enum { GEOMETRY = 1, RHO, EMISSION, FBAR, M, INFO };
 static const char *const sec_names[] = {"", "GEOMETRY", "RHO", "EMISSION", "FBAR", "M", "INFO"};
-
-static uint64_t rd64(const unsigned char *p)
-{
-    uint64_t v = 0;
-    for (int i = 7; i >= 0; i--)
-        v = v << 8 | p[i];
-    return v;
-}
-static uint32_t rd32(const unsigned char *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-static void wr64(unsigned char *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++)
-        p[i] = (unsigned char)(v >> (8 * i));
-}
-static void wr32(unsigned char *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        p[i] = (unsigned char)(v >> (8 * i));
-}
-
-static uint64_t doc_checksum(const unsigned char *p, size_t len)
-{
-    uint64_t h = 0xcbf29ce484222325ULL ^ (uint64_t)len;
-    size_t i = 0;
-    for (; i + 8 <= len; i += 8)
-        h = (h ^ rd64(p + i)) * 0x100000001b3ULL;
-    if (i < len) {
-        unsigned char tail[8] = {0};
-        memcpy(tail, p + i, len - i);
-        h = (h ^ rd64(tail)) * 0x100000001b3ULL;
-    }
-    h ^= (uint64_t)len;
-    h ^= h >> 33;
-    h *= 0xff51afd7ed558ccdULL;
-    h ^= h >> 33;
-    h *= 0xc4ceb9fe1a85ec53ULL;
-    h ^= h >> 33;
-    return h;
-}
 
 /* Entry of section `id` in the table of file bytes b (the writer lists them in id order). */
 static unsigned char *entry(unsigned char *b, int id)
@@ -77,30 +36,6 @@ static void fix_checksums(unsigned char *b)
 }
 
 /* ------------------------------------------------------------ file helpers */
-static unsigned char *slurp(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    assert_non_null(f);
-    fseek(f, 0, SEEK_END);
-    long sz = ftell(f);
-    assert_true(sz >= 0);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *b = malloc((size_t)sz + 1);
-    assert_non_null(b);
-    assert_int_equal(fread(b, 1, (size_t)sz, f), (size_t)sz);
-    fclose(f);
-    *len = (size_t)sz;
-    return b;
-}
-
-static void spit(const char *path, const void *data, size_t len)
-{
-    FILE *f = fopen(path, "wb");
-    assert_non_null(f);
-    assert_int_equal(fwrite(data, 1, len, f), len);
-    assert_int_equal(fclose(f), 0);
-}
-
 /* Loads path expecting failure with `want` (or, when want2 != LRR_OK, either code); checks
  * that *out stays NULL and that the context's message names the file. */
 static void expect_load_error(lrr_context *ctx, const char *path, lrr_status want,
