@@ -1076,7 +1076,9 @@ typedef struct lrr_light_source {
 
 /* The plan for lighting one operator (FFTW style): the BVH of its input triangles is built
  * once here and reused by every lrr_lighting_direct. The operator must outlive it. Errors:
- * LRR_ERR_NOMEM / LRR_ERR_UNSUPPORTED from Embree. Thread safety: one thread at a time per
+ * LRR_ERR_NOMEM / LRR_ERR_UNSUPPORTED from Embree; LRR_SIMD (as lrr_solver_create reads
+ * it; it picks the error budget's kernels) naming an unknown instruction set
+ * (LRR_ERR_INVALID_ARG) or one this CPU lacks (LRR_ERR_UNSUPPORTED). Thread safety: one thread at a time per
  * lighting; several lightings of one operator may run at once. */
 typedef struct lrr_lighting lrr_lighting;
 LRR_API LRR_NODISCARD lrr_status lrr_lighting_create(const lrr_operator *op,
@@ -1104,7 +1106,7 @@ LRR_API uint64_t lrr_lighting_rays(const lrr_lighting *lighting) LRR_NONNULL(1);
  * rho ∘ H, whatever the scene (for several lights together: at most tolerance·√lights
  * relative to their sum). Area and sun lights trace every receiver. A new tolerance traces
  * every light again on the next call. Errors: LRR_ERR_INVALID_ARG unless
- * 0 <= tolerance < 1; LRR_ERR_NOMEM (10 × n bytes of scratch). */
+ * 0 <= tolerance < 1; LRR_ERR_NOMEM (about 68 × n bytes of scratch). */
 LRR_API LRR_NODISCARD lrr_status lrr_lighting_set_tolerance(lrr_lighting *lighting,
                                                             double tolerance) LRR_NONNULL(1);
 

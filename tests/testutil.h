@@ -109,6 +109,22 @@ static inline lrr_scene *tu_cornell(lrr_context *ctx, int closed, size_t K, unsi
     return s;
 }
 
+/* The closed Cornell box at about 600 patches (1 level), built at hemicube resolution 8;
+ * *n its subpatches. */
+static inline lrr_operator *tu_closed_cornell_op(lrr_context *ctx, size_t *n)
+{
+    lrr_scene *sc = tu_cornell(ctx, 1, 600, 1);
+    lrr_build_options bo = lrr_build_options_defaults();
+    bo.hemicube_resolution = 8;
+    lrr_operator *op;
+    LRR_CHECK(ctx, lrr_operator_build(sc, &bo, &op));
+    lrr_scene_destroy(sc);
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi, sizeof oi);
+    *n = oi.n;
+    return op;
+}
+
 /* T triangles v (T×9, counter-clockwise fronts) with reflectance rho and emission em (T×3)
  * subdivided into about `patches` patches and built at hemicube resolution R, the other
  * options the defaults; lrr_operator_destroy() it. */

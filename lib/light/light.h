@@ -66,9 +66,28 @@ double lrr__source_weight(const lrr__source *s, const float *x, const float *nv)
 #define LRR__BUDGET_BINS 512
 #define LRR__BUDGET_DARK 0xFFFFu
 typedef double lrr__budget_cost[LRR__BUDGET_BINS][3];
-/* Fills g (n) and bin (n) for source s on op's receivers, and cost. OpenMP. */
-void lrr__budget_weigh(const lrr_operator *op, const lrr__source *s, double *g,
-                       uint16_t *bin, lrr__budget_cost cost);
+/* The receivers as the budget reads them, built once per lighting (budget.c): the centres'
+ * and normals' coordinates each contiguous (x, y, z, nx, ny, nz), and a ρ_c² per channel
+ * (a area, ρ_c albedo), n floats each, in one allocation. */
+typedef struct lrr__budget_receivers {
+    float *x, *y, *z, *nx, *ny, *nz, *ar[3];
+} lrr__budget_receivers;
+lrr_status lrr__budget_receivers_init(lrr_context *ctx, const lrr_operator *op,
+                                      lrr__budget_receivers *r);
+void lrr__budget_receivers_free(lrr__budget_receivers *r);
+/* A point light at p on receivers [i0, i1): g = cos / r² (0 where it cannot reach) and the
+ * key's bin (LRR__BUDGET_DARK where g = 0). budget.c's C and budget_avx2.c's AVX2 (8 at a
+ * time) give the same g and bins to the bit. */
+void lrr__budget_point_keys(const lrr__budget_receivers *r, size_t i0, size_t i1,
+                            const float p[3], float *g, uint16_t *bin);
+void lrr__budget_point_keys_avx2(const lrr__budget_receivers *r, size_t i0, size_t i1,
+                                 const float p[3], float *g, uint16_t *bin);
+/* Fills g[l] (n), bin[l] (n) and cost[l] for the m <= LRR__BUDGET_GROUP point or spot
+ * sources s[l] on op's receivers r, in one pass (AVX2 where avx2). OpenMP. */
+#define LRR__BUDGET_GROUP 4
+void lrr__budget_weigh(const lrr_operator *op, const lrr__budget_receivers *r,
+                       const lrr__source *s, size_t m, float *const *g, uint16_t *const *bin,
+                       lrr__budget_cost *cost, int avx2);
 /* The first bin T from which on the receivers may keep a guessed visibility: the smallest T
  * with Σ_{b ≥ T} cost[b][c] <= tol² S_c in every channel; S NULL: S_c the cost of the bins
  * before T (every traced receiver visible, an upper bound of the traced light). */

@@ -3,6 +3,7 @@
  * (docs/METHOD.md "Lights"). */
 #include "config.h"
 #include "light/light.h"
+#include "core/cpu.h"
 #include "scene/bvh.h"
 
 #include <math.h>
@@ -16,11 +17,18 @@ struct lrr_lighting {
     float eps;                /* ray offset: 1e-5 × the scene's bounding-box diagonal */
     size_t count, cap;        /* lights cached, slots allocated */
     lrr_light_source *light;  /* cap: the lights of the previous call */
-    float *H;                 /* cap × n × 3: their irradiance */
+    float *H;                 /* cap × n × 3: their irradiance; for a light traced within
+                                 the budget (scalar), its first n floats hold H / rgb */
+    unsigned char *scalar;    /* cap: 1 where the slot holds H / rgb */
     unsigned char *vis;       /* cap × n: 1 where the receiver's last ray was unoccluded */
     double tol;               /* the error budget (0: every receiver traced) */
-    double *g;                /* n: the unshadowed weight of the light being traced */
-    uint16_t *bin;            /* n: its budget bin */
+    float *g;                 /* LRR__BUDGET_GROUP × n: the unshadowed weights of a group */
+    uint16_t *bin;            /* LRR__BUDGET_GROUP × n: their budget bins */
+    size_t *list;             /* n: the receivers to trace next */
+    double (*part)[3];        /* n / LRR__SHADOW_RAYS + 1: their light, a chunk each */
+    lrr__budget_cost *cost;   /* LRR__BUDGET_GROUP */
+    lrr__budget_receivers rcv; /* the receivers as the budget reads them */
+    int avx2;                 /* the budget's keys with AVX2 (lib/core/cpu.h) */
     uint64_t rays;            /* shadow rays of the last call */
 };
 
@@ -34,8 +42,12 @@ lrr_status lrr_lighting_create(const lrr_operator *op, lrr_lighting **out)
     lt->op = op;
     lt->ctx = lrr__context_retain(ctx);
     lt->eps = (float)(1e-5 * lrr__geometry_bounds(&op->geom, NULL, NULL));
-    lrr_status st = lrr__bvh_build(ctx, &op->geom, RTC_BUILD_QUALITY_MEDIUM, 0,
-                                   "lrr_lighting_create", &lt->bvh);
+    lrr__cpu_choice cpu;
+    lrr_status st = lrr__cpu_choose(ctx, &cpu);
+    lt->avx2 = !st && cpu.isa >= LRR__ISA_AVX2;
+    if (!st)
+        st = lrr__bvh_build(ctx, &op->geom, RTC_BUILD_QUALITY_MEDIUM, 0, "lrr_lighting_create",
+                            &lt->bvh);
     if (st) {
         lrr__context_release(lt->ctx);
         free(lt);
@@ -43,6 +55,22 @@ lrr_status lrr_lighting_create(const lrr_operator *op, lrr_lighting **out)
     }
     *out = lt;
     return LRR_OK;
+}
+
+/* The budget's working arrays, allocated once a tolerance is set. */
+static void budget_free(lrr_lighting *lt)
+{
+    lrr_aligned_free(lt->g);
+    lrr_aligned_free(lt->bin);
+    lrr_aligned_free(lt->list);
+    lrr_aligned_free(lt->part);
+    lrr_aligned_free(lt->cost);
+    lrr__budget_receivers_free(&lt->rcv);
+    lt->g = NULL;
+    lt->bin = NULL;
+    lt->list = NULL;
+    lt->part = NULL;
+    lt->cost = NULL;
 }
 
 void lrr_lighting_destroy(lrr_lighting *lt)
@@ -53,10 +81,24 @@ void lrr_lighting_destroy(lrr_lighting *lt)
     lrr_aligned_free(lt->light);
     lrr_aligned_free(lt->H);
     lrr_aligned_free(lt->vis);
-    lrr_aligned_free(lt->g);
-    lrr_aligned_free(lt->bin);
+    lrr_aligned_free(lt->scalar);
+    budget_free(lt);
     lrr__context_release(lt->ctx);
     free(lt);
+}
+
+static lrr_status budget_alloc(lrr_lighting *lt)
+{
+    const size_t n = lt->op->n, m = LRR__BUDGET_GROUP, chunks = n / LRR__SHADOW_RAYS + 1;
+    lrr_status st;
+    if ((st = lrr__calloc(lt->ctx, &lt->g, m * n, sizeof *lt->g, "light weights")) ||
+        (st = lrr__calloc(lt->ctx, &lt->bin, m * n, sizeof *lt->bin, "budget bins")) ||
+        (st = lrr__calloc(lt->ctx, &lt->list, n, sizeof *lt->list, "receivers to trace")) ||
+        (st = lrr__calloc(lt->ctx, &lt->part, chunks, sizeof *lt->part, "traced light")) ||
+        (st = lrr__calloc(lt->ctx, &lt->cost, m, sizeof *lt->cost, "budget costs")) ||
+        (st = lrr__budget_receivers_init(lt->ctx, lt->op, &lt->rcv)))
+        budget_free(lt);
+    return st;
 }
 
 lrr_status lrr_lighting_set_tolerance(lrr_lighting *lt, double tolerance)
@@ -64,15 +106,9 @@ lrr_status lrr_lighting_set_tolerance(lrr_lighting *lt, double tolerance)
     if (!(tolerance >= 0 && tolerance < 1))
         return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG,
                           "lrr_lighting_set_tolerance: tolerance %g is not in [0, 1)", tolerance);
-    if (tolerance > 0 && !lt->g) {
-        lrr_status st;
-        if ((st = lrr__calloc(lt->ctx, &lt->g, lt->op->n, sizeof *lt->g, "light weights")) ||
-            (st = lrr__calloc(lt->ctx, &lt->bin, lt->op->n, sizeof *lt->bin, "budget bins"))) {
-            lrr_aligned_free(lt->g);
-            lt->g = NULL;
-            return st;
-        }
-    }
+    lrr_status st;
+    if (tolerance > 0 && !lt->g && (st = budget_alloc(lt)))
+        return st;
     if (tolerance != lt->tol)
         lt->count = 0; /* what was traced under another budget is traced again */
     lt->tol = tolerance;
@@ -91,13 +127,15 @@ static lrr_status reserve(lrr_lighting *lt, size_t count)
         return lrr__error(lt->ctx, LRR_ERR_OVERFLOW, "lrr_lighting_direct: n×3 overflows");
     lrr_light_source *light = NULL;
     float *H = NULL;
-    unsigned char *vis = NULL;
+    unsigned char *vis = NULL, *scalar = NULL;
     lrr_status st;
     if ((st = lrr__calloc(lt->ctx, &light, count, sizeof *light, "cached lights")) ||
+        (st = lrr__calloc(lt->ctx, &scalar, count, 1, "cached lights")) ||
         (st = lrr__calloc(lt->ctx, &H, count, n3 * sizeof(float),
                           "per-light irradiance (lights × n × 3 floats)")) ||
         (st = lrr__calloc(lt->ctx, &vis, count, lt->op->n, "per-light visibility"))) {
         lrr_aligned_free(light);
+        lrr_aligned_free(scalar);
         lrr_aligned_free(H);
         return st;
     }
@@ -105,6 +143,8 @@ static lrr_status reserve(lrr_lighting *lt, size_t count)
     lrr_aligned_free(lt->light);
     lrr_aligned_free(lt->H);
     lrr_aligned_free(lt->vis);
+    lrr_aligned_free(lt->scalar);
+    lt->scalar = scalar;
     lt->light = light;
     lt->H = H;
     lt->vis = vis;
@@ -113,14 +153,13 @@ static lrr_status reserve(lrr_lighting *lt, size_t count)
     return LRR_OK;
 }
 
-/* Traces light l (checked as s) into its cache slot: blocks of receivers, each with one
- * batch of shadow rays (lrr__shadow_batch: its rays go to Embree as packets). With bin, only
- * the receivers whose bin is in [lo, hi). */
+/* Traces light l (checked as s) at every receiver into its cache slot: blocks of receivers,
+ * each with one batch of shadow rays (lrr__shadow_batch: its rays go to Embree as packets). */
 #define BLOCK 64
-static void trace(lrr_lighting *lt, const lrr__source *s, size_t l, const uint16_t *bin,
-                  unsigned lo, unsigned hi)
+static void trace(lrr_lighting *lt, const lrr__source *s, size_t l)
 {
     const lrr_operator *op = lt->op;
+    lt->scalar[l] = 0;
     float *H = lt->H + l * op->n * 3;
     unsigned char *vis = lt->vis + l * op->n;
     const size_t blocks = (op->n + BLOCK - 1) / BLOCK;
@@ -132,63 +171,180 @@ static void trace(lrr_lighting *lt, const lrr__source *s, size_t l, const uint16
         lrr__shadow_batch b;
         lrr__shadow_init(&b, lt->bvh.scene, acc);
         for (size_t i = i0; i < i1; i++)
-            if (!bin || (bin[i] >= lo && bin[i] < hi))
-                lrr__source_rays(s, &b, i, (unsigned)(i - i0), op->centre + 3 * i,
+            lrr__source_rays(s, &b, i, (unsigned)(i - i0), op->centre + 3 * i,
                                  op->normal + 3 * i, lt->eps);
         lrr__shadow_flush(&b);
-        for (size_t i = i0; i < i1; i++)
-            if (!bin || (bin[i] >= lo && bin[i] < hi)) {
-                lrr__source_irradiance(s, acc[i - i0], H + 3 * i);
-                vis[i] = acc[i - i0] > 0;
-            }
+        for (size_t i = i0; i < i1; i++) {
+            lrr__source_irradiance(s, acc[i - i0], H + 3 * i);
+            vis[i] = acc[i - i0] > 0;
+        }
         rays += b.rays;
     }
     lt->rays += rays;
 }
 
-/* Σ a ρ_c² H² (H = g · vis) over the receivers of bins [0, T), as traced. */
-static void traced_light(const lrr_lighting *lt, size_t l, unsigned T, double S[3])
+/* The receivers whose bin is in [lo, hi), in order, into list; their count. Spans counted,
+ * then written, in parallel. */
+#define SPANS 64
+static size_t select_bins(const uint16_t *bin, size_t n, unsigned lo, unsigned hi, size_t *list)
 {
-    const lrr_operator *op = lt->op;
-    const unsigned char *vis = lt->vis + l * op->n;
-    double s0 = 0, s1 = 0, s2 = 0;
-    #pragma omp parallel for schedule(static) reduction(+ : s0, s1, s2)
-    for (size_t i = 0; i < op->n; i++) {
-        if (lt->bin[i] >= T || !vis[i])
-            continue;
-        const float *rho = op->rho + 3 * i;
-        double a = op->area[i] * lt->g[i] * lt->g[i];
-        s0 += a * rho[0] * rho[0];
-        s1 += a * rho[1] * rho[1];
-        s2 += a * rho[2] * rho[2];
+    size_t start[SPANS + 1] = {0};
+    #pragma omp parallel for schedule(static)
+    for (size_t sp = 0; sp < SPANS; sp++) {
+        size_t c = 0;
+        for (size_t i = n * sp / SPANS; i < n * (sp + 1) / SPANS; i++)
+            c += bin[i] >= lo && bin[i] < hi;
+        start[sp + 1] = c;
     }
-    S[0] = s0, S[1] = s1, S[2] = s2;
+    for (size_t sp = 0; sp < SPANS; sp++)
+        start[sp + 1] += start[sp];
+    #pragma omp parallel for schedule(static)
+    for (size_t sp = 0; sp < SPANS; sp++) {
+        size_t c = start[sp];
+        const size_t end = start[sp + 1];
+        for (size_t i = n * sp / SPANS; i < n * (sp + 1) / SPANS && c < end; i++) {
+            list[c] = i; /* kept only when selected: the next one overwrites it otherwise */
+            c += bin[i] >= lo && bin[i] < hi;
+        }
+    }
+    return start[SPANS];
 }
 
-/* A point or spot light within the error budget (budget.c): the receivers with the largest
- * keys first, as many more as the light they were found to carry requires, and the rest
- * with the visibility of their last ray. */
-static void trace_budgeted(lrr_lighting *lt, const lrr__source *s, size_t l)
+/* Traces point or spot light l (checked as s) at the receivers list[0, count): one shadow
+ * batch per LRR__SHADOW_RAYS of them (one ray each), so that every packet but the last is
+ * full; fills their H / rgb and vis, and S with Σ a ρ_c² g² over those found visible,
+ * summed in a fixed order whatever the threads. */
+static void trace_list(lrr_lighting *lt, const lrr__source *s, size_t l, const float *g,
+                       size_t count, double S[3])
 {
     const lrr_operator *op = lt->op;
-    lrr__budget_cost cost;
-    lrr__budget_weigh(op, s, lt->g, lt->bin, cost);
-    unsigned t1 = lrr__budget_cut(cost, lt->tol, NULL);
-    trace(lt, s, l, lt->bin, 0, t1);
-    double S[3];
-    traced_light(lt, l, t1, S);
-    unsigned t2 = lrr__budget_cut(cost, lt->tol, S);
-    if (t2 > t1)
-        trace(lt, s, l, lt->bin, t1, t2);
-    else
-        t2 = t1;
-    float *H = lt->H + l * op->n * 3;
+    float *f = lt->H + l * op->n * 3;
+    unsigned char *vis = lt->vis + l * op->n;
+    const size_t *list = lt->list, chunks = (count + LRR__SHADOW_RAYS - 1) / LRR__SHADOW_RAYS;
+    uint64_t rays = 0;
+    #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays)
+    for (size_t c = 0; c < chunks; c++) {
+        const size_t j0 = c * LRR__SHADOW_RAYS;
+        const size_t j1 = j0 + LRR__SHADOW_RAYS < count ? j0 + LRR__SHADOW_RAYS : count;
+        double acc[LRR__SHADOW_RAYS] = {0}, *part = lt->part[c];
+        lrr__shadow_batch b;
+        lrr__shadow_init(&b, lt->bvh.scene, acc);
+        for (size_t j = j0; j < j1; j++)
+            lrr__source_rays(s, &b, list[j], (unsigned)(j - j0), op->centre + 3 * list[j],
+                             op->normal + 3 * list[j], lt->eps);
+        lrr__shadow_flush(&b);
+        part[0] = part[1] = part[2] = 0;
+        for (size_t j = j0; j < j1; j++) {
+            const size_t i = list[j];
+            f[i] = (float)acc[j - j0];
+            vis[i] = acc[j - j0] > 0;
+            for (int k = 0; k < 3 && vis[i]; k++)
+                part[k] += g[i] * g[i] * lt->rcv.ar[k][i];
+        }
+        rays += b.rays;
+    }
+    lt->rays += rays;
+    S[0] = S[1] = S[2] = 0;
+    for (size_t c = 0; c < chunks; c++)
+        for (int k = 0; k < 3; k++)
+            S[k] += lt->part[c][k];
+}
+
+/* The receivers not traced (bin >= t) keep the visibility of their last ray (or, never
+ * traced, visible). Guessing it instead from this frame's rays measured worse on Sponza
+ * (4 moving lights, τ 0.03, 20 frames, error of E mean / max): last ray 1.21 / 1.95 %; the
+ * nearest ray within 4 places 1.24 / 1.87 %, within 64 1.34 / 1.96 %; the patch's share
+ * of visible rays 1.34 / 1.92 %, by weight 1.71 / 2.15 %: the untraced receivers are far
+ * from the traced ones, and their visibility is theirs. */
+static void guess(lrr_lighting *lt, size_t l, const float *g, const uint16_t *bin, unsigned t)
+{
+    const lrr_operator *op = lt->op;
+    float *f = lt->H + l * op->n * 3; /* H / rgb (scalar) */
     const unsigned char *vis = lt->vis + l * op->n;
     #pragma omp parallel for schedule(static)
     for (size_t i = 0; i < op->n; i++)
-        if (lt->bin[i] >= t2)
-            lrr__source_irradiance(s, lt->bin[i] == LRR__BUDGET_DARK ? 0 : lt->g[i] * vis[i],
-                                   H + 3 * i);
+        if (bin[i] >= t)
+            f[i] = bin[i] == LRR__BUDGET_DARK ? 0.0f : g[i] * vis[i];
+}
+
+/* A point or spot light within the error budget (budget.c), weighed (g, bin, cost): the
+ * receivers with the largest keys first, as many more as the light they were found to carry
+ * requires, and the rest with the visibility of their last ray. */
+static void trace_budgeted(lrr_lighting *lt, const lrr__source *s, size_t l, const float *g,
+                           const uint16_t *bin, const lrr__budget_cost cost)
+{
+    const lrr_operator *op = lt->op;
+    unsigned t1 = lrr__budget_cut(cost, lt->tol, NULL);
+    double S[3], S2[3];
+    size_t cnt = select_bins(bin, op->n, 0, t1, lt->list);
+    trace_list(lt, s, l, g, cnt, S);
+    unsigned t2 = lrr__budget_cut(cost, lt->tol, S);
+    if (t2 > t1)
+        trace_list(lt, s, l, g, select_bins(bin, op->n, t1, t2, lt->list), S2);
+    else
+        t2 = t1;
+    guess(lt, l, g, bin, t2);
+    lt->scalar[l] = 1;
+}
+
+/* The m lights which[] (changed, budgeted), weighed together, then traced one by one. */
+static void trace_group(lrr_lighting *lt, const lrr__source *src, const size_t *which, size_t m)
+{
+    const size_t n = lt->op->n;
+    lrr__source s[LRR__BUDGET_GROUP] = {0};
+    float *g[LRR__BUDGET_GROUP] = {0};
+    uint16_t *bin[LRR__BUDGET_GROUP] = {0};
+    for (size_t j = 0; j < m; j++) {
+        s[j] = src[which[j]];
+        g[j] = lt->g + j * n;
+        bin[j] = lt->bin + j * n;
+    }
+    lrr__budget_weigh(lt->op, &lt->rcv, s, m, g, bin, lt->cost, lt->avx2);
+    for (size_t j = 0; j < m; j++)
+        trace_budgeted(lt, &s[j], which[j], g[j], bin[j], lt->cost[j]);
+}
+
+/* sum[0, m) += light l's irradiance H at entries [j0, j0 + m) of the n×3 array (j0 and m
+ * multiples of 3): from its slot, or rgb times its scalar slot. */
+#define SUM_BLOCK 1536
+static void add_light(const lrr_lighting *lt, const lrr__source *s, size_t l, size_t j0,
+                      size_t m, float *sum)
+{
+    const float *H = lt->H + l * lt->op->n * 3;
+    if (!lt->scalar[l]) {
+        for (size_t j = 0; j < m; j++)
+            sum[j] += H[j0 + j];
+        return;
+    }
+    const float rgb[3] = {(float)s->rgb[0], (float)s->rgb[1], (float)s->rgb[2]}, *f = H + j0 / 3;
+    for (size_t r = 0; r < m / 3; r++)
+        for (int c = 0; c < 3; c++)
+            sum[3 * r + c] += rgb[c] * f[r];
+}
+
+/* E = rho ∘ Σ_l H_l, summed in light order (float, as lrr_probe_direct_light), in blocks
+ * whose sums stay in the cache, so that each light's slot is read as one stream; 1 where
+ * an entry overflows. */
+static int sum_lights(const lrr_lighting *lt, const lrr__source *src, size_t count,
+                      float *emission)
+{
+    const lrr_operator *op = lt->op;
+    const size_t n3 = op->n * 3, blocks = (n3 + SUM_BLOCK - 1) / SUM_BLOCK;
+    int overflow = 0;
+    #pragma omp parallel for schedule(static) reduction(| : overflow)
+    for (size_t b = 0; b < blocks; b++) {
+        const size_t j0 = b * SUM_BLOCK, m = j0 + SUM_BLOCK < n3 ? SUM_BLOCK : n3 - j0;
+        float sum[SUM_BLOCK];
+        for (size_t j = 0; j < m; j++)
+            sum[j] = 0.0f;
+        for (size_t l = 0; l < count; l++)
+            add_light(lt, &src[l], l, j0, m, sum);
+        for (size_t j = 0; j < m; j++) {
+            emission[j0 + j] = op->rho[j0 + j] * sum[j];
+            overflow |= !isfinite(emission[j0 + j]);
+        }
+    }
+    return overflow;
 }
 
 lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights, size_t count,
@@ -208,36 +364,32 @@ lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights,
         return st;
     }
     lt->rays = 0;
+    size_t group[LRR__BUDGET_GROUP], m = 0;
     for (size_t l = 0; l < count; l++) {
         if (l < lt->count && memcmp(&lt->light[l], &lights[l], sizeof *lights) == 0)
             continue; /* unchanged: its irradiance is still in the cache */
-        if (lt->tol > 0 && (src[l].kind == LRR_LIGHT_POINT || src[l].kind == LRR_LIGHT_SPOT))
-            trace_budgeted(lt, &src[l], l);
-        else
-            trace(lt, &src[l], l, NULL, 0, 0);
+        if (lt->tol > 0 && (src[l].kind == LRR_LIGHT_POINT || src[l].kind == LRR_LIGHT_SPOT)) {
+            group[m++] = l;
+            if (m == LRR__BUDGET_GROUP) {
+                trace_group(lt, src, group, m);
+                m = 0;
+            }
+        } else
+            trace(lt, &src[l], l);
         lt->light[l] = lights[l];
     }
+    if (m)
+        trace_group(lt, src, group, m);
     lt->count = count;
-    st = lrr__bvh_status(lt->ctx, &lt->bvh, "occlusion query");
-    lrr_aligned_free(src);
-    if (st) {
+    if ((st = lrr__bvh_status(lt->ctx, &lt->bvh, "occlusion query"))) {
         lt->count = 0; /* the traced irradiance is not to be trusted */
+        lrr_aligned_free(src);
         return st;
     }
-    /* E = rho ∘ Σ_l H_l, summed in light order (float, as lrr_probe_direct_light) */
-    const lrr_operator *op = lt->op;
-    const size_t n3 = op->n * 3;
-    int overflow = 0;
-    #pragma omp parallel for schedule(static) reduction(| : overflow)
-    for (size_t j = 0; j < n3; j++) {
-        float sum = 0.0f;
-        for (size_t l = 0; l < count; l++)
-            sum += lt->H[l * n3 + j];
-        emission[j] = op->rho[j] * sum;
-        overflow |= !isfinite(emission[j]);
-    }
+    int overflow = sum_lights(lt, src, count, emission);
+    lrr_aligned_free(src);
     if (overflow) {
-        memset(emission, 0, n3 * sizeof(float));
+        memset(emission, 0, 3 * lt->op->n * sizeof(float));
         return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG,
                           "lrr_lighting_direct: the direct light overflows a float");
     }

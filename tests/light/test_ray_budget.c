@@ -6,20 +6,6 @@
  * lights are always traced in full; bad tolerances are refused. */
 #include "testutil.h"
 
-static lrr_operator *cornell_op(lrr_context *ctx, size_t *n)
-{
-    lrr_scene *sc = tu_cornell(ctx, 1, 600, 1);
-    lrr_build_options bo = lrr_build_options_defaults();
-    bo.hemicube_resolution = 8;
-    lrr_operator *op;
-    LRR_CHECK(ctx, lrr_operator_build(sc, &bo, &op));
-    lrr_scene_destroy(sc);
-    lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi, sizeof oi);
-    *n = oi.n;
-    return op;
-}
-
 static lrr_light_source light_at(int kind, double x, double y, double z)
 {
     lrr_light_source l = {.kind = kind, .rgb = {1e5f, 2e5f, 3e5f}};
@@ -58,7 +44,7 @@ typedef struct pair {
 static void pair_open(pair *p, double tol)
 {
     p->ctx = tu_context();
-    p->op = cornell_op(p->ctx, &p->n);
+    p->op = tu_closed_cornell_op(p->ctx, &p->n);
     LRR_CHECK(p->ctx, lrr_lighting_create(p->op, &p->budget));
     LRR_CHECK(p->ctx, lrr_lighting_create(p->op, &p->exact));
     LRR_CHECK(p->ctx, lrr_lighting_set_tolerance(p->budget, tol));
