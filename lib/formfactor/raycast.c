@@ -219,40 +219,25 @@ static void packet_init(struct RTCRayHit16 *rh, const float org[3])
     }
 }
 
-/* The face's frame in float (Embree's rays are float anyway) and its pixel centres: sx per
- * column, sy per row, TILE − 1 past the face's end for the last tiles' invalid lanes. */
-enum { RAYS_MAX_W = 4096 + TILE }; /* W <= 4096 (lrr__multiplier_map_create) */
-typedef struct {
-    float right[3], up[3], fwd[3];
-    float sx[RAYS_MAX_W], sy[RAYS_MAX_W];
-} face_rays;
-
-static void face_rays_init(face_rays *fr, const lrr__hemi_face *f)
-{
-    const float inv_half = 2.0f / (float)f->W, y_off = f->side ? 0.0f : -1.0f;
-    for (int j = 0; j < 3; j++) {
-        fr->right[j] = (float)f->right[j];
-        fr->up[j] = (float)f->up[j];
-        fr->fwd[j] = (float)f->fwd[j];
-    }
-    for (int c = 0; c < f->W + TILE; c++)
-        fr->sx[c] = (c + 0.5f) * inv_half - 1.0f;
-    for (int r = 0; r < f->H + TILE; r++)
-        fr->sy[r] = (r + 0.5f) * inv_half + y_off;
-}
-
 /* four lanes of float (GCC vector extensions: SSE on x86-64, NEON on aarch64), lane by lane
  * the scalar arithmetic: the per-lane loop was 40% of lrr__raycast_face (FZK-Haus R 64) */
 typedef float v4f __attribute__((vector_size(16)));
 
-/* Tile (x0, y0)'s directions and its per-ray state; valid gets the lanes inside the face. */
+/* The face's frame and pixel grid in float: Embree's rays are float anyway. */
+typedef struct {
+    float right[3], up[3], fwd[3];
+    float inv_half, y_off;
+} face_rays;
+
+/* Tile (x0, y0)'s directions through its pixel centres and its per-ray state; valid gets
+ * the lanes inside the face. */
 static void packet_tile(const face_rays *fr, const lrr__hemi_face *f, int x0, int y0,
                         struct RTCRayHit16 *rh, int *valid)
 {
-    v4f sx;
-    memcpy(&sx, fr->sx + x0, sizeof sx);
+    const v4f cx = {(float)x0, (float)(x0 + 1), (float)(x0 + 2), (float)(x0 + 3)},
+              sx = (cx + 0.5f) * fr->inv_half - 1.0f;
     for (int r = 0; r < TILE; r++) {
-        const float sy = fr->sy[y0 + r];
+        const float sy = (y0 + r + 0.5f) * fr->inv_half + fr->y_off;
         const v4f dx = sx * fr->right[0] + sy * fr->up[0] + fr->fwd[0],
                   dy = sx * fr->right[1] + sy * fr->up[1] + fr->fwd[1],
                   dz = sx * fr->right[2] + sy * fr->up[2] + fr->fwd[2];
@@ -317,11 +302,14 @@ void lrr__raycast_face(const lrr__hemi_ctx *h, const double x[3], const double N
         inset(area, rc->lift, inner);
         area = inner;
     }
-    face_rays fr;
-    face_rays_init(&fr, f);
+    face_rays fr = {.inv_half = 2.0f / (float)f->W, .y_off = f->side ? 0.0f : -1.0f};
     float org[3];
-    for (int j = 0; j < 3; j++)
+    for (int j = 0; j < 3; j++) {
         org[j] = (float)(x[j] + rc->lift * N[j]);
+        fr.right[j] = (float)f->right[j];
+        fr.up[j] = (float)f->up[j];
+        fr.fwd[j] = (float)f->fwd[j];
+    }
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx);
     ictx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
