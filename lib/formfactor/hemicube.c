@@ -344,29 +344,35 @@ lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
     return rows_impl(ctx, g, &o, 1, rows, count, out, NULL);
 }
 
-/* The per-triangle table of g and the diagonal of its bounding box. */
-static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, tri_info **out,
+void lrr__hemi_tri_info(const float v[9], lrr__tri_info *ti)
+{
+    for (int j = 0; j < 3; j++) {
+        ti->v0[j] = v[j];
+        ti->e1[j] = (double)v[3 + j] - v[j];
+        ti->e2[j] = (double)v[6 + j] - v[j];
+    }
+    lrr__cross3(ti->e1, ti->e2, ti->n);
+    ti->g11 = lrr__dot3(ti->e1, ti->e1);
+    ti->g12 = lrr__dot3(ti->e1, ti->e2);
+    ti->g22 = lrr__dot3(ti->e2, ti->e2);
+    ti->inv = 1.0 / (ti->g11 * ti->g22 - ti->g12 * ti->g12);
+}
+
+/* The per-triangle table of g (the rasteriser's; the ray caster keeps its own smaller one,
+ * so *out stays NULL for rays) and the diagonal of its bounding box. */
+static lrr_status tri_table(lrr_context *ctx, const lrr__geometry *g, int rays, tri_info **out,
                             double *diag)
 {
+    *out = NULL;
+    *diag = lrr__geometry_bounds(g, NULL, NULL);
+    if (rays)
+        return LRR_OK;
     tri_info *tri;
     lrr_status st = lrr__calloc(ctx, &tri, g->n_tri, sizeof *tri, "triangle table");
     if (st)
         return st;
-    for (size_t t = 0; t < g->n_tri; t++) {
-        const float *v = g->vert + 9 * t;
-        tri_info *ti = &tri[t];
-        for (int j = 0; j < 3; j++) {
-            ti->v0[j] = v[j];
-            ti->e1[j] = (double)v[3 + j] - v[j];
-            ti->e2[j] = (double)v[6 + j] - v[j];
-        }
-        lrr__cross3(ti->e1, ti->e2, ti->n);
-        ti->g11 = lrr__dot3(ti->e1, ti->e1);
-        ti->g12 = lrr__dot3(ti->e1, ti->e2);
-        ti->g22 = lrr__dot3(ti->e2, ti->e2);
-        ti->inv = 1.0 / (ti->g11 * ti->g22 - ti->g12 * ti->g12);
-    }
-    *diag = lrr__geometry_bounds(g, NULL, NULL);
+    for (size_t t = 0; t < g->n_tri; t++)
+        lrr__hemi_tri_info(g->vert + 9 * t, &tri[t]);
     *out = tri;
     return LRR_OK;
 }
@@ -479,7 +485,7 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
         return st;
     tri_info *tri;
     double diag;
-    if ((st = tri_table(ctx, g, &tri, &diag))) {
+    if ((st = tri_table(ctx, g, method == LRR_FORMFACTOR_RAYCAST, &tri, &diag))) {
         lrr__multiplier_map_free(&mm);
         return st;
     }
@@ -533,8 +539,10 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
         sx[2 * (size_t)R + c] = (c + 0.5) / half;
     }
     /* the device integration takes the same item buffers, rasterised or ray cast */
-    st = on_device ? device_rows(ctx, &h, opts, out, back)
-                   : cpu_rows(ctx, &h, opts, rows, count, out, back);
+    st = rc ? lrr__raycaster_bind(ctx, rc, &h) : LRR_OK;
+    if (!st)
+        st = on_device ? device_rows(ctx, &h, opts, out, back)
+                       : cpu_rows(ctx, &h, opts, rows, count, out, back);
     if (rc) {
         lrr_status rst = lrr__raycaster_status(ctx, rc);
         if (!st)

@@ -187,12 +187,22 @@ double lrr__hemi_integrate_face(const hemi_ctx *h, const double x[3], const face
     const size_t pixels = (size_t)f->W * f->H;
     double back = 0;
     if (h->rc) { /* the ray caster's item buffer holds patches already */
-        for (size_t pix = 0; pix < pixels; pix++) {
-            int32_t id = f->item[pix];
-            if (id >= 0 && row)
-                row[id] += f->weight[pix];
-            else if (id == LRR__ITEM_BACK)
+        for (size_t pix = 0; pix < pixels;) {
+            const int32_t id = f->item[pix];
+            if (id >= 0 && row) {
+                /* a run of one patch summed in a register, in pixel order as before: the
+                 * chain through row[id]'s store and reload took 3% of a FZK-Haus R 64 ray
+                 * profile (Zen 5) */
+                double acc = row[id];
+                do
+                    acc += f->weight[pix];
+                while (++pix < pixels && f->item[pix] == id);
+                row[id] = acc;
+                continue;
+            }
+            if (id == LRR__ITEM_BACK)
                 back += f->weight[pix];
+            pix++;
         }
         return back;
     }

@@ -39,12 +39,15 @@ typedef struct lrr__hemi_face {
  * back faces' delta form factors for the light-leak indicator (lrr_operator_info). */
 enum { LRR__ITEM_NONE = -1, LRR__ITEM_BACK = -2 };
 
+/* Triangle v's (9 floats) row of the table (the rasteriser's, and the ray caster's v0, n). */
+void lrr__hemi_tri_info(const float v[9], lrr__tri_info *ti);
+
 typedef struct lrr__raycaster lrr__raycaster;
 typedef struct lrr__hemi_simd lrr__hemi_simd;
 
 typedef struct lrr__hemi_ctx {
     const lrr__geometry *g;
-    const lrr__tri_info *tri;
+    const lrr__tri_info *tri;     /* the rasteriser's; NULL when casting rays */
     const lrr__multiplier_map *mm;
     double near, eps;      /* near plane and "on the plane" distance, scene units */
     int by_subpatch;       /* 1: columns are subpatches (full F, n wide); 0: patches (F̄) */
@@ -163,6 +166,9 @@ const lrr__hemi_simd *lrr__hemi_simd_pick(lrr__isa isa);
  * diag is the scene's bounding-box diagonal (for the ray origins' offset). */
 lrr_status lrr__raycaster_create(lrr_context *ctx, const lrr__geometry *g, double diag,
                                  lrr__raycaster **out);
+/* The ray caster's per-triangle table for the build of h (its columns, h->eps): after
+ * create, before the first lrr__raycast_face. */
+lrr_status lrr__raycaster_bind(lrr_context *ctx, lrr__raycaster *rc, const lrr__hemi_ctx *h);
 /* The error of the first failed Embree call since create (LRR_OK if none): check after the
  * rays of a build, since Embree reports errors from inside the traversal by callback. */
 lrr_status lrr__raycaster_status(lrr_context *ctx, const lrr__raycaster *rc);
