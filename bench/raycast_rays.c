@@ -54,6 +54,7 @@ static void normalize3(double v[3])
 typedef struct {
     RTCScene sc;
     const float *tri; /* n×9, the operator's order */
+    size_t n;
     const size_t *origin; /* lrr_operator_subpatch_origin, or NULL */
     double lift;
     unsigned R;
@@ -147,6 +148,46 @@ static double receiver_rays(const rays_setup *rs, size_t i)
     return rays + 1e-12 * hits; /* hits read, so no query is optimised away */
 }
 
+/* An Embree scene of n triangles whose 9n vertex floats fill() writes, indexed in order;
+ * robust and of medium build quality, as lrr's BVHs are, when like_lrr. NULL on failure. */
+static RTCScene triangle_scene(RTCDevice dev, size_t n, int like_lrr,
+                               void (*fill)(float *vb, const void *user), const void *user)
+{
+    RTCScene sc = rtcNewScene(dev);
+    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    if (!sc || !g)
+        return NULL;
+    if (like_lrr) {
+        rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
+        rtcSetSceneBuildQuality(sc, RTC_BUILD_QUALITY_MEDIUM);
+    }
+    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                        3 * sizeof(float), 3 * n);
+    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                           3 * sizeof(unsigned), n);
+    if (!vb || !ib) {
+        rtcReleaseGeometry(g);
+        rtcReleaseScene(sc);
+        return NULL;
+    }
+    fill(vb, user);
+    for (size_t i = 0; i < 3 * n; i++)
+        ib[i] = (unsigned)i;
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(sc, g);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(sc);
+    return sc;
+}
+
+/* lrr's triangles (rays_setup) back in the scene's order. */
+static void fill_scene_order(float *vb, const void *user)
+{
+    const rays_setup *rs = user;
+    for (size_t i = 0; i < rs->n; i++)
+        memcpy(vb + 9 * (rs->origin ? rs->origin[i] : i), rs->tri + 9 * i, 9 * sizeof(float));
+}
+
 /* Embree's scene of the operator's triangles in the scene's order (lrr's BVH holds the
  * input triangles, primitive = scene index) and lrr's lift (raycast.c: 1e-6 of the bounding
  * box's diagonal, lib/scene/subdivide.c's, plus 8 float ulps of the largest coordinate). */
@@ -162,30 +203,8 @@ static RTCScene lrr_scene_bvh(RTCDevice dev, rays_setup *rs, size_t n)
     const double diag = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                              (hi[2] - lo[2]) * (hi[2] - lo[2]));
     rs->lift = 1e-6 * diag + 8 * FLT_EPSILON * maxabs;
-    RTCScene sc = rtcNewScene(dev);
-    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    if (!sc || !g)
-        return NULL;
-    rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(sc, RTC_BUILD_QUALITY_MEDIUM);
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                        3 * sizeof(float), 3 * n);
-    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                           3 * sizeof(unsigned), n);
-    if (!vb || !ib) {
-        rtcReleaseGeometry(g);
-        rtcReleaseScene(sc);
-        return NULL;
-    }
-    for (size_t i = 0; i < n; i++)
-        memcpy(vb + 9 * (rs->origin ? rs->origin[i] : i), rs->tri + 9 * i, 9 * sizeof(float));
-    for (size_t i = 0; i < 3 * n; i++)
-        ib[i] = (unsigned)i;
-    rtcCommitGeometry(g);
-    rtcAttachGeometry(sc, g);
-    rtcReleaseGeometry(g);
-    rtcCommitScene(sc);
-    return sc;
+    rs->n = n;
+    return triangle_scene(dev, n, 1, fill_scene_order, rs);
 }
 
 /* One Embree pass over lrr's centre rays: rays per second; *rays gets their count. */
@@ -303,31 +322,12 @@ int bench_raycast_rays(const char *name, unsigned R)
     return rc;
 }
 
+static void fill_subpatches(float *vb, const void *op)
+{
+    lrr_operator_subpatch_vertices(op, vb);
+}
+
 RTCScene bench_embree_scene(RTCDevice dev, const lrr_operator *op, size_t n, int like_lrr)
 {
-    RTCScene sc = rtcNewScene(dev);
-    RTCGeometry g = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
-    if (!sc || !g)
-        return NULL;
-    if (like_lrr) {
-        rtcSetSceneFlags(sc, RTC_SCENE_FLAG_ROBUST);
-        rtcSetSceneBuildQuality(sc, RTC_BUILD_QUALITY_MEDIUM);
-    }
-    float *vb = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                        3 * sizeof(float), 3 * n);
-    unsigned *ib = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                           3 * sizeof(unsigned), n);
-    if (!vb || !ib) {
-        rtcReleaseGeometry(g);
-        rtcReleaseScene(sc);
-        return NULL;
-    }
-    lrr_operator_subpatch_vertices(op, vb);
-    for (size_t i = 0; i < 3 * n; i++)
-        ib[i] = (unsigned)i;
-    rtcCommitGeometry(g);
-    rtcAttachGeometry(sc, g);
-    rtcReleaseGeometry(g);
-    rtcCommitScene(sc);
-    return sc;
+    return triangle_scene(dev, n, like_lrr, fill_subpatches, op);
 }
