@@ -151,6 +151,10 @@ typedef struct bench_pairs {
 } bench_pairs;
 int bench_interleave(frame_fn fn, void *user, double bytes, double frame_ms, unsigned pairs,
                      bench_pairs *out);
+/* Two ways A and B in alternation, as bench_interleave: `pairs` pairs of the fastest of a
+ * few runs each; out's ratios are A ms / B ms and its floor_ms is B's median ms. */
+int bench_ab(frame_fn a, void *ua, frame_fn b, void *ub, double frame_ms, unsigned pairs,
+             bench_pairs *out);
 /* Multiply-add peak in flop/s: an OpenMP loop of independent FMA chains, the best of each
  * vector width the CPU has (0 on failure). */
 double bench_fma_peak(void);
@@ -329,6 +333,8 @@ typedef struct rt_row {
      * multiply-add roofline's time, flops / the measured FMA peak */
     bench_pairs pairs;
     double roofline_ms;
+    double m_bytes;     /* fused rows: what a frame reads of M (lrr_solver_info.m_bytes) */
+    bench_pairs m_ab;   /* 16-bit fused rows: M − I in binary16 over M in f32, A/B pairs */
 } rt_row;
 
 typedef struct rt_cell {

@@ -86,6 +86,51 @@ int bench_interleave(frame_fn fn, void *user, double bytes, double frame_ms, uns
     return 0;
 }
 
+/* the fastest of reps runs of fn (after one untimed run), in ms; INFINITY on an error */
+static double fastest_ms(frame_fn fn, void *user, unsigned reps, int *rc)
+{
+    double best = INFINITY;
+    if ((*rc = fn(user)))
+        return best;
+    for (unsigned r = 0; r < reps && !*rc; r++) {
+        double t0 = cli_now();
+        *rc = fn(user);
+        best = fmin(best, 1e3 * (cli_now() - t0));
+    }
+    return best;
+}
+
+int bench_ab(frame_fn a, void *ua, frame_fn b, void *ub, double frame_ms, unsigned pairs,
+             bench_pairs *out)
+{
+    out->median = out->min = out->max = out->floor_ms = NAN;
+    out->pairs = 0;
+    if (pairs > BENCH_MAX_PAIRS)
+        pairs = BENCH_MAX_PAIRS;
+    unsigned reps = PAIR_MIN_REPS;
+    if (frame_ms > 0 && frame_ms < PAIR_HALF_MS / PAIR_MIN_REPS)
+        reps = (unsigned)fmin(PAIR_MAX_REPS, ceil(PAIR_HALF_MS / frame_ms));
+    double ratio[BENCH_MAX_PAIRS], b_ms[BENCH_MAX_PAIRS];
+    int rc = 0;
+    for (unsigned p = 0; p < pairs && !rc; p++) {
+        double ta = fastest_ms(a, ua, reps, &rc);
+        double tb = rc ? NAN : fastest_ms(b, ub, reps, &rc);
+        b_ms[p] = tb;
+        ratio[p] = ta / tb;
+        out->pairs = rc ? p : p + 1;
+    }
+    if (rc || out->pairs == 0)
+        return rc ? rc : bench_fail("no A/B pair was timed");
+    out->min = out->max = ratio[0];
+    for (unsigned p = 1; p < out->pairs; p++) {
+        out->min = fmin(out->min, ratio[p]);
+        out->max = fmax(out->max, ratio[p]);
+    }
+    out->median = median_of(ratio, out->pairs);
+    out->floor_ms = median_of(b_ms, out->pairs);
+    return 0;
+}
+
 /* ------------------------------------------------------------------ multiply-add peak */
 /* FMA_ACC independent accumulator chains per thread: two FMA pipes with a 4-cycle latency
  * need 8 in flight; 12 leave room. Each step is one a = a·m + c per lane (2 flops). */

@@ -65,7 +65,8 @@ static const char realtime_help[] =
     "half that for the 16-bit rows), warm from the cache as the kernels are.\n"
     "floor_ms = F̄'s bytes in the row's storage (n·k·4 or n·k·2) / bandwidth; sgemv3,\n"
     "sgemm3, paper, sparse and incremental get the f32 floor; floor_ms_full (CSV) adds M\n"
-    "(12·k² bytes). ratio_to_floor = ms_median / floor_ms (below 1 a warning says whether\n"
+    "as the row reads it (12·k² bytes; the 16-bit rows read M − I in binary16, 6·k² + 12·k:\n"
+    "lrr_solver_set_m). ratio_to_floor = ms_median / floor_ms (below 1 a warning says whether\n"
     "the matrix was cache-resident or the floor too low; sparse and incremental do not read\n"
     "F̄ and may go below it); ratio_to_paper = the paper's ms_median / ms_median (a\n"
     "speed-up). rel_l2_vs_f32 = the area-weighted relative L2 of B against fused f32's B\n"
@@ -74,7 +75,7 @@ static const char realtime_help[] =
     "Interleaved floor (fused f32, f16, bf16 on the CPU): the bandwidth drifts on a shared\n"
     "machine, so the floor and the pass are also measured in 11 pairs A B A B ...: A = the\n"
     "read kernels over a buffer of exactly the bytes a frame must read (F̄ as stored + M\n"
-    "(3·k² floats) + E and B (n·3 floats each)); B = the fused pass; each half one untimed\n"
+    "as read + E and B (n·3 floats each)); B = the fused pass; each half one untimed\n"
     "run, then at least 3 runs and about 20 ms, the fastest run kept (a preempted run would\n"
     "dominate a mean). Per pair ratio = pass ms / (those bytes / A's bandwidth);\n"
     "ratio_pairs_median, _min and _max over the pairs, and floor_pairs_ms = the median of\n"
@@ -83,7 +84,8 @@ static const char realtime_help[] =
     "(fma_peak_gflops; \"not measured\" when it failed). The target line (fused f32 <= 1.25\n"
     "× floor and >= 5× paper; f16 and bf16 <= 1.3 × their floor; f16 >= 8× paper; floors\n"
     "judged on ratio_pairs_median, the paper ratios the goal on the 191 MB cells) is\n"
-    "reported, never enforced.\n"
+    "reported, never enforced. The line m_f16 times each 16-bit fused pass against the\n"
+    "same pass with M in f32, in 11 alternating pairs (the median ratio and its range).\n"
     "\n"
     "Options:\n"
     "  --n N, --k K         one matrix of about N subpatches and K patches: target_patches K,\n"
@@ -288,6 +290,14 @@ static void print_rt_cell(const rt_args *a, const rt_cell *r)
            RT_BATCH, bench_fmt_ms(bm, sizeof bm, r->batch_ms_per_frame),
            bench_fmt_ms(fm, sizeof fm, r->batch.median), r->batch.runs,
            f32->t.median / r->batch_ms_per_frame, r->batch_rel_l2);
+    for (int j = 0; j < 2; j++) {
+        const rt_row *w = &r->rows[RT_FUSED_F16 + j];
+        if (w->m_ab.pairs)
+            printf("m_f16: fused %s, M − I in binary16 (%.1f MB) / M in f32 (%.1f MB): %.3f "
+                   "(%.3f-%.3f, %u interleaved pairs; M in f32 %.3f ms)\n",
+                   w->storage, w->m_bytes / 1e6, 12.0 * (double)r->k * (double)r->k / 1e6,
+                   w->m_ab.median, w->m_ab.min, w->m_ab.max, w->m_ab.pairs, w->m_ab.floor_ms);
+    }
     for (int i = 0; i < RT_COUNT; i++) {
         const rt_row *w = &r->rows[i];
         if (!w->reads_fbar || !(w->ratio_to_floor < 1))

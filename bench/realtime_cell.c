@@ -345,12 +345,15 @@ static int rt_buffers(rt_work *wk)
 }
 
 /* The fused pass on sv and its floor in alternation (bench_interleave), over every byte a
- * frame must read: F̄ as stored, M (3·k² floats), E and B (n·3 floats each); and the
+ * frame must read: F̄ as stored, M as the solver reads it, E and B (n·3 floats each); and the
  * multiply-add roofline, 2·n·k·3 + 2·3·k² flops at the measured FMA peak. */
 static int rt_pairs(rt_work *wk, lrr_solver *sv, lrr_storage st, rt_row *row)
 {
     const double n = (double)wk->n, k = (double)wk->k;
-    const double bytes = storage_bytes(wk->n, wk->k, st) + 12.0 * k * k + 2.0 * 12.0 * n;
+    lrr_solver_info si;
+    lrr_solver_get_info(sv, &si, sizeof si);
+    row->m_bytes = (double)si.m_bytes;
+    const double bytes = storage_bytes(wk->n, wk->k, st) + row->m_bytes + 2.0 * 12.0 * n;
     ours_frame of = {sv, wk->e, NULL, wk->b, LRR_OK, 0};
     bench_note("%s: fused %s and its floor, %u interleaved pairs", wk->label, row->storage,
                RT_PAIRS);
@@ -389,6 +392,33 @@ static int rt_fused_f32(rt_work *wk, rt_cell *r)
     return 0;
 }
 
+/* The 16-bit pass as the solver chose it (M − I in binary16) against the same pass with M in
+ * f32, in alternation: what halving M's bytes buys where M is a large part of a frame. */
+static int rt_m_ab(rt_work *wk, const lrr_operator *op, lrr_solver *sv, rt_row *row)
+{
+    lrr_solver *s32 = NULL;
+    lrr_status s = lrr_solver_create(op, LRR_BACKEND_CPU, &s32);
+    if (s == LRR_OK)
+        s = lrr_solver_set_fbar(s32, LRR_FBAR_DENSE);
+    if (s == LRR_OK)
+        s = lrr_solver_set_m(s32, LRR_STORAGE_F32);
+    if (s == LRR_OK)
+        s = lrr_solver_set_path(s32, LRR_PATH_FULL);
+    if (s != LRR_OK) {
+        lrr_solver_destroy(s32);
+        return bench_lib_fail(wk->ctx, s, "solver (M in f32)");
+    }
+    bench_note("%s: fused %s, M − I in binary16 against M in f32, %u pairs", wk->label,
+               row->storage, RT_PAIRS);
+    ours_frame a = {sv, wk->e, NULL, wk->b, LRR_OK, 0}, b = {s32, wk->e, NULL, wk->tmp, LRR_OK, 0};
+    int rc = bench_ab(bench_ours_step, &a, bench_ours_step, &b, row->t.median, RT_PAIRS,
+                      &row->m_ab);
+    lrr_solver_destroy(s32);
+    if (rc && (a.status != LRR_OK || b.status != LRR_OK))
+        return bench_lib_fail(wk->ctx, a.status ? a.status : b.status, "lrr_solve (A/B)");
+    return rc;
+}
+
 /* fused f16 and bf16, one solver each */
 static int rt_fused_16bit(rt_work *wk, rt_cell *r)
 {
@@ -408,6 +438,8 @@ static int rt_fused_16bit(rt_work *wk, rt_cell *r)
             bench_compare_b(wk->n, wk->area, wk->b, wk->b32, NULL, &row->rel_l2, NULL);
         if (!rc)
             rc = rt_pairs(wk, sv, rt_storage[RT_FUSED_F16 + j], row);
+        if (!rc)
+            rc = rt_m_ab(wk, wk->op16[j], sv, row);
         lrr_solver_destroy(sv);
         if (rc)
             return rc;
@@ -573,7 +605,7 @@ static void rt_floors(const rt_args *a, size_t n, size_t k, rt_cell *r)
 {
     /* the floor's bandwidth: the best of the tuned read kernel and of what OpenBLAS sgemv
      * itself streams over this matrix, so no baseline can run below its own floor */
-    const double f32_bytes = storage_bytes(n, k, LRR_STORAGE_F32), m_bytes = 12.0 * k * k;
+    const double f32_bytes = storage_bytes(n, k, LRR_STORAGE_F32), m32_bytes = 12.0 * k * k;
     r->fits_llc = a->llc > 0 && f32_bytes <= (double)a->llc;
     r->bw_kernel = a->bandwidth;
     r->bw = a->bandwidth;
@@ -601,6 +633,7 @@ static void rt_floors(const rt_args *a, size_t n, size_t k, rt_cell *r)
         const lrr_storage st = rt_storage[i];
         const double fb = storage_bytes(n, k, st);
         const double bw = st == LRR_STORAGE_F32 ? r->bw : r->bw16;
+        const double m_bytes = w->m_bytes > 0 ? w->m_bytes : m32_bytes; /* as the row read M */
         w->floor_ms = bw > 0 ? 1e3 * fb / bw : NAN;
         w->floor_ms_full = bw > 0 ? 1e3 * (fb + m_bytes) / bw : NAN;
         w->ratio_to_floor = w->t.median / w->floor_ms;

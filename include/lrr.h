@@ -614,14 +614,25 @@ LRR_API LRR_NODISCARD lrr_status lrr_operator_save_fbar(const lrr_operator *op,
  * safety: one thread per object. */
 LRR_API LRR_NODISCARD lrr_status lrr_solver_set_fbar(lrr_solver *solver, lrr_fbar_format format)
     LRR_NONNULL(1);
+/* How a CPU solver reads M_c in a full frame: F32, the operator's M; F16, M_c − I in binary16
+ * with a power-of-two scale per row, half the bytes (k = 3456: 72 MB instead of 143 MB a
+ * frame). lrr_solver_create chooses F16 when the operator's F̄ is F16 or BF16, where its
+ * rounding is a small part of F̄'s own, else F32 (docs/METHOD.md "Real-time step"). BF16 is
+ * refused (LRR_ERR_INVALID_ARG). The sparse and incremental paths and lrr_solve_batch read
+ * the operator's M whatever this says. An OpenCL solver reads M in F32 (F16:
+ * LRR_ERR_UNSUPPORTED). On an error the solver reads M as before. Thread safety: one thread
+ * per object. */
+LRR_API LRR_NODISCARD lrr_status lrr_solver_set_m(lrr_solver *solver, lrr_storage storage)
+    LRR_NONNULL(1);
 
 typedef struct lrr_solver_info {
     lrr_fbar_format fbar;      /* DENSE or SPARSE: what a full frame reads */
     size_t fbar_bytes;         /* bytes of F̄ a full frame reads (the sparse copy's size) */
     size_t fbar_dense_bytes;   /* n·k entries in the operator's storage */
-    size_t m_bytes;            /* M_c: 3·k·k floats, read by every full frame */
+    size_t m_bytes;            /* bytes of M a full frame reads (3·k·k entries, + row scales) */
     double fbar_density;       /* nonzero entries / (n·k) */
     double fbar_strip_density; /* entries of the strips that hold a nonzero / (n·k) */
+    lrr_storage m;             /* F32 or F16: how a full frame reads M (lrr_solver_set_m) */
 } lrr_solver_info;
 /* info_size = sizeof *info (see Conventions). */
 LRR_API void lrr_solver_get_info(const lrr_solver *solver, lrr_solver_info *info,

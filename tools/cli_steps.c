@@ -262,8 +262,8 @@ int solve_lit(lrr_context *ctx, const char *file, double scale, const probe_args
         lrr_operator_info oi;
         lrr_operator_get_info(*op, &oi, sizeof oi);
         *b = cli_alloc_rgb(oi.n);
-        rc = *b ? timed_solve(ctx, *op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, e, *b, 0, LRR_PATH_AUTO,
-                              &ms, NULL, NULL)
+        rc = *b ? timed_solve(ctx, *op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, SOLVE_M_AUTO, e, *b, 0,
+                              LRR_PATH_AUTO, &ms, NULL, NULL)
                 : CLI_EXIT_FAIL;
     }
     free(e);
@@ -283,13 +283,15 @@ int check_finite(const float *b, size_t n)
 
 /* Solves once to warm up, then `repeat` timed runs; *median_ms gets their median. */
 int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend,
-                lrr_fbar_format fbar, const float *e, float *b, unsigned repeat, lrr_path path,
-                double *median_ms, lrr_path *used, solver_report *report)
+                lrr_fbar_format fbar, int m, const float *e, float *b, unsigned repeat,
+                lrr_path path, double *median_ms, lrr_path *used, solver_report *report)
 {
     lrr_solver *solver = NULL;
     lrr_status s = lrr_solver_create(op, backend, &solver);
     if (s == LRR_OK && fbar != LRR_FBAR_AUTO) /* create chose for AUTO already */
         s = lrr_solver_set_fbar(solver, fbar);
+    if (s == LRR_OK && m != SOLVE_M_AUTO)
+        s = lrr_solver_set_m(solver, (lrr_storage)m);
     if (s == LRR_OK)
         s = lrr_solver_set_path(solver, path);
     if (s != LRR_OK) {

@@ -207,10 +207,10 @@ static int demo_solve(demo_run *d)
     solver_report rep;
     double sparse_ms = 0;
     const float *e = lrr_operator_emission(d->op);
-    rc = timed_solve(d->ctx, d->op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, e, d->b, DEFAULT_REPEAT,
-                     LRR_PATH_SPARSE, &sparse_ms, NULL, NULL);
+    rc = timed_solve(d->ctx, d->op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, SOLVE_M_AUTO, e, d->b,
+                     DEFAULT_REPEAT, LRR_PATH_SPARSE, &sparse_ms, NULL, NULL);
     if (rc == CLI_EXIT_OK)
-        rc = timed_solve(d->ctx, d->op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, e, d->b,
+        rc = timed_solve(d->ctx, d->op, LRR_BACKEND_CPU, LRR_FBAR_AUTO, SOLVE_M_AUTO, e, d->b,
                          DEFAULT_REPEAT, LRR_PATH_FULL, &d->ms, NULL, &rep);
     if (rc)
         return rc;

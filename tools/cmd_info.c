@@ -19,7 +19,9 @@ static const char info_help[] =
     "verify_emission;\n"
     "then how 'lrr solve' reads F̄ (a CPU solver's --fbar auto): fbar (dense or sparse),\n"
     "fbar_bytes (read per full frame), fbar_dense_bytes, fbar_density (nonzero entries /\n"
-    "n·k), fbar_strip_density (entries of the 16-row strips that hold a nonzero / n·k).\n"
+    "n·k), fbar_strip_density (entries of the 16-row strips that hold a nonzero / n·k),\n"
+    "m (f32, or f16: M_c - I in binary16, chosen when F̄ is 16-bit) and m_bytes (read per\n"
+    "full frame).\n"
     "\n" SCENE_HELP "\n" SUBDIV_HELP "  -h, --help           show this help\n";
 
 /* How a CPU solver reads the operator's F̄ (lrr_solver_get_info). */
@@ -37,6 +39,8 @@ static int print_fbar_info(lrr_context *ctx, const lrr_operator *op)
     printf("fbar_dense_bytes: %zu\n", si.fbar_dense_bytes);
     printf("fbar_density: %.4f\n", si.fbar_density);
     printf("fbar_strip_density: %.4f\n", si.fbar_strip_density);
+    printf("m: %s\n", lrr_storage_name(si.m));
+    printf("m_bytes: %zu\n", si.m_bytes);
     return CLI_EXIT_OK;
 }
 

@@ -33,10 +33,14 @@ static const char solve_help[] =
     "                       nonzero (a real scene's F̄ is mostly zeros), auto does so\n"
     "                       where that reads at most half the dense bytes; the same B up\n"
     "                       to the order of the sums, on the CPU and on an OpenCL device\n"
+    "  --m M                auto (default), f32 or f16: how a full frame reads M_c: f16\n"
+    "                       holds M_c - I in binary16 with a scale per row (half the\n"
+    "                       bytes), what auto chooses when F̄ is 16-bit (CPU only)\n"
     PROBE_LIGHT_HELP
     "  -h, --help           show this help\n"
     "Also prints storage (of F̄), fbar (dense or sparse, as read), fbar_bytes (read per full\n"
-    "frame), fbar_density (nonzero entries / n·k), m_bytes, backend, path (that the last\n"
+    "frame), fbar_density (nonzero entries / n·k), m (f32 or f16) and m_bytes (read per full\n"
+    "frame), backend, path (that the last\n"
     "run took) and kernel (the\n"
     "SIMD variant, c, avx2 or avx512, with +prefetch on Intel CPUs; the environment\n"
     "variable LRR_SIMD forces one by that name, or\n"
@@ -53,6 +57,7 @@ typedef struct solve_args {
     int path;     /* lrr_path */
     int backend;  /* lrr_backend */
     int fbar;     /* lrr_fbar_format */
+    int m;        /* lrr_storage of M, or SOLVE_M_AUTO */
 } solve_args;
 
 /* What the run measured, for the printout. */
@@ -72,6 +77,10 @@ static const cli_choice fbars[] = {{"auto", LRR_FBAR_AUTO},
                                    {"dense", LRR_FBAR_DENSE},
                                    {"sparse", LRR_FBAR_SPARSE},
                                    {NULL, 0}};
+static const cli_choice ms[] = {{"auto", SOLVE_M_AUTO},
+                                {"f32", LRR_STORAGE_F32},
+                                {"f16", LRR_STORAGE_F16},
+                                {NULL, 0}};
 static const cli_choice backends[] = {{"cpu", LRR_BACKEND_CPU},
                                       {"opencl", LRR_BACKEND_OPENCL},
                                       {NULL, 0}};
@@ -88,6 +97,7 @@ static const cli_opt solve_opts[] = {
      .choices = backends},
     {.name = "fbar", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(solve_args, fbar),
      .choices = fbars},
+    {.name = "m", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(solve_args, m), .choices = ms},
     {.name = NULL}};
 
 /* CLI_RUN with *a filled in, or the exit status (after --help or a usage message). */
@@ -97,7 +107,8 @@ static int parse_solve(solve_args *a, int argc, char *argv[])
                       .repeat = DEFAULT_REPEAT,
                       .path = LRR_PATH_FULL,
                       .backend = LRR_BACKEND_CPU,
-                      .fbar = LRR_FBAR_AUTO};
+                      .fbar = LRR_FBAR_AUTO,
+                      .m = SOLVE_M_AUTO};
     probe_args_init(&a->pa);
     const cli_opt_group groups[] = {{solve_opts, a}, {probe_opts, &a->pa}, {NULL, NULL}};
     const cli_command cmd = {prog, solve_help, "FILE.lrr", groups};
@@ -121,6 +132,7 @@ static void print_solve(const solve_args *a, const lrr_operator *op, const float
     printf("fbar: %s\n", lrr_fbar_format_name(si->fbar));
     printf("fbar_bytes: %zu\n", si->fbar_bytes);
     printf("fbar_density: %.4f\n", si->fbar_density);
+    printf("m: %s\n", lrr_storage_name(si->m));
     printf("m_bytes: %zu\n", si->m_bytes);
     printf("backend: %s\n", a->backend == LRR_BACKEND_OPENCL ? "opencl" : "cpu");
     printf("path: %s\n", path_names[r->used]);
@@ -159,7 +171,7 @@ static int run_solve(const solve_args *a)
         lrr_operator_info oi;
         lrr_operator_get_info(op, &oi, sizeof oi);
         b = cli_alloc_rgb(oi.n);
-        rc = b ? timed_solve(ctx, op, (lrr_backend)a->backend, (lrr_fbar_format)a->fbar, e, b,
+        rc = b ? timed_solve(ctx, op, (lrr_backend)a->backend, (lrr_fbar_format)a->fbar, a->m, e, b,
                              a->repeat, (lrr_path)a->path, &r.ms, &r.used, &r.solver)
                : CLI_EXIT_FAIL;
     }

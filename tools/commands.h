@@ -350,11 +350,12 @@ typedef struct solver_report {
     lrr_solver_info info;
 } solver_report;
 /* Times `repeat` solves of the same emission on the given backend and path, F̄ read as fbar
- * says, after one warm-up, and reports the path the last one took and the solver (report
- * may be NULL). */
+ * says and M as m says (an lrr_storage, or SOLVE_M_AUTO: the solver's choice), after one
+ * warm-up, and reports the path the last one took and the solver (report may be NULL). */
+#define SOLVE_M_AUTO (-1)
 int timed_solve(lrr_context *ctx, const lrr_operator *op, lrr_backend backend,
-                lrr_fbar_format fbar, const float *e, float *b, unsigned repeat, lrr_path path,
-                double *median_ms, lrr_path *used, solver_report *report);
+                lrr_fbar_format fbar, int m, const float *e, float *b, unsigned repeat,
+                lrr_path path, double *median_ms, lrr_path *used, solver_report *report);
 /* render's and export's solve: loads *op from file and solves once on the CPU for its stored
  * emission × scale plus the direct light of pa's probe and --light sources (or that light
  * alone with --no-scene-emission) into *b (n×3, freed by the caller; also on failure). */

@@ -24,6 +24,8 @@ struct lrr_operator {
     uint16_t *fbar16;          /* n×k binary16 or bfloat16 (F16, BF16), F̄_ip / row_scale_i */
     float *row_scale;          /* n powers of two (F16, BF16; all 1 for BF16) */
     float *m;                  /* 3×k×k row-major: M_c = G_c^{-1} */
+    unsigned long m_epoch;     /* +1 whenever M is written (smw.c): solvers' copies of it
+                                  (M − I in binary16, cached columns F̄ M_c) compare it */
     double cond[3];            /* dgecon estimates (1-norm) of G_c */
     double build_seconds;
     double selection_seconds;  /* adaptive selection's (clustering's) part of build_seconds */
@@ -58,6 +60,9 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
 
 /* Round-to-nearest-even conversions (storage.c). */
 uint16_t lrr__f32_to_f16(float f);
+/* The power of two s with max_abs/s in [2^14, 2^15) (1 when max_abs is 0): the row scale of
+ * 16-bit F̄ and of M − I in binary16, which keeps a row's small entries normal numbers. */
+float lrr__f16_scale(float max_abs);
 float lrr__f16_to_f32(uint16_t h);
 uint16_t lrr__f32_to_bf16(float f);
 float lrr__bf16_to_f32(uint16_t b);

@@ -101,6 +101,7 @@ lrr_status lrr__smw_factor(lrr_operator *op)
         if (st)
             break;
     }
+    op->m_epoch++; /* M was written (in part, after an error) */
     lrr_aligned_free(G);
     lrr_aligned_free(ipiv);
     lrr_aligned_free(rowbuf);

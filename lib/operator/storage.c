@@ -104,17 +104,39 @@ lrr_status lrr_storage_from_name(const char *name, lrr_storage *out)
     return LRR_ERR_INVALID_ARG;
 }
 
-/* The power of two s with max/s in [2^14, 2^15) (1 for an empty row). */
+/* lrr_fbar_format: how a solver reads F̄ (solve/cpu.c, solve/sparse.c) */
+static const char *const fbar_names[] = {"auto", "dense", "sparse"};
+
+const char *lrr_fbar_format_name(lrr_fbar_format f)
+{
+    return (unsigned)f < 3 ? fbar_names[f] : NULL;
+}
+
+lrr_status lrr_fbar_format_from_name(const char *name, lrr_fbar_format *out)
+{
+    for (int i = 0; i < 3; i++)
+        if (strcmp(name, fbar_names[i]) == 0) {
+            *out = (lrr_fbar_format)i;
+            return LRR_OK;
+        }
+    return LRR_ERR_INVALID_ARG;
+}
+
+float lrr__f16_scale(float max_abs)
+{
+    if (!(max_abs > 0))
+        return 1.0f;
+    int e;
+    frexpf(max_abs, &e); /* max_abs = f·2^e, f in [0.5, 1) */
+    return ldexpf(1.0f, e - 15);
+}
+
 static float f16_row_scale(const float *row, size_t k)
 {
     float mx = 0;
     for (size_t q = 0; q < k; q++)
         mx = fmaxf(mx, row[q]);
-    if (!(mx > 0))
-        return 1.0f;
-    int e;
-    frexpf(mx, &e); /* mx = f·2^e, f in [0.5, 1) */
-    return ldexpf(1.0f, e - 15);
+    return lrr__f16_scale(mx);
 }
 
 void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)

@@ -47,6 +47,8 @@ struct lrr_solver {
     const lrr__kernel *kernel; /* SIMD variant, chosen once (lrr__cpu_choose) */
     lrr__sparse *sparse;       /* F̄ as strips (sparse.c), or NULL: the operator's dense F̄ */
     lrr__sparse_stats fbar_stats; /* its counts (also when dense was kept) */
+    lrr__m_f16 *m16;           /* M − I as a full frame reads it (m_f16.c), or NULL: op->m */
+    unsigned long m_epoch;     /* op->m_epoch when m16 and the cached columns were made */
     lrr__cl_solver *cl;        /* LRR_BACKEND_OPENCL: every frame goes there (solve/opencl.c) */
     float *w;      /* 3×k, channel-major */
     float *z;      /* 3×k, channel-major: the right-hand sides of the n×k product */
@@ -77,6 +79,7 @@ void lrr_solver_destroy(lrr_solver *s)
         return;
     lrr__cl_destroy(s->cl);
     lrr__sparse_destroy(s->sparse);
+    lrr__m_f16_destroy(s->m16);
     lrr_aligned_free(s->w);
     lrr_aligned_free(s->z);
     lrr_aligned_free(s->slot);
@@ -114,23 +117,6 @@ static void fbar_apply_frames(const lrr_solver *s, size_t count, const float *z,
         lrr__fbar_apply_frames(s->kernel, s->op, count, z, E, rho, B);
 }
 
-static const char *const fbar_names[] = {"auto", "dense", "sparse"};
-
-const char *lrr_fbar_format_name(lrr_fbar_format f)
-{
-    return (unsigned)f < 3 ? fbar_names[f] : NULL;
-}
-
-lrr_status lrr_fbar_format_from_name(const char *name, lrr_fbar_format *out)
-{
-    for (int i = 0; i < 3; i++)
-        if (strcmp(name, fbar_names[i]) == 0) {
-            *out = (lrr_fbar_format)i;
-            return LRR_OK;
-        }
-    return LRR_ERR_INVALID_ARG;
-}
-
 lrr_status lrr_solver_set_fbar(lrr_solver *s, lrr_fbar_format format)
 {
     const lrr_operator *op = s->op;
@@ -154,6 +140,25 @@ lrr_status lrr_solver_set_fbar(lrr_solver *s, lrr_fbar_format format)
     return LRR_OK; /* cached columns F̄ M_c[:, p] stay valid: the same F̄ */
 }
 
+lrr_status lrr_solver_set_m(lrr_solver *s, lrr_storage storage)
+{
+    const lrr_operator *op = s->op;
+    if (storage != LRR_STORAGE_F32 && storage != LRR_STORAGE_F16)
+        return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "M in storage %d: only f32 and f16",
+                          (int)storage);
+    if (s->cl && storage != LRR_STORAGE_F32)
+        return lrr__error(op->ctx, LRR_ERR_UNSUPPORTED, "the OpenCL backend reads M in f32");
+    lrr__m_f16 *m16 = NULL;
+    if (storage == LRR_STORAGE_F16) {
+        lrr_status st = lrr__m_f16_create(op, &m16);
+        if (st)
+            return st;
+    }
+    lrr__m_f16_destroy(s->m16);
+    s->m16 = m16;
+    return LRR_OK;
+}
+
 void lrr_solver_get_info(const lrr_solver *s, lrr_solver_info *out, size_t out_size)
 {
     const lrr_operator *op = s->op;
@@ -163,7 +168,8 @@ void lrr_solver_get_info(const lrr_solver *s, lrr_solver_info *out, size_t out_s
     info.fbar_dense_bytes = dense_bytes(op);
     info.fbar_bytes = s->cl ? lrr__cl_fbar_bytes(s->cl, &sparse) : fbar_bytes(s);
     info.fbar = sparse ? LRR_FBAR_SPARSE : LRR_FBAR_DENSE;
-    info.m_bytes = 3 * op->k * op->k * sizeof(float);
+    info.m = s->m16 ? LRR_STORAGE_F16 : LRR_STORAGE_F32;
+    info.m_bytes = s->m16 ? lrr__m_f16_bytes(op->k) : 3 * op->k * op->k * sizeof(float);
     const double entries = (double)op->n * (double)op->k;
     info.fbar_density = (double)s->fbar_stats.nonzeros / entries;
     info.fbar_strip_density = (double)s->fbar_stats.strips * LRR__TILE / entries;
@@ -203,6 +209,7 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
     if (!s)
         return lrr__error(op->ctx, LRR_ERR_NOMEM, "cannot allocate a solver");
     s->op = op;
+    s->m_epoch = op->m_epoch;
     s->kernel = kernel;
     s->backend = backend;
     s->path = LRR_PATH_AUTO;
@@ -224,6 +231,8 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
         (st = lrr__calloc(op->ctx, &s->ch, op->k, 1, "solver patch flags")) ||
         (st = lrr__calloc(op->ctx, &s->dw, op->k, 3 * sizeof(float), "solver Δw (3×k)")) ||
         (st = lrr_solver_set_fbar(s, LRR_FBAR_AUTO)) ||
+        (st = lrr_solver_set_m(s, op->storage == LRR_STORAGE_F32 ? LRR_STORAGE_F32
+                                                                 : LRR_STORAGE_F16)) ||
         (st = lrr_solver_set_cache(s, fbar_bytes(s) / 4))) {
         lrr_solver_destroy(s);
         return st;
@@ -330,56 +339,6 @@ lrr_status lrr__solver_opencl_panels(lrr_solver *s, int panels)
 }
 
 
-/* Four subpatches' 12 entries as three 4-float vectors (r0 g0 b0 r1 | g1 b1 r2 g2 |
- * b2 r3 g3 b3): baseline SSE2 through GCC's vector extensions, unaligned (E + 3·i). */
-typedef float lrr__v4f __attribute__((vector_size(16), aligned(4)));
-typedef int32_t lrr__v4i __attribute__((vector_size(16), aligned(4)));
-typedef double lrr__v2d __attribute__((vector_size(16)));
-#define WIDEN(v, a, b) __builtin_convertvector(__builtin_shufflevector(v, v, a, b), lrr__v2d)
-
-/* Σ_i weight_i·E_i over subpatches i0..i1−1 per channel into acc (products in float, as
- * ever, sums in double); returns 0 when an entry may be negative, NaN or infinite (a sign
- * bit is set, -0 included, or a sum is not finite), for the caller's scan. Four subpatches
- * a step in six double pairs, whose lanes hold fixed channels. The scalar loop before it
- * (two subpatches in flight, the check a chain of minss per entry) was 13.6% of a
- * 221184 × 216 f16 frame (perf, Intel Xeon). lrr solve, old and new library interleaved,
- * medians of 300 (3 rounds): 2.16-2.21 → 1.955 ms; 3456 × 216 f32, medians of 20000:
- * 0.034-0.035 → 0.031-0.032 ms; `lrr solve --csv` identical on both and on 55296 × 864. */
-static inline int segment_sum(const float *weight, const float *E, size_t i0, size_t i1,
-                              double acc[3])
-{
-    lrr__v2d s[6] = {{0, 0}, {0, 0}, {0, 0}, {0, 0}, {0, 0}, {0, 0}};
-    lrr__v4i sign = {0, 0, 0, 0};
-    size_t i = i0;
-    for (; i + 4 <= i1; i += 4) {
-        const lrr__v4f *e = (const lrr__v4f *)(const void *)(E + 3 * i);
-        const lrr__v4f w = *(const lrr__v4f *)(const void *)(weight + i);
-        const lrr__v4f a = e[0], b = e[1], c = e[2];
-        sign |= (lrr__v4i)a | (lrr__v4i)b | (lrr__v4i)c;
-        const lrr__v4f pa = a * __builtin_shufflevector(w, w, 0, 0, 0, 1),
-                       pb = b * __builtin_shufflevector(w, w, 1, 1, 2, 2),
-                       pc = c * __builtin_shufflevector(w, w, 2, 3, 3, 3);
-        s[0] += WIDEN(pa, 0, 1), s[1] += WIDEN(pa, 2, 3); /* r g, b r */
-        s[2] += WIDEN(pb, 0, 1), s[3] += WIDEN(pb, 2, 3); /* g b, r g */
-        s[4] += WIDEN(pc, 0, 1), s[5] += WIDEN(pc, 2, 3); /* b r, g b */
-    }
-    double r = (s[0][0] + s[3][0]) + (s[1][1] + s[4][1]);
-    double g = (s[0][1] + s[3][1]) + (s[2][0] + s[5][0]);
-    double b = (s[1][0] + s[4][0]) + (s[2][1] + s[5][1]);
-    int32_t neg = sign[0] | sign[1] | sign[2] | sign[3];
-    for (; i < i1; i++) {
-        const float w0 = weight[i], *e = E + 3 * i;
-        r += w0 * e[0], g += w0 * e[1], b += w0 * e[2];
-        for (int j = 0; j < 3; j++) {
-            int32_t bits;
-            memcpy(&bits, e + j, sizeof bits);
-            neg |= bits;
-        }
-    }
-    acc[0] = r, acc[1] = g, acc[2] = b;
-    return neg >= 0 && isfinite(r) && isfinite(g) && isfinite(b);
-}
-#undef WIDEN
 
 /* w = Vᵀ E (3×k), validating E; nz[p] = 1 where w_p ≠ 0 (m_emit of them). With prev, also
  * ch[p] = 1 where the patch's emission changed (m_changed) and dw = Vᵀ(E − prev). */
@@ -398,7 +357,7 @@ static lrr_status segment_sums(lrr_solver *s, const float *E, const float *prev,
     for (size_t p = 0; p < k; p++) {
         double acc[3] = {0, 0, 0}, dacc[3] = {0, 0, 0};
         int changed = 0;
-        if (prev || !segment_sum(op->weight, E, first[p], first[p + 1], acc)) {
+        if (prev || !lrr__segment_sum(op->weight, E, first[p], first[p + 1], acc)) {
             acc[0] = acc[1] = acc[2] = 0;
             for (size_t i = first[p]; i < first[p + 1]; i++)
                 for (int c = 0; c < 3; c++) {
@@ -525,6 +484,17 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
         lrr_status st = lrr__emission_check(op->ctx, n, E);
         return st ? st : lrr__cl_solve(s->cl, E, B);
     }
+    if (s->m_epoch != op->m_epoch) {
+        /* new reflectances (lrr_operator_set_reflectance): what was made from M is stale */
+        lrr_status st = s->m16 ? lrr_solver_set_m(s, LRR_STORAGE_F16) : LRR_OK;
+        if (st)
+            return st;
+        for (size_t p = 0; s->slot && p < k; p++)
+            s->slot[p] = NO_SLOT;
+        s->used = 0;
+        s->have_prev = 0;
+        s->m_epoch = op->m_epoch;
+    }
     const int want_prev = s->path == LRR_PATH_AUTO || s->path == LRR_PATH_INCREMENTAL;
     if (want_prev && !s->e_prev) {
         lrr_status st;
@@ -539,7 +509,8 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
         return st;
     /* bytes each path reads: a full frame F̄ and M; a column path 12 bytes per subpatch per
      * patch involved (+ previous E and B for the incremental one) */
-    const double full = (double)fbar_bytes(s) + 12.0 * k * k;
+    const double full =
+        (double)fbar_bytes(s) + (s->m16 ? (double)lrr__m_f16_bytes(k) : 12.0 * k * k);
     const double sparse = 12.0 * n * (double)m_emit;
     const double incr = can_incr ? 12.0 * n * (double)m_changed + 24.0 * n : INFINITY;
     lrr_path path = s->path;
@@ -572,7 +543,10 @@ lrr_status lrr_solve(lrr_solver *s, const float *E, float *B)
         combine_columns(s, s->nz, E, NULL, s->w, B);
         s->since_full = 0;
     } else {
-        lrr__smw_apply(s->kernel, op->m, k, s->w, s->z);
+        if (s->m16)
+            lrr__smw_apply_f16(s->kernel, s->m16->val, s->m16->scale, k, s->w, s->z);
+        else
+            lrr__smw_apply(s->kernel, op->m, k, s->w, s->z);
         fbar_apply_frames(s, 1, s->z, E, op->rho, B);
         s->since_full = 0;
     }
@@ -614,7 +588,7 @@ static lrr_status batch_frames(lrr_solver *s, size_t count, const float *E, floa
         for (size_t f = 0; f < count; f++) {
             const float *e = E + f * frame;
             double acc[3];
-            (void)segment_sum(op->weight, e, first[p], first[p + 1], acc); /* validated */
+            (void)lrr__segment_sum(op->weight, e, first[p], first[p + 1], acc); /* validated */
             for (int c = 0; c < 3; c++)
                 s->bw[((size_t)c * k + p) * count + f] = (float)acc[c];
         }

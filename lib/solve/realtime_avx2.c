@@ -166,6 +166,42 @@ __attribute__((target("avx2,fma"))) void lrr__gemv_rows_avx2(const float *a, siz
     if (i < i1)
         lrr__gemv_rows_c(a, i, i1, k, x, y);
 }
+
+/* M − I in binary16 (m_f16.c): gemv_rows with each 8 entries widened by F16C and the row's
+ * scale applied to its sum; the k % 8 tail through a zero-padded copy */
+__attribute__((target("avx2,fma,f16c"))) void lrr__gemv_f16_rows_avx2(const uint16_t *a,
+                                                                      const float *scale,
+                                                                      size_t i0, size_t i1,
+                                                                      size_t k, const float *x,
+                                                                      float *y)
+{
+    const size_t kv = k & ~(size_t)7;
+    const __m256i tm = tail_mask256(k - kv);
+    size_t i = i0;
+    for (; i + GEMV_ROWS <= i1; i += GEMV_ROWS) {
+        const uint16_t *r0 = a + i * k;
+        __m256 s[GEMV_ROWS];
+        UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+            s[q] = _mm256_setzero_ps();
+        for (size_t p = 0; p < kv; p += 8) {
+            __m256 v = _mm256_loadu_ps(x + p);
+            UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+                s[q] = _mm256_fmadd_ps(load8_f16(r0 + q * k + p), v, s[q]);
+        }
+        if (kv < k) {
+            __m256 v = _mm256_maskload_ps(x + kv, tm);
+            UNROLL8 for (int q = 0; q < GEMV_ROWS; q++) {
+                uint16_t pad[8] = {0};
+                memcpy(pad, r0 + q * k + kv, (k - kv) * sizeof(uint16_t));
+                s[q] = _mm256_fmadd_ps(load8_f16(pad), v, s[q]);
+            }
+        }
+        UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+            y[i + q] = scale[i + q] * hsum256(s[q]);
+    }
+    if (i < i1)
+        lrr__gemv_f16_rows_c(a, scale, i, i1, k, x, y);
+}
 /* Sparse F̄ (sparse.c): a strip of 16 rows is two registers; two strips in flight (12
  * named accumulators of the 16 registers: realtime_avx512.c says why named) hide the
  * multiply-add latency; the stream is prefetched as there. */

@@ -170,6 +170,41 @@ __attribute__((target("avx512f"))) void lrr__gemv_rows_avx512(const float *a, si
     if (i < i1)
         lrr__gemv_rows_c(a, i, i1, k, x, y);
 }
+
+/* M − I in binary16 (m_f16.c): gemv_rows with each 16 entries widened (vcvtph2ps) and the
+ * row's scale applied to its sum; the k % 16 tail through a zero-padded copy */
+__attribute__((target("avx512f"))) void lrr__gemv_f16_rows_avx512(const uint16_t *a,
+                                                                  const float *scale, size_t i0,
+                                                                  size_t i1, size_t k,
+                                                                  const float *x, float *y)
+{
+    const size_t kv = k & ~(size_t)15;
+    const __mmask16 tm = (__mmask16)((1u << (k - kv)) - 1);
+    size_t i = i0;
+    for (; i + GEMV_ROWS <= i1; i += GEMV_ROWS) {
+        const uint16_t *r0 = a + i * k;
+        __m512 s[GEMV_ROWS];
+        UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+            s[q] = _mm512_setzero_ps();
+        for (size_t p = 0; p < kv; p += 16) {
+            __m512 v = _mm512_loadu_ps(x + p);
+            UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+                s[q] = _mm512_fmadd_ps(load16_f16(r0 + q * k + p), v, s[q]);
+        }
+        if (kv < k) {
+            __m512 v = _mm512_maskz_loadu_ps(tm, x + kv);
+            UNROLL8 for (int q = 0; q < GEMV_ROWS; q++) {
+                uint16_t pad[16] = {0}; /* the tail through a zero-padded copy (no AVX512BW) */
+                memcpy(pad, r0 + q * k + kv, (k - kv) * sizeof(uint16_t));
+                s[q] = _mm512_fmadd_ps(load16_f16(pad), v, s[q]);
+            }
+        }
+        UNROLL8 for (int q = 0; q < GEMV_ROWS; q++)
+            y[i + q] = scale[i + q] * _mm512_reduce_add_ps(s[q]);
+    }
+    if (i < i1)
+        lrr__gemv_f16_rows_c(a, scale, i, i1, k, x, y);
+}
 /* Sparse F̄ (sparse.c): one strip of 16 rows is one register; four strips in flight, each
  * into its own three accumulators (named: GCC keeps an array of them on the stack, and the
  * store-to-load chain then cost 9–17 cycles a strip on Zen 5), hide the multiply-add

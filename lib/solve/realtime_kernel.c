@@ -129,6 +129,25 @@ void lrr__gemv_rows_c(const float *a, size_t i0, size_t i1, size_t k, const floa
         y[i] = dot1(a + i * k, x, k);
 }
 
+/* binary16 rows in blocks decoded to float, as lrr__rows_half_c */
+void lrr__gemv_f16_rows_c(const uint16_t *a, const float *scale, size_t i0, size_t i1,
+                          size_t k, const float *x, float *y)
+{
+    enum { BLK = 256 };
+    float buf[BLK];
+    for (size_t i = i0; i < i1; i++) {
+        const uint16_t *row = a + i * k;
+        float t = 0;
+        for (size_t p0 = 0; p0 < k; p0 += BLK) {
+            size_t m = k - p0 < BLK ? k - p0 : BLK;
+            for (size_t q = 0; q < m; q++)
+                buf[q] = lrr__f16_to_f32(row[p0 + q]);
+            t += dot1(buf, x + p0, m);
+        }
+        y[i] = scale[i] * t;
+    }
+}
+
 /* ------------------------------------------------------------------ dispatch */
 
 /* Each ISA twice: with the hardware prefetcher alone (AMD) and with the panels' software
@@ -136,9 +155,12 @@ void lrr__gemv_rows_c(const float *a, size_t i0, size_t i1, size_t k, const floa
  * the level and the twin. */
 static const lrr__kernel kernels[] = {
     {"c", LRR__ISA_C, 0, lrr__rows_f32_c, lrr__rows_f16_c, lrr__rows_bf16_c, lrr__gemv_rows_c,
-     lrr__panels_f32_c, lrr__panels_f16_c, lrr__panels_bf16_c, lrr__sparse_tiles_c},
+     lrr__gemv_f16_rows_c, lrr__panels_f32_c, lrr__panels_f16_c, lrr__panels_bf16_c,
+     lrr__sparse_tiles_c},
 #if defined(__x86_64__) || defined(__i386__)
-#define ROWS(ISA) lrr__rows_f32_##ISA, lrr__rows_f16_##ISA, lrr__rows_bf16_##ISA, lrr__gemv_rows_##ISA
+#define ROWS(ISA)                                                                            \
+    lrr__rows_f32_##ISA, lrr__rows_f16_##ISA, lrr__rows_bf16_##ISA, lrr__gemv_rows_##ISA,       \
+        lrr__gemv_f16_rows_##ISA
     {"avx2", LRR__ISA_AVX2, 0, ROWS(avx2), lrr__panels_f32_avx2, lrr__panels_f16_avx2,
      lrr__panels_bf16_avx2, lrr__sparse_tiles_avx2},
     {"avx2+prefetch", LRR__ISA_AVX2, 1, ROWS(avx2), lrr__panels_f32_avx2_pf,
@@ -175,6 +197,20 @@ void lrr__smw_apply(const lrr__kernel *kn, const float *m, size_t k, const float
         size_t c = b / blocks, i0 = (b % blocks) * ROW_BLOCK;
         size_t i1 = i0 + ROW_BLOCK < k ? i0 + ROW_BLOCK : k;
         kn->gemv_rows(m + c * k * k, i0, i1, k, w + c * k, z + c * k);
+    }
+}
+
+void lrr__smw_apply_f16(const lrr__kernel *kn, const uint16_t *m16, const float *scale, size_t k,
+                        const float *w, float *z)
+{
+    const size_t blocks = (k + ROW_BLOCK - 1) / ROW_BLOCK;
+    #pragma omp parallel for schedule(static) if (3 * k * k >= LRR__PARALLEL_MIN)
+    for (size_t b = 0; b < 3 * blocks; b++) {
+        size_t c = b / blocks, i0 = (b % blocks) * ROW_BLOCK;
+        size_t i1 = i0 + ROW_BLOCK < k ? i0 + ROW_BLOCK : k;
+        kn->gemv_f16_rows(m16 + c * k * k, scale + c * k, i0, i1, k, w + c * k, z + c * k);
+        for (size_t i = i0; i < i1; i++) /* the identity M − I left out */
+            z[c * k + i] += w[c * k + i];
     }
 }
 

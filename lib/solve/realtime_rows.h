@@ -17,8 +17,8 @@
 #define GEMV_ROWS 8
 #define UNROLL8 _Pragma("GCC unroll 8")
 
-/* The row kernels of one instruction set (lrr__kernel's fbar_rows, f16_rows, bf16_rows and
- * gemv_rows) */
+/* The row kernels of one instruction set (lrr__kernel's fbar_rows, f16_rows, bf16_rows,
+ * gemv_rows and gemv_f16_rows) */
 #define LRR__DECLARE_ROWS(ISA)                                                                \
     void lrr__rows_f32_##ISA(const float *, size_t, size_t, size_t, const float *,           \
                              const float *, const float *, float *);                         \
@@ -26,7 +26,9 @@
                              const float *, const float *, const float *, float *);          \
     void lrr__rows_bf16_##ISA(const uint16_t *, const float *, size_t, size_t, size_t,       \
                               const float *, const float *, const float *, float *);         \
-    void lrr__gemv_rows_##ISA(const float *, size_t, size_t, size_t, const float *, float *);
+    void lrr__gemv_rows_##ISA(const float *, size_t, size_t, size_t, const float *, float *); \
+    void lrr__gemv_f16_rows_##ISA(const uint16_t *, const float *, size_t, size_t, size_t,   \
+                                  const float *, float *);
 LRR__DECLARE_ROWS(c)
 LRR__DECLARE_ROWS(avx2)
 LRR__DECLARE_ROWS(avx512)

@@ -62,6 +62,9 @@ typedef struct lrr__kernel {
                       size_t k, const float *z, const float *E, const float *rho, float *B);
     /* rows [i0, i1) of y = A x, A row-major with k columns */
     void (*gemv_rows)(const float *a, size_t i0, size_t i1, size_t k, const float *x, float *y);
+    /* the same with A stored as binary16, row i scaled by scale[i] (M − I, m_f16.c) */
+    void (*gemv_f16_rows)(const uint16_t *a, const float *scale, size_t i0, size_t i1, size_t k,
+                          const float *x, float *y);
     /* fbar_rows and the 16-bit pair over F̄ in panels (operator.h), rows [i0, i1) a whole
      * number of panels (panel_kernel.c) */
     void (*fbar_panels)(const float *fbar, size_t i0, size_t i1, size_t k, const float *z,
@@ -88,6 +91,24 @@ LRR__DECLARE_PANELS(avx2)
 LRR__DECLARE_PANELS(avx512)
 LRR__DECLARE_PANELS(avx2_pf)
 LRR__DECLARE_PANELS(avx512_pf)
+
+/* M − I in binary16 with a power-of-two scale per row (m_f16.c): what a full frame reads of
+ * M when F̄ is 16-bit. val holds channel c's row i at (c·k + i)·k, scale at c·k + i. */
+typedef struct lrr__m_f16 {
+    size_t k;
+    uint16_t *val;
+    float *scale;
+} lrr__m_f16;
+lrr_status lrr__m_f16_create(const lrr_operator *op, lrr__m_f16 **out);
+void lrr__m_f16_destroy(lrr__m_f16 *m);
+size_t lrr__m_f16_bytes(size_t k); /* what a frame reads of it */
+/* z_c = w_c + scale_c ∘ (H_c w_c) for H = M − I as lrr__m_f16 holds it */
+void lrr__smw_apply_f16(const struct lrr__kernel *kn, const uint16_t *m16, const float *scale,
+                        size_t k, const float *w, float *z);
+
+/* Σ_i weight_i·E_i over subpatches [i0, i1) per channel into acc (segment_sum.c); 0 when an
+ * entry may be negative, NaN or infinite, for the caller's scan. */
+int lrr__segment_sum(const float *weight, const float *E, size_t i0, size_t i1, double acc[3]);
 
 /* The variant of choice (lrr__cpu_choose: LRR_SIMD, else the widest this CPU runs) for
  * rows of k entries. */

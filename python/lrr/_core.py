@@ -470,9 +470,10 @@ class Operator:
                           Solver.FBAR.index(fbar))
 
     # ------------------------------------------------------------ solving
-    def solver(self, backend="cpu", fbar="auto"):
-        """A new Solver ('cpu' or 'opencl'; fbar 'auto', 'dense' or 'sparse': Solver.set_fbar)."""
-        return Solver(self, backend, fbar)
+    def solver(self, backend="cpu", fbar="auto", m="auto"):
+        """A new Solver ('cpu' or 'opencl'; fbar 'auto', 'dense' or 'sparse': Solver.set_fbar;
+        m 'auto', 'f32' or 'f16': Solver.set_m)."""
+        return Solver(self, backend, fbar, m)
 
     def solve(self, emission=None, order="operator"):
         """B (n, 3) float32 for emission E (n, 3), finite and >= 0; None: the stored
@@ -551,7 +552,7 @@ class Operator:
 class Solver:
     """An lrr_solver: one backend's buffers for an operator (which it keeps alive)."""
 
-    def __init__(self, op, backend="cpu", fbar="auto"):
+    def __init__(self, op, backend="cpu", fbar="auto", m="auto"):
         if backend not in _BACKEND:
             raise LrrError(ERR_INVALID_ARG, "solver: backend '%s' is not cpu or opencl"
                            % backend)
@@ -561,8 +562,19 @@ class Solver:
         self._h = h
         if fbar != "auto":
             self.set_fbar(fbar)
+        if m != "auto":
+            self.set_m(m)
 
     FBAR = ("auto", "dense", "sparse")
+    M = ("f32", "f16")
+
+    def set_m(self, name):
+        """How a full frame reads M: "f32", or "f16" (M − I in binary16 with a scale per row,
+        half the bytes; the default when F̄ is 16-bit; lrr_solver_set_m)."""
+        if name not in self.M:
+            raise LrrError(ERR_INVALID_ARG, "solver: m '%s' is not one of %s"
+                           % (name, ", ".join(self.M)))
+        self.op.context.call(lib.lrr_solver_set_m, self.h, self.M.index(name))
 
     def set_fbar(self, name):
         """How F̄ is read: "dense", "sparse" (only the 16-row strips that hold a nonzero) or
@@ -575,11 +587,13 @@ class Solver:
     @property
     def info(self):
         """lrr_solver_info as a dict: fbar ("dense" or "sparse"), fbar_bytes (read per full
-        frame), fbar_dense_bytes, m_bytes, fbar_density, fbar_strip_density."""
+        frame), fbar_dense_bytes, m ("f32" or "f16") and m_bytes (read per full frame),
+        fbar_density, fbar_strip_density."""
         i = _ffi.SolverInfo()
         lib.lrr_solver_get_info(self.h, ctypes.byref(i), ctypes.sizeof(i))
         d = _struct_dict(i)
         d["fbar"] = self.FBAR[i.fbar]
+        d["m"] = self.M[i.m]
         return d
 
     @property

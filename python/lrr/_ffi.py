@@ -109,7 +109,8 @@ class SolverInfo(ctypes.Structure):
                 ("fbar_dense_bytes", c_size_t),
                 ("m_bytes", c_size_t),
                 ("fbar_density", ctypes.c_double),
-                ("fbar_strip_density", ctypes.c_double)]
+                ("fbar_strip_density", ctypes.c_double),
+                ("m", ctypes.c_int)]
 
 
 class LightSource(ctypes.Structure):
@@ -193,6 +194,7 @@ _PROTOTYPES = {
     "lrr_solver_destroy": (None, [_P]),
     "lrr_solver_kernel": (_STR, [_P]),
     "lrr_solver_set_fbar": (_S, [_P, ctypes.c_int]),
+    "lrr_solver_set_m": (_S, [_P, ctypes.c_int]),
     "lrr_solver_get_info": (None, [_P, ctypes.POINTER(SolverInfo), c_size_t]),
     "lrr_solve": (_S, [_P, c_float_p, c_float_p]),
     "lrr_solver_set_path": (_S, [_P, ctypes.c_int]),

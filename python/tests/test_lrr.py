@@ -290,8 +290,24 @@ class Solve(unittest.TestCase):
         self.assertEqual(si["fbar_density"], np.count_nonzero(f) / f.size)
         self.assertEqual(di["fbar_bytes"], di["fbar_dense_bytes"])
         self.assertEqual(di["m_bytes"], 3 * self.op.k ** 2 * 4)
+        self.assertEqual(di["m"], "f32")
         with self.assertRaises(lrr.LrrError):
             dense.set_fbar("csr")
+
+    def test_m_f16(self):
+        """M − I in binary16: chosen with 16-bit F̄, half M's bytes, B within 16-bit F̄'s own
+        rounding of the f32 operator's."""
+        k = self.op.k
+        s16 = self.op.solver(m="f16")
+        s16.set_path("full")
+        i = s16.info
+        self.assertEqual((i["m"], i["m_bytes"]), ("f16", 3 * k * k * 2 + 3 * k * 4))
+        e = np.random.default_rng(3).random((self.op.n, 3), dtype=np.float32)
+        want = self.op.solver(m="f32")
+        want.set_path("full")
+        self.assertLess(max_rel(s16.solve(e), want.solve(e)), 1e-4)
+        with self.assertRaises(lrr.LrrError):
+            s16.set_m("bf16")
 
     def test_furnace(self):
         """A sealed box, uniform rho and E (docs/METHOD.md "Exact cases"): B = E/(1 − rho)."""

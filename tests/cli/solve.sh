@@ -198,6 +198,24 @@ for st in f16 bf16; do
         show_err
     fi
 done
+# M read as M - I in binary16 by default with 16-bit F̄ (half of M's bytes), --m f32 forces
+# float; both give the same radiosity to binary16's rounding.
+run solve "$T/f16.lrr" --csv "$T/m-auto.csv" --repeat 1
+m_auto=$(value m) bytes_auto=$(value m_bytes)
+run solve "$T/f16.lrr" --m f32 --csv "$T/m-f32.csv" --repeat 1
+m_f32=$(value m) bytes_f32=$(value m_bytes)
+run compare "$T/m-auto.csv" "$T/m-f32.csv"
+mx=$(value max_rel)
+if [ "$rc" -eq 0 ] && [ "$m_auto" = f16 ] && [ "$m_f32" = f32 ] &&
+    awk -v e="$mx" -v a="$bytes_auto" -v b="$bytes_f32" \
+        'BEGIN { exit !(e <= 1e-3 && 2 * a > b && 2 * a < 1.1 * b) }'; then
+    pass "solve --m: auto f16 ($bytes_auto bytes) = f32 ($bytes_f32 bytes) to max_rel $mx"
+else
+    fail "solve --m: m '$m_auto' '$m_f32', bytes '$bytes_auto' '$bytes_f32', max_rel '$mx' (exit $rc)"
+    show_err
+fi
+run solve "$LRRFILE" --m bf16
+expect_rc 2 "solve --m bf16 is a usage error"
 # Without the random rotation the seed makes no difference to the operator.
 run preprocess cornell --patches 24 --levels 1 --hemicube 32 --no-rotation --seed 1 -o "$T/nr1.lrr"
 rc1=$rc

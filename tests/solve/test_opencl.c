@@ -50,10 +50,15 @@ static void compare_op(lrr_context *ctx, lrr_operator *op, const char *what)
         LRR_CHECK(ctx, lrr_operator_set_layout(op, sl < 3 ? LRR_LAYOUT_PANELS : LRR_LAYOUT_ROWS));
         lrr_solver *cpu, *cl;
         LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &cpu));
+        LRR_CHECK(ctx, lrr_solver_set_m(cpu, LRR_STORAGE_F32)); /* as the device reads M */
         LRR_CHECK(ctx, lrr_solver_set_path(cpu, LRR_PATH_FULL));
         LRR_CHECK(ctx, lrr_solve(cpu, e, ref));
         LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_OPENCL, &cl));
         assert_int_equal(strncmp(lrr_solver_kernel(cl), "opencl:", 7), 0);
+        /* the device reads M in f32 only */
+        assert_int_equal(lrr_solver_set_m(cl, LRR_STORAGE_F16), LRR_ERR_UNSUPPORTED);
+        lrr_context_last_error(ctx, NULL, 0);
+        LRR_CHECK(ctx, lrr_solver_set_m(cl, LRR_STORAGE_F32));
         LRR_CHECK(ctx, lrr_solver_set_fbar(cl, LRR_FBAR_DENSE));
         /* F̄ on the device as the operator's panels (what GPUs get) and as rows (CPU
          * devices), each through both product kernels */
@@ -103,6 +108,7 @@ static void compare_sparse(lrr_context *ctx, lrr_operator *op, const char *what)
         lrr_solver *cpu, *cl;
         lrr_solver_info ci, gi;
         LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &cpu));
+        LRR_CHECK(ctx, lrr_solver_set_m(cpu, LRR_STORAGE_F32)); /* as the device reads M */
         lrr_solver_get_info(cpu, &ci, sizeof ci);
         LRR_CHECK(ctx, lrr_solver_set_fbar(cpu, LRR_FBAR_DENSE));
         LRR_CHECK(ctx, lrr_solver_set_path(cpu, LRR_PATH_FULL));

@@ -8,10 +8,13 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
 }
 
 /* A reference B computed on the full path by a second solver. */
+/* The full path with M in f32, as the column paths and the batches read it (M − I in
+ * binary16, what 16-bit operators get by default, has its own tests: test_m_f16.c). */
 static void full_solve(lrr_context *ctx, const lrr_operator *op, const float *E, float *B)
 {
     lrr_solver *sv;
     LRR_CHECK(ctx, lrr_solver_create(op, LRR_BACKEND_CPU, &sv));
+    LRR_CHECK(ctx, lrr_solver_set_m(sv, LRR_STORAGE_F32));
     LRR_CHECK(ctx, lrr_solver_set_path(sv, LRR_PATH_FULL));
     LRR_CHECK(ctx, lrr_solve(sv, E, B));
     assert_int_equal(lrr_solver_last_path(sv), LRR_PATH_FULL);

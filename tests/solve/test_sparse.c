@@ -51,7 +51,10 @@ static void check_counts(const lrr_operator *op, const lrr_solver_info *info)
                          strips * (LRR__TILE * elem + 2) + (tiles + 1) * sizeof(size_t));
     else
         assert_int_equal(info->fbar_bytes, n * k * elem);
-    assert_int_equal(info->m_bytes, 3 * k * k * sizeof(float));
+    /* M − I in binary16 exactly when F̄ is 16-bit (lrr_solver_set_m) */
+    assert_int_equal(info->m, elem == 4 ? LRR_STORAGE_F32 : LRR_STORAGE_F16);
+    assert_int_equal(info->m_bytes, elem == 4 ? 3 * k * k * sizeof(float)
+                                              : 3 * k * k * 2 + 3 * k * sizeof(float));
     free(row);
     free(any);
 }
