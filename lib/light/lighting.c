@@ -10,6 +10,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* SSE2 through GCC's vector extensions, unaligned (solve/cpu.c's segment sums do the same) */
+typedef float v4f __attribute__((vector_size(16), aligned(4)));
+typedef int32_t v4i __attribute__((vector_size(16), aligned(4)));
+
 struct lrr_lighting {
     const lrr_operator *op;
     lrr_context *ctx;
@@ -192,7 +196,9 @@ static size_t select_bins(const uint16_t *bin, size_t n, unsigned lo, unsigned h
     #pragma omp parallel for schedule(static)
     for (size_t sp = 0; sp < SPANS; sp++) {
         size_t c = 0;
-        for (size_t i = n * sp / SPANS; i < n * (sp + 1) / SPANS; i++)
+        const size_t i1 = n * (sp + 1) / SPANS;
+        #pragma omp simd reduction(+ : c)
+        for (size_t i = n * sp / SPANS; i < i1; i++)
             c += bin[i] >= lo && bin[i] < hi;
         start[sp + 1] = c;
     }
@@ -256,15 +262,34 @@ static void trace_list(lrr_lighting *lt, const lrr__source *s, size_t l, const f
  * nearest ray within 4 places 1.24 / 1.87 %, within 64 1.34 / 1.96 %; the patch's share
  * of visible rays 1.34 / 1.92 %, by weight 1.71 / 2.15 %: the untraced receivers are far
  * from the traced ones, and their visibility is theirs. */
+#define GUESS_SPAN 4096
 static void guess(lrr_lighting *lt, size_t l, const float *g, const uint16_t *bin, unsigned t)
 {
     const lrr_operator *op = lt->op;
     float *f = lt->H + l * op->n * 3; /* H / rgb (scalar) */
     const unsigned char *vis = lt->vis + l * op->n;
+    const size_t spans = (op->n + GUESS_SPAN - 1) / GUESS_SPAN;
+    const v4i dark = {LRR__BUDGET_DARK, LRR__BUDGET_DARK, LRR__BUDGET_DARK, LRR__BUDGET_DARK};
+    const v4i cut = {(int32_t)t - 1, (int32_t)t - 1, (int32_t)t - 1, (int32_t)t - 1};
+    /* masks, not branches: kept and guessed receivers interleave. With this and the sums'
+     * vectors (add_light, scale_block): Sponza, 4 moving point lights, τ 0.0175, 2 threads,
+     * mean of 50 frames, old and new library in turn 3 times: 10.2 → 8.7 ms a frame, the
+     * same E bit for bit */
     #pragma omp parallel for schedule(static)
-    for (size_t i = 0; i < op->n; i++)
-        if (bin[i] >= t)
-            f[i] = bin[i] == LRR__BUDGET_DARK ? 0.0f : g[i] * vis[i];
+    for (size_t sp = 0; sp < spans; sp++) {
+        size_t i = sp * GUESS_SPAN;
+        const size_t i1 = i + GUESS_SPAN < op->n ? i + GUESS_SPAN : op->n;
+        for (; i + 4 <= i1; i += 4) {
+            const v4i b = {bin[i], bin[i + 1], bin[i + 2], bin[i + 3]};
+            const v4f v = {(float)vis[i], (float)vis[i + 1], (float)vis[i + 2], (float)vis[i + 3]};
+            const v4i gv = (v4i)(*(const v4f *)(const void *)(g + i) * v) & ~(b == dark);
+            const v4i take = b > cut, kept = *(const v4i *)(const void *)(f + i);
+            *(v4i *)(void *)(f + i) = (gv & take) | (kept & ~take);
+        }
+        for (; i < i1; i++)
+            if (bin[i] >= t)
+                f[i] = bin[i] == LRR__BUDGET_DARK ? 0.0f : g[i] * vis[i];
+    }
 }
 
 /* A point or spot light within the error budget (budget.c), weighed (g, bin, cost): the
@@ -317,9 +342,44 @@ static void add_light(const lrr_lighting *lt, const lrr__source *s, size_t l, si
         return;
     }
     const float rgb[3] = {(float)s->rgb[0], (float)s->rgb[1], (float)s->rgb[2]}, *f = H + j0 / 3;
-    for (size_t r = 0; r < m / 3; r++)
+    /* four receivers (12 sums) a step in three vectors, each entry's product and sum as in
+     * the scalar loop after it: gcc -O2 leaves the stride-3 loop scalar, and a frame whose 4
+     * budgeted lights were all cached took 1.88 ms on one core for this sum (Sponza, n
+     * 265,203), 0.39 ms now */
+    const v4f ka = {rgb[0], rgb[1], rgb[2], rgb[0]}, kb = {rgb[1], rgb[2], rgb[0], rgb[1]},
+              kc = {rgb[2], rgb[0], rgb[1], rgb[2]};
+    size_t r = 0;
+    for (; r + 4 <= m / 3; r += 4) {
+        const v4f x = *(const v4f *)(const void *)(f + r);
+        v4f *o = (v4f *)(void *)(sum + 3 * r);
+        o[0] += __builtin_shufflevector(x, x, 0, 0, 0, 1) * ka;
+        o[1] += __builtin_shufflevector(x, x, 1, 1, 2, 2) * kb;
+        o[2] += __builtin_shufflevector(x, x, 2, 3, 3, 3) * kc;
+    }
+    for (; r < m / 3; r++)
         for (int c = 0; c < 3; c++)
             sum[3 * r + c] += rgb[c] * f[r];
+}
+
+/* emission[j] = rho[j] · sum[j] for m entries; nonzero when one is not finite (its bits
+ * without the sign above FLT_MAX's: infinity or NaN), four a step */
+static int scale_block(const float *rho, const float *sum, size_t m, float *emission)
+{
+    v4i bad = {0, 0, 0, 0};
+    const v4i magnitude = {0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff},
+              finite_max = {0x7f7fffff, 0x7f7fffff, 0x7f7fffff, 0x7f7fffff};
+    size_t j = 0;
+    for (; j + 4 <= m; j += 4) {
+        const v4f e = *(const v4f *)(const void *)(rho + j) * *(const v4f *)(const void *)(sum + j);
+        *(v4f *)(void *)(emission + j) = e;
+        bad |= ((v4i)e & magnitude) > finite_max;
+    }
+    int any = bad[0] | bad[1] | bad[2] | bad[3];
+    for (; j < m; j++) {
+        emission[j] = rho[j] * sum[j];
+        any |= !isfinite(emission[j]);
+    }
+    return any != 0;
 }
 
 /* E = rho ∘ Σ_l H_l, summed in light order (float, as lrr_probe_direct_light), in blocks
@@ -339,10 +399,7 @@ static int sum_lights(const lrr_lighting *lt, const lrr__source *src, size_t cou
             sum[j] = 0.0f;
         for (size_t l = 0; l < count; l++)
             add_light(lt, &src[l], l, j0, m, sum);
-        for (size_t j = 0; j < m; j++) {
-            emission[j0 + j] = op->rho[j0 + j] * sum[j];
-            overflow |= !isfinite(emission[j0 + j]);
-        }
+        overflow |= scale_block(op->rho + j0, sum, m, emission + j0);
     }
     return overflow;
 }
