@@ -77,6 +77,9 @@ static int print_version(void)
 #ifdef LRR_VIEWER
     fputs(" viewer", stdout);
 #endif
+#ifdef LRR_MPI
+    fputs(" mpi", stdout); /* liblrr_mpi: mpirun -np P lrr solve */
+#endif
     putchar('\n');
     return CLI_EXIT_OK;
 }

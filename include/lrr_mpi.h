@@ -1,0 +1,114 @@
+/*
+ * lrr_mpi — the real-time step of lrr across MPI ranks (liblrr_mpi, beside liblrr as
+ * fftw3-mpi is beside fftw3). Link with -llrr_mpi -llrr (pkg-config lrr_mpi). lrr.h and
+ * liblrr know nothing of MPI; this header includes <mpi.h>.
+ *
+ * Design (docs/MPI.md). Each rank holds a block of rows of F̄: the subpatches of a range of
+ * whole patches (rows are patch-major), about n/P rows each, and all of M (3×k×k,
+ * replicated). A frame B_c = E_c + rho_c ∘ (F̄ (M_c (Vᵀ E_c))) splits at w = Vᵀ E: each rank
+ * sums its patches' entries of w from its own rows of E, ONE MPI_Allreduce of the 3k floats
+ * (plus one float that carries the ranks' status) gives every rank the whole w, and each
+ * computes its rows of B. E and B are distributed: each rank passes and gets only its own
+ * rows (lrr_mpi_solver_rows says which); lrr_mpi_solve_gather collects B on one rank, and
+ * lrr_mpi_scatter hands out rows of an E that one rank holds whole. The result is the
+ * serial lrr_solve's full path (lrr_solver_set_path LRR_PATH_FULL) up to float rounding in
+ * the F̄ pass.
+ *
+ * Collective calls and faults. Functions marked "collective" must be called by every rank
+ * of the solver's communicator, in the same order. They never hang on a local error and
+ * never abort: each rank checks its own part first, the ranks agree, and when any rank
+ * failed EVERY rank's call returns an error: a failing rank its own status (its message
+ * recorded on its context, as the serial library does), every other rank the status of the
+ * lowest failing rank with that rank's message, recorded on its context as
+ * "rank R: <message>" (lrr_context_last_error, the error callback). Outputs are then
+ * untouched. MPI's own errors are returned (the solver's communicator is a duplicate with
+ * MPI_ERRORS_RETURN) as LRR_ERR_IO naming the call and MPI's error string. A rank that dies
+ * is for the MPI runtime to handle (Open MPI's mpirun ends the job).
+ *
+ * Memory: today each rank loads the whole .lrr file (lrr_operator_load: its checksums
+ * cover whole sections), keeps its rows and frees the rest, so a rank needs the whole
+ * operator's memory once, during lrr_mpi_solver_create.
+ *
+ * The library never prints, never exits and keeps no global state; it does not call
+ * MPI_Init (the caller does, before any collective call here, with a thread level of at
+ * least MPI_THREAD_FUNNELED since the kernels use OpenMP threads that make no MPI calls).
+ */
+#ifndef LRR_MPI_H
+#define LRR_MPI_H
+
+#include <mpi.h>
+
+#include "lrr.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct lrr_mpi_solver lrr_mpi_solver;
+
+/* Collective over comm (duplicated: the solver's messages never mix with the caller's).
+ * Every rank loads the operator file at path (the same file: their n, k and patch offsets
+ * are compared, LRR_ERR_DIM naming the rank that differs), keeps its block of rows and
+ * frees the rest. Errors as lrr_operator_load's and lrr_solver_create's, agreed (above).
+ * *out is NULL on every rank on error. ctx records the errors; the solver holds a reference
+ * to it. Thread safety: one thread per rank. */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_solver_create(lrr_context *ctx, const char *path,
+                                                       MPI_Comm comm, lrr_mpi_solver **out)
+    LRR_NONNULL(1, 2, 4);
+/* Collective (it frees the duplicated communicator). NULL does nothing (on every rank). */
+LRR_API void lrr_mpi_solver_destroy(lrr_mpi_solver *solver);
+
+/* This rank's block: subpatches row0 .. row0 + rows − 1 of the operator's n (rows may be 0
+ * when there are more ranks than patches). Blocks are in rank order and cover 0..n−1.
+ * Thread safety: any thread (read only). */
+LRR_API void lrr_mpi_solver_rows(const lrr_mpi_solver *solver, size_t *n, size_t *row0,
+                                 size_t *rows) LRR_NONNULL(1, 2, 3, 4);
+/* This rank's rows of the emission stored in the file (rows×3; NULL when rows = 0), valid
+ * for the solver's life. */
+LRR_API const float *lrr_mpi_solver_emission(const lrr_mpi_solver *solver) LRR_NONNULL(1);
+
+typedef struct lrr_mpi_solver_info {
+    size_t n, k;         /* the whole operator */
+    size_t row0, rows;   /* this rank's block */
+    int rank, ranks;     /* in the solver's communicator */
+    size_t fbar_bytes;   /* bytes of F̄ this rank reads per frame (dense or strips) */
+    size_t m_bytes;      /* M, 3·k·k floats, on every rank */
+    size_t allreduce_bytes; /* what each rank contributes to the frame's allreduce */
+    const char *kernel;  /* the SIMD variant this rank runs (lrr_solver_kernel's names) */
+} lrr_mpi_solver_info;
+/* info_size = sizeof *info (lrr.h Conventions). Thread safety: any thread. */
+LRR_API void lrr_mpi_solver_get_info(const lrr_mpi_solver *solver, lrr_mpi_solver_info *info,
+                                     size_t info_size) LRR_NONNULL(1, 2);
+
+/* Collective. One frame: emission and radiosity are this rank's rows (rows×3, row-major;
+ * a caller holding the whole n×3 E passes E + 3·row0). Emission must be finite and >= 0:
+ * a bad entry on any rank fails every rank (LRR_ERR_INVALID_ARG naming the subpatch by its
+ * global index). They may not alias. On a rank with rows = 0 both may be NULL. */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_solve(lrr_mpi_solver *solver, const float *emission,
+                                               float *radiosity) LRR_NONNULL(1);
+
+/* Collective. lrr_mpi_solve, then every rank's rows of B gathered into radiosity (n×3) on
+ * rank root (ignored, may be NULL, elsewhere). emission as in lrr_mpi_solve. root must be
+ * the same on every rank (LRR_ERR_INVALID_ARG when out of range). */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_solve_gather(lrr_mpi_solver *solver,
+                                                      const float *emission, int root,
+                                                      float *radiosity) LRR_NONNULL(1);
+
+/* Collective. Hands out the rows of a whole n×3 array that rank root holds (whole: read on
+ * root only, may be NULL elsewhere) to the ranks: rows receives this rank's rows×3 (may be
+ * NULL when rows = 0). For an emission computed on one rank (lights, a probe). */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_scatter(lrr_mpi_solver *solver, int root,
+                                                 const float *whole, float *rows)
+    LRR_NONNULL(1);
+
+/* Collective over comm: every rank passes the status of its own work; returns LRR_OK on
+ * every rank when all passed LRR_OK, else the agreed error (above: a failing rank keeps its
+ * own; the others get the lowest failing rank's status, its message recorded on ctx as
+ * "rank R: <message>"). For callers that mix their own per-rank steps with the solver's. */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_agree(lrr_context *ctx, MPI_Comm comm,
+                                               lrr_status status) LRR_NONNULL(1);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* LRR_MPI_H */

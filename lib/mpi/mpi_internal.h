@@ -1,0 +1,21 @@
+/* liblrr_mpi's internals (lib/mpi/): the collective agreement on errors (agree.c) shared by
+ * the solver (solver.c). Only lrr.h, lrr_mpi.h and the serial library's private row-block
+ * entry points (solve/rows.h) are used: liblrr's other internals are hidden in liblrr.so. */
+#ifndef LRR_MPI_INTERNAL_H
+#define LRR_MPI_INTERNAL_H
+
+#include "lrr_mpi.h"
+#include "solve/rows.h"
+
+/* Records a printf-style error on ctx (first error kept, callback called) and returns
+ * status. */
+lrr_status lrr__mpi_error(lrr_context *ctx, lrr_status status, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+/* An MPI call that returned rc (not MPI_SUCCESS): LRR_ERR_IO naming call and MPI's text. */
+lrr_status lrr__mpi_failed(lrr_context *ctx, const char *call, int rc);
+/* The agreement (lrr_mpi.h "Collective calls and faults"): one MPI_Allreduce (MIN) finds
+ * the lowest failing rank, which broadcasts its status and message only when there is one.
+ * Returns LRR_OK on every rank when mine was LRR_OK everywhere. */
+lrr_status lrr__mpi_spread(lrr_context *ctx, MPI_Comm comm, lrr_status mine);
+
+#endif
