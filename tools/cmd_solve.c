@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "commands.h"
+#include "solve_mpi.h"
 
 static const char prog[] = "lrr solve";
 
@@ -194,5 +195,10 @@ int cmd_solve(int argc, char *argv[])
         return rc;
     if (cli_parse_only)
         return CLI_EXIT_OK;
+#ifdef LRR_MPI
+    if (solve_mpi_launched()) /* mpirun -np P lrr solve (tools/cmd_solve_mpi.c) */
+        return solve_mpi_run(&(solve_mpi_args){a.file, a.csv, &a.pa, a.scale, a.repeat, a.path,
+                                               a.backend, a.fbar});
+#endif
     return run_solve(&a);
 }
