@@ -1,0 +1,113 @@
+#!/bin/sh
+# The MPI tests (configure --with-mpi; docs/MPI.md), each under mpirun with a timeout so
+# that a hang fails instead of blocking: the library's distributed solver against the
+# serial one with 1 to 4 ranks (test_mpi_solve) and its fault cases (test_mpi_faults), then
+# `mpirun -np P lrr solve` against `lrr solve` (same CSV within 1e-6, same summary) and its
+# failures (rank 0 alone prints the error). Root may run them (--allow-run-as-root); more
+# ranks than cores (--oversubscribe) is the point on a 2-core machine.
+# Environment: LRR_MPIRUN, LRR_MPI_TESTS (the test programs' folder), LRR_BIN,
+# LRR_TEST_TMP (as make check sets them).
+MPIRUN=${LRR_MPIRUN:-mpirun}
+DIR=${LRR_MPI_TESTS:-tests/mpi}
+LRR=${LRR_BIN:-./lrr}
+# A test of a few seconds: 120 s means a hang (the programs' own alarm is 60 s).
+LIMIT=120
+command -v "$MPIRUN" >/dev/null 2>&1 || { echo "SKIP: no mpirun"; exit 77; }
+command -v timeout >/dev/null 2>&1 || { echo "SKIP: no timeout(1)"; exit 77; }
+checks=0
+failures=0
+pass() { checks=$((checks + 1)); echo "PASS: $1"; }
+fail() { checks=$((checks + 1)); failures=$((failures + 1)); echo "FAIL: $1"; }
+T=$(mktemp -d "${LRR_TEST_TMP:-/tmp}/mpi.XXXXXX") || exit 1
+trap 'rm -rf "$T"' EXIT
+export LRR_TEST_TMP="$T"
+# mpi NP CMD...: CMD on NP ranks, stdout to $T/out, stderr to $T/err, exit status in rc
+mpi() {
+    np=$1
+    shift
+    timeout -k 5 "$LIMIT" "$MPIRUN" --oversubscribe --allow-run-as-root -np "$np" "$@" \
+        >"$T/out" 2>"$T/err"
+    rc=$?
+}
+value() { sed -n "s/^$1: //p" "$T/out" | head -n 1; }
+
+# ---------------------------------------------------------------- the library
+for np in 1 2 3 4; do
+    mpi "$np" "$DIR/test_mpi_solve"
+    grep -E '^(PASS|FAIL): .*(max rel diff|failed checks)' "$T/out"
+    if [ "$rc" -eq 0 ]; then pass "test_mpi_solve on $np ranks"
+    else cat "$T/out" "$T/err"; fail "test_mpi_solve on $np ranks: exit $rc"; fi
+done
+for np in 1 2 4; do
+    mpi "$np" "$DIR/test_mpi_faults"
+    grep -E "message names the cause|^# " "$T/out"
+    if [ "$rc" -eq 0 ]; then pass "test_mpi_faults on $np ranks"
+    else cat "$T/out" "$T/err"; fail "test_mpi_faults on $np ranks: exit $rc"; fi
+done
+
+# ---------------------------------------------------------------- the tool
+OP="$T/cornell.lrr"
+"$LRR" preprocess cornell --patches 54 --levels 1 --hemicube 16 --seed 3 -o "$OP" \
+    >/dev/null 2>"$T/err" || { cat "$T/err"; fail "lrr preprocess for the CLI checks"; exit 1; }
+LIGHT='point pos=278,400,279 rgb=30000'
+"$LRR" solve "$OP" --repeat 2 --csv "$T/serial.csv" >"$T/serial.out" 2>"$T/err" &&
+    "$LRR" solve "$OP" --repeat 2 --light "$LIGHT" --csv "$T/serial-light.csv" \
+        >"$T/serial-light.out" 2>>"$T/err" ||
+    { cat "$T/err"; fail "serial lrr solve"; exit 1; }
+for np in 1 2 3 4; do
+    mpi "$np" "$LRR" solve "$OP" --repeat 2 --csv "$T/mpi$np.csv"
+    same=1
+    for key in n k d storage; do
+        [ "$(value "$key")" = "$(sed -n "s/^$key: //p" "$T/serial.out")" ] || same=0
+    done
+    # the means are sums of the same B: equal within the CSV's 1e-6
+    for key in mean_b_r mean_b_g mean_b_b max_b; do
+        awk -v a="$(value "$key")" -v b="$(sed -n "s/^$key: //p" "$T/serial.out")" \
+            'BEGIN { d = a - b; if (d < 0) d = -d; exit !(b + 0 > 0 && d <= 1e-6 * b) }' ||
+            same=0
+    done
+    if [ "$rc" -eq 0 ] && [ "$(value ranks)" = "$np" ] && [ "$same" -eq 1 ] &&
+        [ "$(grep -c '^n: ' "$T/out")" -eq 1 ]; then
+        pass "mpirun -np $np lrr solve: rank 0 alone prints; n, k, d, storage as the serial run, mean and max B within 1e-6"
+    else
+        cat "$T/out" "$T/err"; fail "mpirun -np $np lrr solve: exit $rc"
+    fi
+    "$LRR" compare "$T/mpi$np.csv" "$T/serial.csv" >"$T/cmp" 2>&1
+    max=$(sed -n 's/^max_rel: //p' "$T/cmp")
+    if awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+        pass "mpirun -np $np lrr solve --csv = lrr solve --csv: max_rel $max <= 1e-6"
+    else
+        cat "$T/cmp"; fail "mpirun -np $np lrr solve --csv against the serial CSV: max_rel '$max'"
+    fi
+done
+mpi 3 "$LRR" solve "$OP" --repeat 2 --light "$LIGHT" --csv "$T/mpi-light.csv"
+"$LRR" compare "$T/mpi-light.csv" "$T/serial-light.csv" >"$T/cmp" 2>&1
+max=$(sed -n 's/^max_rel: //p' "$T/cmp")
+if [ "$rc" -eq 0 ] && [ "$(value lights)" = 1 ] &&
+    awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+    pass "mpirun -np 3 lrr solve --light: rank 0's emission scattered, max_rel $max <= 1e-6"
+else
+    cat "$T/out" "$T/err" "$T/cmp"; fail "mpirun -np 3 lrr solve --light: exit $rc, max_rel '$max'"
+fi
+
+# failures: exit 1 (2 for usage) on every rank, one message, from rank 0, within LIMIT
+head -c 4000 "$OP" >"$T/truncated.lrr"
+for case in "truncated.lrr:truncated" "missing.lrr:cannot open"; do
+    file=${case%%:*}
+    want=${case#*:}
+    mpi 2 "$LRR" solve "$T/$file"
+    if [ "$rc" -eq 1 ] && [ "$(grep -c '^lrr: ' "$T/err")" -eq 1 ] && grep -q "$want" "$T/err"; then
+        pass "mpirun -np 2 lrr solve $file: exit 1, one message: $(head -n 1 "$T/err")"
+    else
+        cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr solve $file: exit $rc"
+    fi
+done
+mpi 2 "$LRR" solve "$OP" --backend opencl
+if [ "$rc" -eq 2 ] && grep -q "not available across MPI ranks" "$T/err"; then
+    pass "mpirun -np 2 lrr solve --backend opencl: exit 2, $(head -n 1 "$T/err")"
+else
+    cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr solve --backend opencl: exit $rc"
+fi
+
+echo "mpi: $checks checks, $failures failed"
+[ "$failures" -eq 0 ]
