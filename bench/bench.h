@@ -72,6 +72,7 @@ int cmd_scenes(int argc, char *argv[]);
 int cmd_lights(int argc, char *argv[]);
 int cmd_raycast(int argc, char *argv[]);
 int cmd_fbar(int argc, char *argv[]);
+int cmd_mpi(int argc, char *argv[]);
 /* lrr-bench raycast --rays SCENE (raycast_rays.c) */
 int bench_raycast_rays(const char *scene, unsigned R);
 

@@ -23,6 +23,7 @@
  *                       against a path-traced reference per region and facing, beside
  *                       lrr_operator_verify's figure (scenes.c, scenes_run.c,
  *                       scenes_out.c, judge.c)
+ *   lrr-bench mpi       the real-time step across MPI ranks against one process (mpi.c)
  * What they share (messages, options, timing, bandwidth, the baselines) is in
  * bench_*.c (bench.h).
  *
@@ -64,6 +65,8 @@ static const char main_help[] =
     "             number of triangles (the crossover LRR_FORMFACTOR_AUTO uses)\n"
     "  fbar       saved operators' F̄ read dense and sparse: bytes, ms per frame against\n"
     "             each pass's own floor, the two in alternation, the difference of B\n"
+    "  mpi        the real-time step across MPI ranks (mpirun; configure --with-mpi):\n"
+    "             ms per frame against one process, the allreduce alone, bytes per rank\n"
     "\n"
     "Options:\n"
     "  -h, --help     show this help (COMMAND --help: help on a command)\n"
@@ -92,7 +95,8 @@ int main(int argc, char *argv[])
                     {"scenes", cmd_scenes},
                     {"lights", cmd_lights},
                     {"raycast", cmd_raycast},
-                    {"fbar", cmd_fbar}};
+                    {"fbar", cmd_fbar},
+                    {"mpi", cmd_mpi}};
     if (argc < 2) {
         fputs(main_help, stderr);
         return CLI_EXIT_USAGE;

@@ -3,7 +3,7 @@
 # that a hang fails instead of blocking: the library's distributed solver against the
 # serial one with 1 to 4 ranks (test_mpi_solve) and its fault cases (test_mpi_faults), then
 # `mpirun -np P lrr solve` against `lrr solve` (same CSV within 1e-6, same summary) and its
-# failures (rank 0 alone prints the error). Root may run them (--allow-run-as-root); more
+# failures (rank 0 alone prints the error), and a smoke run of lrr-bench mpi. Root may run them (--allow-run-as-root); more
 # ranks than cores (--oversubscribe) is the point on a 2-core machine.
 # Environment: LRR_MPIRUN, LRR_MPI_TESTS (the test programs' folder), LRR_BIN,
 # LRR_TEST_TMP (as make check sets them).
@@ -107,6 +107,21 @@ if [ "$rc" -eq 2 ] && grep -q "not available across MPI ranks" "$T/err"; then
     pass "mpirun -np 2 lrr solve --backend opencl: exit 2, $(head -n 1 "$T/err")"
 else
     cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr solve --backend opencl: exit $rc"
+fi
+
+# lrr-bench mpi: a smoke run (3 frames of the small box; the numbers are not judged)
+BENCH=${LRR_BENCH_BIN:-./lrr-bench}
+mpi 2 "$BENCH" mpi --frames 3 "$OP"
+ok=1
+for key in serial_ms mpi_ms allreduce_us allreduce_bytes rows_max fbar_bytes_max m_bytes; do
+    [ -n "$(value "$key")" ] || ok=0
+done
+if [ "$rc" -eq 0 ] && [ "$ok" -eq 1 ] && [ "$(value ranks)" = 2 ] &&
+    [ "$(value allreduce_bytes)" = $(((3 * $(value k) + 1) * 4)) ] &&
+    awk -v v="$(value b_diff)" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+    pass "mpirun -np 2 lrr-bench mpi: every key, allreduce of 3k + 1 floats, b_diff $(value b_diff)"
+else
+    cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr-bench mpi: exit $rc"
 fi
 
 echo "mpi: $checks checks, $failures failed"
