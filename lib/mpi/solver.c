@@ -151,8 +151,10 @@ static lrr_status create_steps(lrr_mpi_solver *s, const char *path)
 {
     lrr_operator *op = NULL;
     lrr_status st = lrr__mpi_spread(s->ctx, s->comm, lrr_operator_load(s->ctx, path, &op));
-    if (st)
+    if (st) {
+        lrr_operator_destroy(op); /* loaded here, though another rank failed */
         return st;
+    }
     lrr_operator_info oi;
     lrr_operator_get_info(op, &oi, sizeof oi);
     s->n = oi.n;

@@ -21,6 +21,13 @@ fail() { checks=$((checks + 1)); failures=$((failures + 1)); echo "FAIL: $1"; }
 T=$(mktemp -d "${LRR_TEST_TMP:-/tmp}/mpi.XXXXXX") || exit 1
 trap 'rm -rf "$T"' EXIT
 export LRR_TEST_TMP="$T"
+# Sanitizer builds (make check sets LSAN_OPTIONS): Open MPI's own allocations are
+# suppressed by library name (tests/lsan.supp), which needs its plugins still loaded at exit
+# and whole stacks (Open MPI has no frame pointers for the fast unwinder).
+export OMPI_MCA_mca_base_component_disable_dlclose=1
+if [ -n "${LSAN_OPTIONS:-}" ]; then
+    export LSAN_OPTIONS="$LSAN_OPTIONS:fast_unwind_on_malloc=0"
+fi
 # mpi NP CMD...: CMD on NP ranks, stdout to $T/out, stderr to $T/err, exit status in rc
 mpi() {
     np=$1
