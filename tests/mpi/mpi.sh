@@ -39,6 +39,28 @@ mpi() {
 value() { sed -n "s/^$1: //p" "$T/out" | head -n 1; }
 
 # ---------------------------------------------------------------- the library
+# its ABI: the LRR_API functions of lrr_mpi.h = lib/liblrr_mpi.map = nm -D, node LRR_MPI_0,
+# and liblrr itself without any MPI dependency
+top=${LRR_SRCDIR:-.}
+so=${LRR_LIBDIR:-.libs}/liblrr_mpi.so
+if [ -f "$so" ] && command -v nm >/dev/null 2>&1; then
+    sed -n 's/^LRR_API[^(]*[^a-z0-9_]\(lrr_mpi_[a-z0-9_]*\)(.*/\1/p' "$top/include/lrr_mpi.h" |
+        sort -u >"$T/header"
+    sed -n 's/^[[:space:]]*\(lrr_mpi_[a-z0-9_]*\);.*/\1/p' "$top/lib/liblrr_mpi.map" | sort -u >"$T/map"
+    nm -D --defined-only "$so" | awk '{print $3}' | grep -v '^LRR_' | sed 's/@@LRR_MPI_0$//' |
+        sort -u >"$T/so"
+    if [ -s "$T/header" ] && cmp -s "$T/header" "$T/map" && cmp -s "$T/map" "$T/so"; then
+        pass "liblrr_mpi exports exactly lrr_mpi.h's $(wc -l <"$T/header") functions, node LRR_MPI_0"
+    else
+        diff "$T/header" "$T/map"; diff "$T/map" "$T/so"
+        fail "liblrr_mpi's exports: lrr_mpi.h, lib/liblrr_mpi.map and nm -D differ"
+    fi
+    if ldd "${LRR_LIBDIR:-.libs}/liblrr.so" | grep -qi mpi; then
+        fail "liblrr.so depends on MPI: $(ldd "${LRR_LIBDIR:-.libs}/liblrr.so" | grep -i mpi)"
+    else
+        pass "liblrr.so has no MPI dependency (ldd)"
+    fi
+fi
 for np in 1 2 3 4; do
     mpi "$np" "$DIR/test_mpi_solve"
     grep -E '^(PASS|FAIL): .*(max rel diff|failed checks)' "$T/out"
