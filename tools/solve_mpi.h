@@ -16,8 +16,9 @@ typedef struct solve_mpi_args {
 
 /* Whether an MPI launcher (Open MPI's mpirun, a PMI or PMIx one) started this process. */
 int solve_mpi_launched(void);
-/* MPI_Init, the solve across MPI_COMM_WORLD, MPI_Finalize: the exit status (rank 0 prints
- * and writes; the other ranks print nothing and exit with the same status). */
+/* MPI_Init, the solve across MPI_COMM_WORLD, MPI_Finalize: the exit status. Rank 0 prints
+ * and writes; the other ranks print nothing and exit with rank 0's status, except when only
+ * rank 0's own output (the CSV, the printout) fails after the solve. */
 int solve_mpi_run(const solve_mpi_args *a);
 
 #endif
