@@ -5,14 +5,14 @@
  *
  * Design (docs/MPI.md). Each rank holds a block of rows of F̄: the subpatches of a range of
  * whole patches (rows are patch-major), about n/P rows each, and all of M (3×k×k,
- * replicated). A frame B_c = E_c + rho_c ∘ (F̄ (M_c (Vᵀ E_c))) splits at w = Vᵀ E: each rank
+ * replicated; read as lrr_solver_create reads it: M − I in binary16 when F̄ is 16-bit). A frame B_c = E_c + rho_c ∘ (F̄ (M_c (Vᵀ E_c))) splits at w = Vᵀ E: each rank
  * sums its patches' entries of w from its own rows of E, ONE MPI_Allreduce of the 3k floats
  * (plus one float that carries the ranks' status) gives every rank the whole w, and each
  * computes its rows of B. E and B are distributed: each rank passes and gets only its own
  * rows (lrr_mpi_solver_rows says which); lrr_mpi_solve_gather collects B on one rank, and
  * lrr_mpi_scatter hands out rows of an E that one rank holds whole. The result is the
- * serial lrr_solve's full path (lrr_solver_set_path LRR_PATH_FULL) up to float rounding in
- * the F̄ pass.
+ * serial lrr_solve's full path (lrr_solver_set_path LRR_PATH_FULL, M as that solver
+ * chooses) up to float rounding in the F̄ pass.
  *
  * Collective calls and faults. Functions marked "collective" must be called by every rank
  * of the solver's communicator, in the same order. They never hang on a local error and

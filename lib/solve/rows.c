@@ -9,8 +9,9 @@
  * strips) run over a sub-operator that holds only the block's rows: n = rows, k = all
  * patches, F̄ in panels (its panels start at the block's first row).
  *
- * The sums of the first half are the serial solver's (products in float, sums in double,
- * stored float), in plain loops: lib/solve/cpu.c's vector version is static there. */
+ * The first half's sums are the serial solver's own (lrr__segment_sum), so w is its w bit
+ * for bit; M is read as lrr_solver_create reads it (M − I in binary16 when F̄ is 16-bit,
+ * lrr__m_f16, else the floats), so z is its z. */
 #include "config.h"
 #include "solve/rows.h"
 #include "solve/solve.h"
@@ -24,6 +25,7 @@ struct lrr__rows {
     lrr_operator *sub;         /* the block's rows as an operator: n = rows, all k, all M */
     const lrr__kernel *kernel; /* SIMD variant, as lrr_solver_create chooses */
     lrr__sparse *sparse;       /* F̄ as strips, or NULL: sub's dense panels */
+    lrr__m_f16 *m16;           /* M − I in binary16 (F̄ 16-bit), or NULL: sub->m */
     size_t row0, rows, p0, p1;
     size_t *first;             /* p1 − p0 + 1: the block's patches' first rows, local */
     size_t fbar_bytes;         /* what a frame reads of F̄ */
@@ -35,6 +37,7 @@ void lrr__rows_destroy(lrr__rows *r)
     if (!r)
         return;
     lrr__sparse_destroy(r->sparse);
+    lrr__m_f16_destroy(r->m16);
     lrr_operator_destroy(r->sub); /* releases the context last */
     lrr_aligned_free(r->first);
     lrr_aligned_free(r->z);
@@ -119,6 +122,14 @@ lrr_status lrr__rows_create(const lrr_operator *op, size_t p0, size_t p1, lrr__r
         goto fail;
     for (size_t p = p0; p <= p1; p++)
         r->first[p - p0] = first[p] - r->row0;
+    /* M as a serial solver of op reads it in a full frame (lrr_solver_create's choice);
+     * the floats are then needed no more */
+    if (op->storage != LRR_STORAGE_F32) {
+        if ((st = lrr__m_f16_create(r->sub, &r->m16)))
+            goto fail;
+        lrr_aligned_free(r->sub->m);
+        r->sub->m = NULL;
+    }
     r->fbar_bytes = r->rows * op->k * lrr__fbar_elem_bytes(op);
     if (r->rows > 0) {
         lrr__sparse_stats stats;
@@ -149,7 +160,7 @@ const char *lrr__rows_kernel(const lrr__rows *r) { return r->kernel->name; }
 void lrr__rows_bytes(const lrr__rows *r, size_t *fbar_bytes, size_t *m_bytes)
 {
     *fbar_bytes = r->fbar_bytes;
-    *m_bytes = 3 * r->sub->k * r->sub->k * sizeof(float);
+    *m_bytes = r->m16 ? lrr__m_f16_bytes(r->sub->k) : 3 * r->sub->k * r->sub->k * sizeof(float);
 }
 
 lrr_status lrr__rows_vte(lrr__rows *r, const float *E, float *w)
@@ -161,14 +172,20 @@ lrr_status lrr__rows_vte(lrr__rows *r, const float *E, float *w)
     #pragma omp parallel for schedule(static) reduction(min : bad) \
         if (3 * s->n >= LRR__PARALLEL_MIN / 8)
     for (size_t lp = 0; lp < np; lp++) {
-        double acc[3] = {0, 0, 0};
-        for (size_t i = r->first[lp]; i < r->first[lp + 1]; i++)
-            for (int c = 0; c < 3; c++) {
-                const float e = E[3 * i + c];
-                if (!(e >= 0.0f) || !isfinite(e))
-                    bad = bad < 3 * i + c ? bad : 3 * i + c;
-                acc[c] += s->weight[i] * e; /* the product in float, as lrr_solve's */
-            }
+        const size_t i0 = r->first[lp], i1 = r->first[lp + 1];
+        double acc[3];
+        if (!lrr__segment_sum(s->weight, E, i0, i1, acc)) {
+            /* a sign bit or a non-finite sum: scan for the bad entry (-0 passes), as
+             * lrr_solve does, and sum as it does then */
+            acc[0] = acc[1] = acc[2] = 0;
+            for (size_t i = i0; i < i1; i++)
+                for (int c = 0; c < 3; c++) {
+                    const float e = E[3 * i + c], v = s->weight[i];
+                    if (!(e >= 0.0f) || !isfinite(e))
+                        bad = bad < 3 * i + c ? bad : 3 * i + c;
+                    acc[c] += v * e;
+                }
+        }
         for (int c = 0; c < 3; c++)
             w[c * k + r->p0 + lp] = (float)acc[c];
     }
@@ -184,7 +201,10 @@ void lrr__rows_apply(lrr__rows *r, const float *w, const float *E, float *B)
     const lrr_operator *s = r->sub;
     if (r->rows == 0)
         return;
-    lrr__smw_apply(r->kernel, s->m, s->k, w, r->z);
+    if (r->m16)
+        lrr__smw_apply_f16(r->kernel, r->m16->val, r->m16->scale, s->k, w, r->z);
+    else
+        lrr__smw_apply(r->kernel, s->m, s->k, w, r->z);
     if (r->sparse)
         lrr__sparse_apply_frames(r->kernel, r->sparse, 1, r->z, E, s->rho, B);
     else

@@ -22,7 +22,8 @@ typedef struct lrr__rows lrr__rows;
 /* The rows of patches [p0, p1) of op (p0 <= p1 <= k; rows first[p0] .. first[p1] − 1, see
  * lrr_operator_patch_offsets): their F̄ rows copied in op's storage, held in panels, read
  * dense or as strips as lrr_solver_create's AUTO chooses; their rho, emission and Vᵀ
- * weights; all of M (3×k×k). op may be destroyed afterwards; the block holds a reference to
+ * weights; all of M (3×k×k), read as lrr_solver_create reads it (M − I in binary16 when
+ * F̄ is 16-bit, else the floats). op may be destroyed afterwards; the block holds a reference to
  * op's context, where its errors are recorded. p0 = p1 gives an empty block (no rows).
  * LRR_SIMD is read as lrr_solver_create reads it. */
 LRR__PRIVATE_API lrr_status lrr__rows_create(const lrr_operator *op, size_t p0, size_t p1,
@@ -35,7 +36,7 @@ LRR__PRIVATE_API void lrr__rows_range(const lrr__rows *r, size_t *row0, size_t *
 LRR__PRIVATE_API const float *lrr__rows_emission(const lrr__rows *r);
 /* The kernel variant the block runs (lrr_solver_kernel's names). */
 LRR__PRIVATE_API const char *lrr__rows_kernel(const lrr__rows *r);
-/* Bytes of F̄ a frame reads in this block (dense or strips) and of M. */
+/* Bytes of F̄ a frame reads in this block (dense or strips) and of M (as read). */
 LRR__PRIVATE_API void lrr__rows_bytes(const lrr__rows *r, size_t *fbar_bytes, size_t *m_bytes);
 
 /* First half of a frame: w (3×k, channel-major) = Vᵀ E over the block's patches, 0 for the
@@ -44,7 +45,7 @@ LRR__PRIVATE_API void lrr__rows_bytes(const lrr__rows *r, size_t *fbar_bytes, si
  * global index and the channel, as lrr_solve does. */
 LRR__PRIVATE_API lrr_status lrr__rows_vte(lrr__rows *r, const float *E, float *w);
 /* Second half: B (rows×3) = E + rho ∘ (F̄_rows · (M_c w_c)) with w the sum over the blocks
- * (the serial full path's products, lrr__smw_apply and the fused F̄ pass). */
+ * (the serial full path's products: lrr__smw_apply or _f16, and the fused F̄ pass). */
 LRR__PRIVATE_API void lrr__rows_apply(lrr__rows *r, const float *w, const float *E, float *B);
 
 /* Records an error on ctx as the library does (first error kept, callback called), the
