@@ -198,7 +198,7 @@ int cmd_solve(int argc, char *argv[])
 #ifdef LRR_MPI
     if (solve_mpi_launched()) /* mpirun -np P lrr solve (tools/cmd_solve_mpi.c) */
         return solve_mpi_run(&(solve_mpi_args){a.file, a.csv, &a.pa, a.scale, a.repeat, a.path,
-                                               a.backend, a.fbar});
+                                               a.backend, a.fbar, a.m != SOLVE_M_AUTO});
 #endif
     return run_solve(&a);
 }

@@ -27,10 +27,11 @@ static int check_options(const solve_mpi_args *a, int rank)
     const char *bad = a->backend != LRR_BACKEND_CPU                          ? "--backend opencl"
                       : a->path != LRR_PATH_FULL && a->path != LRR_PATH_AUTO ? "--path sparse|incremental"
                       : a->fbar != LRR_FBAR_AUTO                             ? "--fbar dense|sparse"
+                      : a->m_given                                           ? "--m"
                                                                              : NULL;
     if (bad && rank == 0)
         cli_usage_error(prog, "%s is not available across MPI ranks (every rank reads its "
-                        "rows of F̄ as lrr_solver_create's auto chooses, on the CPU, full path)",
+                        "rows of F̄ and M as lrr_solver_create chooses, on the CPU, full path)",
                         bad);
     return bad ? CLI_EXIT_USAGE : CLI_EXIT_OK;
 }

@@ -12,6 +12,7 @@ typedef struct solve_mpi_args {
     double scale;
     unsigned repeat;
     int path, backend, fbar; /* lrr_path, lrr_backend, lrr_fbar_format as parsed */
+    int m_given;             /* --m was given */
 } solve_mpi_args;
 
 /* Whether an MPI launcher (Open MPI's mpirun, a PMI or PMIx one) started this process. */
