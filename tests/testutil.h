@@ -59,6 +59,17 @@ static inline double tu_max_rel(size_t m, const float *a, const float *b)
     return den > 0 ? num / den : num;
 }
 
+/* ‖a − b‖₂ / ‖b‖₂ over m entries */
+static inline double tu_rel_l2(size_t m, const float *a, const float *b)
+{
+    double num = 0, den = 0;
+    for (size_t i = 0; i < m; i++) {
+        num += ((double)a[i] - b[i]) * ((double)a[i] - b[i]);
+        den += (double)b[i] * b[i];
+    }
+    return sqrt(num / den);
+}
+
 /* Writes the two triangles of quad (p0,p1,p2,p3) (counter-clockwise seen from the front)
  * into v (18 floats). */
 static inline void tu_quad(float *v, const double p0[3], const double p1[3], const double p2[3],

@@ -83,16 +83,6 @@ static lrr_operator *cornell_op(lrr_context *ctx, size_t K, unsigned levels)
     return op;
 }
 
-static double rel_l2(size_t m, const float *a, const float *b)
-{
-    double num = 0, den = 0;
-    for (size_t i = 0; i < m; i++) {
-        num += ((double)a[i] - b[i]) * ((double)a[i] - b[i]);
-        den += (double)b[i] * b[i];
-    }
-    return sqrt(num / den);
-}
-
 /* A solve with 16-bit F̄ equals a dense solve of (I − R F̄q Vᵀ) B = E with the decoded F̄q
  * (M is recomputed from what is stored, so the SMW identity holds exactly), for every SIMD
  * variant; against float storage it differs by the quantisation only. */
@@ -148,7 +138,7 @@ static void test_solve_16bit(void **state)
             }
             LRR_CHECK(ctx, st);
             LRR_CHECK(ctx, lrr_solve(sv, op->emission, b));
-            double e_exact = rel_l2(3 * n, b, ref), e_32 = rel_l2(3 * n, b, b32);
+            double e_exact = tu_rel_l2(3 * n, b, ref), e_32 = tu_rel_l2(3 * n, b, b32);
             print_message("%s storage, %s kernel: vs dense with decoded F̄ %.2e, vs f32 %.2e\n",
                           lrr_storage_name(kinds[t]), variants[v], e_exact, e_32);
             assert_true(e_exact <= 1e-5);

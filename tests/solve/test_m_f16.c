@@ -102,16 +102,6 @@ static void test_encoding(void **state)
     lrr_context_destroy(ctx);
 }
 
-static double rel_l2(size_t m, const float *a, const float *b)
-{
-    double num = 0, den = 0;
-    for (size_t i = 0; i < m; i++) {
-        num += ((double)a[i] - b[i]) * ((double)a[i] - b[i]);
-        den += (double)b[i] * b[i];
-    }
-    return sqrt(num / den);
-}
-
 static void solve_full(lrr_context *ctx, const lrr_operator *op, lrr_storage m_storage,
                        const float *E, float *B, lrr_solver_info *info)
 {
@@ -162,7 +152,8 @@ static void test_choice_and_error(void **state)
         lrr_solver_destroy(sv);
         solve_full(ctx, op16, LRR_STORAGE_F32, E, bm32, &info);
         solve_full(ctx, op16, LRR_STORAGE_F16, E, bm16, &info);
-        const double fbar_err = rel_l2(3 * n, bm32, b32), m_err = rel_l2(3 * n, bm16, bm32);
+        const double fbar_err = tu_rel_l2(3 * n, bm32, b32);
+        const double m_err = tu_rel_l2(3 * n, bm16, bm32);
         print_message("%s F̄: its error %.3g, M − I in binary16 adds %.3g\n",
                       lrr_storage_name((lrr_storage)st), fbar_err, m_err);
         assert_true(fbar_err > 0 && m_err > 0); /* both really rounded */
