@@ -101,6 +101,40 @@ LRR_API LRR_NODISCARD lrr_status lrr_mpi_scatter(lrr_mpi_solver *solver, int roo
                                                  const float *whole, float *rows)
     LRR_NONNULL(1);
 
+/* ---------------------------------------------------------------- preprocessing */
+typedef struct lrr_mpi_build_info {
+    int ranks;
+    size_t rows;             /* this rank's receivers (rows of F̄) */
+    double rows_seconds;     /* this rank's hemicubes */
+    double rows_seconds_min, rows_seconds_max; /* over the ranks: the balance */
+    double gather_seconds;   /* the blocks of F̄ to the root */
+    double seconds;          /* the whole call on this rank */
+} lrr_mpi_build_info;
+
+/* Collective over comm. lrr_operator_build across ranks: every rank passes the same scene
+ * (loaded and subdivided alike) and options; each selects the hierarchy (replicated: the
+ * ranks' selections are compared, LRR_ERR_DIM when one differs), computes the hemicubes of
+ * its receivers on the CPU with opts->threads (chunks of 64 rows dealt round-robin, chunk c
+ * to rank c mod P, so that costs that vary across the scene even out), and the rows are
+ * sent to rank root, which factorises M_c
+ * and returns the operator in *out: F̄ bit for bit, and hence M and B, the serial
+ * lrr_operator_build's (a receiver's hemicube depends on its index alone). *out is NULL on
+ * the other ranks and on every rank on error (agreed, as above). opts->progress is called
+ * on each rank for its own receivers. The root holds the whole operator; the others their
+ * rows only; the memory budget is checked against the whole operator on every rank.
+ * LRR_ERR_UNSUPPORTED for opts->backend LRR_BACKEND_OPENCL (the hemicubes of a list of
+ * receivers are integrated on the CPU). info
+ * (may be NULL; info_size = sizeof *info) receives the timings and this rank's block, on
+ * error what was reached. The operator's formfactor_seconds is the slowest rank's hemicubes
+ * plus the transfer. */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build(const lrr_scene *scene,
+                                                        const lrr_build_options *opts,
+                                                        MPI_Comm comm, int root,
+                                                        lrr_operator **out,
+                                                        lrr_mpi_build_info *info,
+                                                        size_t info_size)
+    LRR_NONNULL(1, 5);
+
 /* Collective over comm: every rank passes the status of its own work; returns LRR_OK on
  * every rank when all passed LRR_OK, else the agreed error (above: a failing rank keeps its
  * own; the others get the lowest failing rank's status, its message recorded on ctx as

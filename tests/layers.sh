@@ -20,7 +20,7 @@ allowed() {
         light) echo "core scene operator light" ;;
         probe) echo "core scene operator light probe" ;;
         output) echo "core scene operator output" ;;
-        mpi) echo "solve mpi" ;;
+        mpi) echo "solve operator mpi" ;;
         *) echo "" ;;
     esac
 }

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include "commands.h"
+#include "preprocess_mpi.h"
 
 /* lrr preprocess warns when cond × FLT_EPSILON exceeds this: M_c is stored in float, so a
  * larger condition number leaves less than ~0.1% of accuracy in the solution. */
@@ -74,7 +75,12 @@ static const char preprocess_help[] =
     "With none of --adaptive, --clusters, --patches, --max-patch-area and --levels, a scene\n"
     "of more than 2000 triangles gets --clusters K: K = 2000, or the largest K whose build\n"
     "fits --memory-budget, and --hemicube 64 unless given (a note on stderr says which and\n"
-    "why); smaller scenes get --patches 216 --levels 2.\n";
+    "why); smaller scenes get --patches 216 --levels 2.\n"
+    "Under mpirun (lrr built with MPI: 'lrr --version' lists mpi), every rank opens SCENE\n"
+    "and computes its share of the hemicubes (chunks of 64 receivers dealt round-robin,\n"
+    "OMP_NUM_THREADS threads each); rank 0 gathers them, factorises, writes FILE.lrr (the\n"
+    "serial file but for its timings) and prints, adding ranks, rank_hemicube_seconds\n"
+    "(the fastest and the slowest rank's) and gather_seconds. --backend opencl is serial.\n";
 
 typedef struct preprocess_args {
     const char *scene, *output;
@@ -89,6 +95,8 @@ typedef struct preprocess_args {
     int fbar_file;         /* --fbar-file: lrr_fbar_format */
     int verify;            /* --verify given */
     size_t verify_samples; /* its S; 0 = automatic */
+    preprocess_mpi mp;     /* the ranks under mpirun (tools/preprocess_mpi.h) */
+    int quiet;             /* a rank other than 0: no notes, bars or printout */
 } preprocess_args;
 
 /* ------------------------------------------------------------------ parsing */
@@ -269,6 +277,8 @@ static void warn_condition(const lrr_operator *op)
 
 static void note_skipped(const preprocess_args *a, const lrr_scene *scene)
 {
+    if (a->quiet)
+        return;
     lrr_scene_info si;
     lrr_scene_get_info(scene, &si, sizeof si);
     if (si.skipped)
@@ -298,7 +308,7 @@ static lrr_status verify(lrr_operator *op, const preprocess_args *a, const lrr_s
 
 /* Builds the operator (*op, also on some failures: the caller destroys it), stores F̄ as
  * asked and saves it. Returns CLI_EXIT_OK or the failure (reported). */
-static int build_and_save(lrr_context *ctx, const preprocess_args *a, const lrr_scene *scene,
+static int build_and_save(lrr_context *ctx, preprocess_args *a, const lrr_scene *scene,
                           lrr_operator **op)
 {
     int rc = CLI_EXIT_OK;
@@ -310,8 +320,12 @@ static int build_and_save(lrr_context *ctx, const preprocess_args *a, const lrr_
     bo.adaptive_samples = a->adaptive_samples;
     bo.adaptive_split = a->adaptive_split;
     bo.memory_budget = a->budget;
-    lrr_status s = lrr_operator_build(scene, &bo, op);
+    if (a->quiet)
+        bo.progress = NULL;
+    lrr_status s = preprocess_mpi_build(&a->mp, scene, &bo, op);
     cli_progress_finish(&bar);
+    if (a->quiet) /* rank 0 reports the agreed error, naming the rank */
+        return s == LRR_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;
     if (s == LRR_ERR_BUDGET) {
         rc = cli_lib_error(ctx, s);
         budget_hint(prog, a->budget, a->clusters);
@@ -379,6 +393,8 @@ static void choose_hierarchy(preprocess_args *a, const lrr_scene *scene)
     a->sa.sub.target_patches = 0;
     if (!a->ba.hemicube_given)
         a->ba.hemicube = AUTO_HEMICUBE;
+    if (a->quiet)
+        return;
     if (K == AUTO_CLUSTERS)
         fprintf(stderr, "lrr preprocess: note: %zu triangles: --clusters %zu --hemicube %u "
                         "(the default for scenes of more than %d triangles; --patches/--levels "
@@ -402,7 +418,21 @@ static int open_and_subdivide(lrr_context *ctx, preprocess_args *a, lrr_scene **
     return rc;
 }
 
-static int run_preprocess(preprocess_args *a)
+/* What only the serial build offers under mpirun: a usage error (every rank sees the
+ * same options, so all stop alike; rank 0 says why). */
+static int check_mpi_options(const preprocess_args *a)
+{
+    if (!a->mp.on || !a->on_device)
+        return CLI_EXIT_OK;
+    if (!a->quiet)
+        cli_usage_error(prog, "--backend opencl is not available across MPI ranks (each rank "
+                              "integrates its hemicubes on the CPU)");
+    return CLI_EXIT_USAGE;
+}
+
+/* Every rank opens the scene and builds its block; rank 0 (the only one without MPI)
+ * also checks the output's directory, saves and prints. */
+static int preprocess_ranks(preprocess_args *a)
 {
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
@@ -410,18 +440,36 @@ static int run_preprocess(preprocess_args *a)
         return cli_lib_error(NULL, s);
     lrr_scene *scene = NULL;
     lrr_operator *op = NULL;
-    int rc = check_writable_dir(a->output);
+    int rc = a->quiet ? CLI_EXIT_OK : check_writable_dir(a->output);
     if (rc == CLI_EXIT_OK)
         rc = open_and_subdivide(ctx, a, &scene);
-    if (rc == CLI_EXIT_OK) {
+    /* a rank that cannot open the scene stops them all before the collective build */
+    if ((rc = preprocess_mpi_agree(&a->mp, rc)) == CLI_EXIT_OK) {
         note_skipped(a, scene);
         rc = build_and_save(ctx, a, scene, &op);
     }
-    if (rc == CLI_EXIT_OK)
+    if (rc == CLI_EXIT_OK && op) {
         print_preprocess(a, op);
+        preprocess_mpi_print(&a->mp);
+    }
     lrr_operator_destroy(op);
     lrr_scene_destroy(scene);
     lrr_context_destroy(ctx);
+    return rc;
+}
+
+static int run_preprocess(preprocess_args *a)
+{
+    int rc = preprocess_mpi_init(&a->mp);
+    if (rc != CLI_EXIT_OK)
+        return rc;
+    a->quiet = a->mp.rank != 0;
+    rc = check_mpi_options(a);
+    if (rc == CLI_EXIT_OK)
+        rc = preprocess_ranks(a);
+    /* every rank ends with the worst status (rank 0's save may fail after the build) */
+    rc = preprocess_mpi_agree(&a->mp, rc);
+    preprocess_mpi_finalize(&a->mp);
     return rc;
 }
 

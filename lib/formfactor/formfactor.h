@@ -37,6 +37,14 @@ void lrr__multiplier_map_free(lrr__multiplier_map *m);
  * factors, 0..1) whose first hit is the back of a triangle, in the same pass. */
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, float *fbar, double *back);
+/* Rows rows[0..count-1] of the same F̄ and their back-face shares (back may be NULL), bit
+ * for bit those rows of lrr__hemicube_fbar's (a receiver's hemicube depends on its index
+ * alone): row r of the list at fbar's row r and back[r], or when placed at row rows[r]
+ * (fbar n×k, back n). On the CPU (LRR_ERR_UNSUPPORTED for the OpenCL backend). For the
+ * build across MPI ranks (operator/build.h). */
+lrr_status lrr__hemicube_fbar_rows(lrr_context *ctx, const lrr__geometry *g,
+                                   const lrr_build_options *opts, const size_t *rows,
+                                   size_t count, int placed, float *fbar, double *back);
 /* The same hemicubes with subpatch columns when by_subpatch (out n×n: the full F, not
  * divided by d) or patch columns otherwise (out n×k: F̄). */
 lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,

@@ -248,12 +248,26 @@ lrr_status lrr__build_options_resolve(const lrr_scene *scene, const lrr_build_op
 
 static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
                             const lrr_build_options *opts, int by_subpatch, const size_t *rows,
-                            size_t count, float *out, double *back);
+                            size_t count, int placed, float *out, double *back);
 
 lrr_status lrr__hemicube_fbar(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, float *fbar, double *back)
 {
-    return rows_impl(ctx, g, opts, 0, NULL, g->n, fbar, back);
+    return rows_impl(ctx, g, opts, 0, NULL, g->n, 0, fbar, back);
+}
+
+lrr_status lrr__hemicube_fbar_rows(lrr_context *ctx, const lrr__geometry *g,
+                                   const lrr_build_options *opts, const size_t *rows,
+                                   size_t count, int placed, float *fbar, double *back)
+{
+    for (size_t r = 0; r < count; r++)
+        if (rows[r] >= g->n)
+            return lrr__error(ctx, LRR_ERR_INVALID_ARG, "row %zu of F̄ beyond n = %zu",
+                              rows[r], g->n);
+    if (opts->backend == LRR_BACKEND_OPENCL)
+        return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
+                          "a list of F̄'s rows is integrated on the CPU only");
+    return rows_impl(ctx, g, opts, 0, rows, count, placed, fbar, back);
 }
 
 /* Batches of hemicubes are rasterised and resolved to patch ids on the CPU (OpenMP, each
@@ -331,7 +345,7 @@ static lrr_status device_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_bui
 lrr_status lrr__hemicube_rows(lrr_context *ctx, const lrr__geometry *g,
                               const lrr_build_options *opts, int by_subpatch, float *out)
 {
-    return rows_impl(ctx, g, opts, by_subpatch, NULL, g->n, out, NULL);
+    return rows_impl(ctx, g, opts, by_subpatch, NULL, g->n, 0, out, NULL);
 }
 
 lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
@@ -341,7 +355,7 @@ lrr_status lrr__hemicube_sample_rows(lrr_context *ctx, const lrr__geometry *g,
     lrr_build_options o = *opts;
     o.backend = LRR_BACKEND_CPU; /* subpatch columns are integrated on the CPU only */
     o.progress = NULL;
-    return rows_impl(ctx, g, &o, 1, rows, count, out, NULL);
+    return rows_impl(ctx, g, &o, 1, rows, count, 0, out, NULL);
 }
 
 void lrr__hemi_tri_info(const float v[9], lrr__tri_info *ti)
@@ -397,9 +411,11 @@ static lrr_status prefix_maps(lrr_context *ctx, const lrr__multiplier_map *mm, d
     return LRR_OK;
 }
 
-/* rows (or 0..count-1 when NULL) on the CPU, OpenMP over receivers. */
+/* rows (or 0..count-1 when NULL) on the CPU, OpenMP over receivers; row r of the
+ * list goes to out's row r, or row rows[r] when placed. */
 static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_options *opts,
-                           const size_t *rows, size_t count, float *out, double *back)
+                           const size_t *rows, size_t count, int placed, float *out,
+                           double *back)
 {
     const size_t rr = (size_t)h->mm->res * h->mm->res;
     const size_t cols = h->by_subpatch ? h->g->n : h->g->k;
@@ -422,8 +438,9 @@ static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_
         for (size_t r = 0; r < count; r++) {
             if (cancelled || failed)
                 continue;
+            const size_t at = placed ? rows[r] : r; /* where the row goes */
             hemicube_row(h, rows ? rows[r] : r, opts->seed, !opts->no_rotation, &sc,
-                         out + r * cols, back ? back + r : NULL);
+                         out + at * cols, back ? back + at : NULL);
             size_t now_done;
             #pragma omp atomic capture
             now_done = ++done;
@@ -455,7 +472,7 @@ static lrr_status cpu_rows(lrr_context *ctx, const hemi_ctx *h, const lrr_build_
 
 static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
                             const lrr_build_options *opts, int by_subpatch, const size_t *rows,
-                            size_t count, float *out, double *back)
+                            size_t count, int placed, float *out, double *back)
 {
     unsigned R = opts->hemicube_resolution ? opts->hemicube_resolution : 128;
     const int on_device = opts->backend == LRR_BACKEND_OPENCL;
@@ -542,7 +559,7 @@ static lrr_status rows_impl(lrr_context *ctx, const lrr__geometry *g,
     st = rc ? lrr__raycaster_bind(ctx, rc, &h) : LRR_OK;
     if (!st)
         st = on_device ? device_rows(ctx, &h, opts, out, back)
-                       : cpu_rows(ctx, &h, opts, rows, count, out, back);
+                       : cpu_rows(ctx, &h, opts, rows, count, placed, out, back);
     if (rc) {
         lrr_status rst = lrr__raycaster_status(ctx, rc);
         if (!st)

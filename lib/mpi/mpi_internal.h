@@ -18,4 +18,9 @@ lrr_status lrr__mpi_failed(lrr_context *ctx, const char *call, int rc);
  * Returns LRR_OK on every rank when mine was LRR_OK everywhere. */
 lrr_status lrr__mpi_spread(lrr_context *ctx, MPI_Comm comm, lrr_status mine);
 
+/* The first patch of rank r's block of rows: the first patch boundary at or after
+ * r·n/size rows, so that blocks hold whole patches and about n/size rows each (rank size:
+ * k). The solver's split (solver.c). */
+size_t lrr__mpi_block_start(const size_t *first, size_t n, size_t k, int r, int size);
+
 #endif

@@ -21,8 +21,8 @@
 lrr_status lrr__smw_factor(lrr_operator *op)
 {
     const size_t k = op->k, *first = op->geom.first;
-    double *G;
-    lapack_int *ipiv;
+    double *G, *work = NULL;
+    lapack_int *ipiv, *iwork = NULL;
     lrr_status st;
     size_t kk = k * k; /* checked in lrr__operator_new */
     if (k > (size_t)INT32_MAX)
@@ -31,8 +31,16 @@ lrr_status lrr__smw_factor(lrr_operator *op)
         return st;
     if ((st = lrr__calloc(op->ctx, &G, kk, sizeof(double), "G (k×k doubles)")))
         return st;
-    if ((st = lrr__calloc(op->ctx, &ipiv, k, sizeof(lapack_int), "pivots"))) {
+    /* dlange's and dgecon's work arrays are ours, aligned: the LAPACKE wrappers would
+     * malloc them wherever the heap has room, and OpenBLAS's kernels sum in an order that
+     * follows alignment, so the condition estimates of two processes (the serial build and
+     * the distributed one's root) differed in their last bits (bunny room, k = 2000) */
+    if ((st = lrr__calloc(op->ctx, &ipiv, k, sizeof(lapack_int), "pivots")) ||
+        (st = lrr__calloc(op->ctx, &work, 4 * k, sizeof(double), "dgecon's work")) ||
+        (st = lrr__calloc(op->ctx, &iwork, k, sizeof(lapack_int), "dgecon's work"))) {
         lrr_aligned_free(G);
+        lrr_aligned_free(ipiv);
+        lrr_aligned_free(work);
         return st;
     }
     /* with 16-bit storage or panels, rows are decoded into one scratch row per thread */
@@ -44,6 +52,8 @@ lrr_status lrr__smw_factor(lrr_operator *op)
                           "decoded F̄ rows"))) {
         lrr_aligned_free(G);
         lrr_aligned_free(ipiv);
+        lrr_aligned_free(work);
+        lrr_aligned_free(iwork);
         return st;
     }
     for (int c = 0; c < 3; c++) {
@@ -66,8 +76,8 @@ lrr_status lrr__smw_factor(lrr_operator *op)
             }
             gp[p] += 1;
         }
-        double anorm = LAPACKE_dlange(LAPACK_ROW_MAJOR, '1', (lapack_int)k, (lapack_int)k, G,
-                                      (lapack_int)k);
+        double anorm = LAPACKE_dlange_work(LAPACK_ROW_MAJOR, '1', (lapack_int)k, (lapack_int)k,
+                                           G, (lapack_int)k, work);
         lapack_int info = LAPACKE_dgetrf(LAPACK_ROW_MAJOR, (lapack_int)k, (lapack_int)k, G,
                                          (lapack_int)k, ipiv);
         if (info > 0) {
@@ -78,8 +88,8 @@ lrr_status lrr__smw_factor(lrr_operator *op)
         }
         double rcond = 0;
         if (info == 0)
-            info = LAPACKE_dgecon(LAPACK_ROW_MAJOR, '1', (lapack_int)k, G, (lapack_int)k, anorm,
-                                  &rcond);
+            info = LAPACKE_dgecon_work(LAPACK_ROW_MAJOR, '1', (lapack_int)k, G, (lapack_int)k,
+                                       anorm, &rcond, work, iwork);
         if (info == 0)
             info = LAPACKE_dgetri(LAPACK_ROW_MAJOR, (lapack_int)k, G, (lapack_int)k, ipiv);
         if (info != 0) {
@@ -104,6 +114,8 @@ lrr_status lrr__smw_factor(lrr_operator *op)
     op->m_epoch++; /* M was written (in part, after an error) */
     lrr_aligned_free(G);
     lrr_aligned_free(ipiv);
+    lrr_aligned_free(work);
+    lrr_aligned_free(iwork);
     lrr_aligned_free(rowbuf);
     return st;
 }

@@ -47,10 +47,10 @@ if [ -f "$so" ] && command -v nm >/dev/null 2>&1; then
     sed -n 's/^LRR_API[^(]*[^a-z0-9_]\(lrr_mpi_[a-z0-9_]*\)(.*/\1/p' "$top/include/lrr_mpi.h" |
         sort -u >"$T/header"
     sed -n 's/^[[:space:]]*\(lrr_mpi_[a-z0-9_]*\);.*/\1/p' "$top/lib/liblrr_mpi.map" | sort -u >"$T/map"
-    nm -D --defined-only "$so" | awk '{print $3}' | grep -v '^LRR_' | sed 's/@@LRR_MPI_0$//' |
+    nm -D --defined-only "$so" | awk '{print $3}' | grep -v '^LRR_' | sed 's/@@LRR_MPI_[0-9.]*$//' |
         sort -u >"$T/so"
     if [ -s "$T/header" ] && cmp -s "$T/header" "$T/map" && cmp -s "$T/map" "$T/so"; then
-        pass "liblrr_mpi exports exactly lrr_mpi.h's $(wc -l <"$T/header") functions, node LRR_MPI_0"
+        pass "liblrr_mpi exports exactly lrr_mpi.h's $(wc -l <"$T/header") functions, nodes LRR_MPI_0*"
     else
         diff "$T/header" "$T/map"; diff "$T/map" "$T/so"
         fail "liblrr_mpi's exports: lrr_mpi.h, lib/liblrr_mpi.map and nm -D differ"
@@ -66,6 +66,12 @@ for np in 1 2 3 4; do
     grep -E '^(PASS|FAIL): .*(max rel diff|failed checks)' "$T/out"
     if [ "$rc" -eq 0 ]; then pass "test_mpi_solve on $np ranks"
     else cat "$T/out" "$T/err"; fail "test_mpi_solve on $np ranks: exit $rc"; fi
+done
+for np in 1 2 3 4; do
+    mpi "$np" "$DIR/test_mpi_build"
+    grep -E '^FAIL|failed checks|(raster|clusters).*bit for bit' "$T/out"
+    if [ "$rc" -eq 0 ]; then pass "test_mpi_build on $np ranks"
+    else cat "$T/out" "$T/err"; fail "test_mpi_build on $np ranks: exit $rc"; fi
 done
 for np in 1 2 4; do
     mpi "$np" "$DIR/test_mpi_faults"
@@ -140,6 +146,38 @@ for opt in "--backend opencl" "--path sparse" "--fbar dense" "--m f32"; do
         cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr solve $opt: exit $rc"
     fi
 done
+
+# mpirun lrr preprocess: the serial file but for its timings (test_mpi_build --same), for
+# the quadtree and for clusters (the selection replicated on every rank)
+for args in "--patches 54 --levels 1" "--clusters 12"; do
+    # shellcheck disable=SC2086 # args are options
+    "$LRR" preprocess cornell $args --hemicube 16 --seed 3 -o "$T/pre-serial.lrr" \
+        >"$T/pre-serial.out" 2>"$T/err" || { cat "$T/err"; fail "lrr preprocess $args"; }
+    for np in 2 3; do
+        # shellcheck disable=SC2086
+        mpi "$np" "$LRR" preprocess cornell $args --hemicube 16 --seed 3 -o "$T/pre-mpi.lrr"
+        if [ "$rc" -eq 0 ] && [ "$(value ranks)" = "$np" ] && [ "$(grep -c '^n: ' "$T/out")" -eq 1 ] &&
+            [ "$(value n)" = "$(sed -n 's/^n: //p' "$T/pre-serial.out")" ] &&
+            "$DIR/test_mpi_build" --same "$T/pre-mpi.lrr" "$T/pre-serial.lrr" >"$T/same"; then
+            pass "mpirun -np $np lrr preprocess $args: rank 0 alone prints, the serial file but for its timings"
+        else
+            cat "$T/out" "$T/err" "$T/same"; fail "mpirun -np $np lrr preprocess $args: exit $rc"
+        fi
+    done
+done
+mpi 2 "$LRR" preprocess cornell --backend opencl -o "$T/pre-cl.lrr"
+if [ "$rc" -eq 2 ] && [ "$(grep -c "not available across MPI ranks" "$T/err")" -eq 1 ] &&
+    [ ! -e "$T/pre-cl.lrr" ]; then
+    pass "mpirun -np 2 lrr preprocess --backend opencl: exit 2, once: $(head -n 1 "$T/err")"
+else
+    cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr preprocess --backend opencl: exit $rc"
+fi
+mpi 2 "$LRR" preprocess "$T/missing.obj" -o "$T/pre-missing.lrr"
+if [ "$rc" -eq 1 ] && grep -q "missing.obj" "$T/err" && [ ! -e "$T/pre-missing.lrr" ]; then
+    pass "mpirun -np 2 lrr preprocess of a missing scene: exit 1: $(head -n 1 "$T/err")"
+else
+    cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr preprocess of a missing scene: exit $rc"
+fi
 
 # lrr-bench mpi: a smoke run (3 frames of the small box; the numbers are not judged)
 BENCH=${LRR_BENCH_BIN:-./lrr-bench}

@@ -1,0 +1,266 @@
+/* lrr_operator_build in three stages (build.h): begin (options, memory budget, hierarchy),
+ * rows (hemicubes over a block of receivers), finish (weights, SMW, panels, leak
+ * indicator). The serial build runs rows once over every receiver; liblrr_mpi's
+ * distributed build runs the same stages across ranks (lib/mpi/build.c). */
+#include "config.h"
+#include "formfactor/formfactor.h"
+#include "hierarchy/hierarchy.h"
+#include "operator/build.h"
+#include "operator/operator.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+struct lrr__build {
+    lrr_context *ctx;
+    const lrr_scene *scene;
+    lrr_build_options o;  /* defaults filled in */
+    lrr__geometry geom;   /* the hierarchy's */
+    int cluster;          /* its patches are clusters (visibility weights) */
+    lrr_operator *op;     /* whole builds: F̄ filled in place */
+    double *back;         /* whole builds: n back-face shares */
+    double t0, selection; /* lrr__now() at begin, the selection's seconds */
+};
+
+/* The leak indicator from the receivers' back-face shares: their mean, and the input
+ * triangles whose subpatches (equal areas within a triangle) have the largest mean share. */
+static void back_face_summary(lrr_operator *op, const double *back)
+{
+    const lrr__geometry *g = &op->geom;
+    double sum = 0;
+    for (size_t i = 0; i < g->n; i++)
+        sum += back[i];
+    op->back_face_share = g->n ? sum / (double)g->n : 0;
+    for (size_t t = 0; t < g->n_tri; t++) {
+        size_t i0 = g->sub0[t], i1 = g->sub0[t + 1];
+        double s = 0;
+        for (size_t j = i0; j < i1; j++)
+            s += back[lrr__subpatch_id(g, j)];
+        s = i1 > i0 ? s / (double)(i1 - i0) : 0;
+        /* insertion into the sorted list; ties keep the lower triangle first */
+        int w = LRR_BACK_FACE_WORST;
+        while (w > 0 && s > op->worst_share[w - 1])
+            w--;
+        if (w == LRR_BACK_FACE_WORST)
+            continue;
+        for (int j = LRR_BACK_FACE_WORST - 1; j > w; j--) {
+            op->worst_share[j] = op->worst_share[j - 1];
+            op->worst_tri[j] = op->worst_tri[j - 1];
+        }
+        op->worst_share[w] = s;
+        op->worst_tri[w] = t;
+    }
+}
+
+/* The operator's reflectances and emission, in its subpatch order. */
+static lrr_status scene_materials(const lrr_scene *scene, lrr_operator *op)
+{
+    const size_t *origin = op->geom.origin;
+    if (!origin)
+        return lrr_scene_subpatches(scene, NULL, NULL, NULL, op->rho, op->emission);
+    float *rho, *emission;
+    lrr_status st;
+    if ((st = lrr__calloc(op->ctx, &rho, op->n, 3 * sizeof(float), "subpatch reflectances")))
+        return st;
+    if ((st = lrr__calloc(op->ctx, &emission, op->n, 3 * sizeof(float), "subpatch emission")) ||
+        (st = lrr_scene_subpatches(scene, NULL, NULL, NULL, rho, emission))) {
+        lrr_aligned_free(rho);
+        lrr_aligned_free(emission);
+        return st;
+    }
+    for (size_t i = 0; i < op->n; i++)
+        for (int c = 0; c < 3; c++) {
+            op->rho[3 * i + c] = rho[3 * origin[i] + c];
+            op->emission[3 * i + c] = emission[3 * origin[i] + c];
+        }
+    lrr_aligned_free(rho);
+    lrr_aligned_free(emission);
+    return LRR_OK;
+}
+
+/* The grouping of the scene's patches the options ask for, into *hg: the scene's own
+ * (uniform), an adaptive quadtree selection or clusters (both over the scene's patches as
+ * subpatches); *cluster says which. */
+static lrr_status select_hierarchy(const lrr_scene *scene, const lrr_build_options *o,
+                                   lrr__geometry *hg, int *cluster)
+{
+    lrr_context *ctx = scene->ctx;
+    memset(hg, 0, sizeof *hg);
+    *cluster = o->adaptive_patches && o->hierarchy == LRR_HIERARCHY_CLUSTER;
+    if (!o->adaptive_patches)
+        return lrr__geometry_copy(ctx, hg, &scene->geom);
+    const size_t n = scene->geom.n;
+    float *rho = NULL, *emission = NULL, *area = NULL, *centre = NULL, *normal = NULL;
+    lrr_status st;
+    if (!(st = lrr__calloc(ctx, &rho, n, 3 * sizeof(float), "subpatch reflectances")) &&
+        !(st = lrr__calloc(ctx, &emission, n, 3 * sizeof(float), "subpatch emission")) &&
+        !(st = lrr__calloc(ctx, &area, n, sizeof(float), "subpatch areas")) &&
+        (!*cluster ||
+         (!(st = lrr__calloc(ctx, &centre, n, 3 * sizeof(float), "subpatch centres")) &&
+          !(st = lrr__calloc(ctx, &normal, n, 3 * sizeof(float), "subpatch normals")))) &&
+        !(st = lrr_scene_subpatches(scene, centre, normal, area, rho, emission)))
+        st = *cluster ? lrr__cluster_select(ctx, &scene->geom, rho, emission, centre, normal,
+                                            area, o, lrr__hemicube_sample_rows, hg)
+                      : lrr__adaptive_select(ctx, &scene->geom, rho, emission, area, NULL, o,
+                                             lrr__hemicube_sample_rows, hg, NULL);
+    lrr_aligned_free(rho);
+    lrr_aligned_free(emission);
+    lrr_aligned_free(area);
+    lrr_aligned_free(centre);
+    lrr_aligned_free(normal);
+    /* the normal rule may have made more clusters than asked: check the budget anew */
+    if (!st)
+        st = lrr__operator_budget_check(ctx, hg->n_tri, hg->n, hg->k, LRR_STORAGE_F32, o);
+    if (st)
+        lrr__geometry_free(hg);
+    return st;
+}
+
+/* The whole build's operator over b->geom, with what the hemicubes do not give. */
+static lrr_status new_whole(lrr__build *b)
+{
+    lrr_status st = lrr__operator_new(b->ctx, &b->geom, LRR_STORAGE_F32, &b->op);
+    if (st)
+        return st;
+    lrr_operator *op = b->op;
+    if (b->cluster)
+        op->weighting = LRR__WEIGHTS_VISIBILITY;
+    op->selection_seconds = b->selection;
+    op->builtin = b->scene->builtin;
+    op->hemicube_resolution = b->o.hemicube_resolution;
+    op->seed = b->o.seed;
+    op->no_rotation = b->o.no_rotation != 0;
+    if ((st = lrr__formfactor_method(b->ctx, &op->geom, &b->o, &op->formfactor_method)))
+        return st;
+    op->receiver_sampling = lrr__receiver_sampling(&b->o, op->formfactor_method);
+    if ((st = scene_materials(b->scene, op)))
+        return st;
+    return lrr__calloc(b->ctx, &b->back, op->n, sizeof(double), "back-face shares");
+}
+
+lrr_status lrr__build_begin(const lrr_scene *scene, const lrr_build_options *opts, int whole,
+                            lrr__build **out)
+{
+    *out = NULL;
+    lrr_context *ctx = scene->ctx;
+    lrr_build_options o;
+    lrr_status st = lrr__build_options_resolve(scene, opts, &o);
+    if (st)
+        return st;
+    /* memory budget and size overflow, before anything is allocated (budget.c); an
+     * adaptive build has at most adaptive_patches patches over the scene's n */
+    const lrr__geometry *sg = &scene->geom;
+    size_t k_max = o.adaptive_patches ? (o.adaptive_patches < sg->n ? o.adaptive_patches : sg->n)
+                                      : sg->k;
+    if ((st = lrr__operator_budget_check(ctx, sg->n_tri, sg->n, k_max, LRR_STORAGE_F32, &o)))
+        return st;
+    lrr__build *b = lrr__zalloc(ctx, sizeof *b);
+    if (!b)
+        return lrr__error(ctx, LRR_ERR_NOMEM, "cannot allocate a build");
+    b->ctx = ctx;
+    b->scene = scene;
+    b->o = o;
+    b->t0 = lrr__now();
+    if (!(st = select_hierarchy(scene, &b->o, &b->geom, &b->cluster))) {
+        b->selection = lrr__now() - b->t0;
+        if (whole)
+            st = new_whole(b);
+        else /* the method is checked as a whole build checks it */
+            st = lrr__formfactor_method(ctx, &b->geom, &b->o, &(int){0});
+    }
+    if (st) {
+        lrr__build_destroy(b);
+        return st;
+    }
+    *out = b;
+    return LRR_OK;
+}
+
+void lrr__build_destroy(lrr__build *b)
+{
+    if (!b)
+        return;
+    lrr_operator_destroy(b->op);
+    lrr_aligned_free(b->back);
+    lrr__geometry_free(&b->geom);
+    free(b);
+}
+
+lrr_context *lrr__build_context(const lrr__build *b) { return b->ctx; }
+lrr_context *lrr__build_scene_context(const lrr_scene *scene) { return scene->ctx; }
+
+void lrr__build_size(const lrr__build *b, size_t *n, size_t *k, const size_t **first)
+{
+    *n = b->geom.n;
+    *k = b->geom.k;
+    *first = b->geom.first;
+}
+
+/* FNV-1a over bytes, continuing from h. */
+static uint64_t fnv(uint64_t h, const void *data, size_t len)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < len; i++)
+        h = (h ^ p[i]) * 0x100000001b3ULL;
+    return h;
+}
+
+uint64_t lrr__build_fingerprint(const lrr__build *b)
+{
+    const lrr__geometry *g = &b->geom;
+    uint64_t h = fnv(0xcbf29ce484222325ULL, &g->n, sizeof g->n);
+    h = fnv(h, &g->k, sizeof g->k);
+    h = fnv(h, g->first, (g->k + 1) * sizeof *g->first);
+    if (g->origin)
+        h = fnv(h, g->origin, g->n * sizeof *g->origin);
+    return fnv(h, g->vert, g->n_tri * 9 * sizeof *g->vert);
+}
+
+float *lrr__build_fbar(lrr__build *b) { return b->op ? b->op->fbar : NULL; }
+double *lrr__build_back(lrr__build *b) { return b->back; }
+
+lrr_status lrr__build_rows(lrr__build *b, const size_t *rows, size_t count, int placed,
+                           float *fbar, double *back)
+{
+    if (!rows)
+        return b->op ? lrr__hemicube_fbar(b->ctx, &b->geom, &b->o, b->op->fbar, b->back)
+                     : lrr__error(b->ctx, LRR_ERR_INVALID_ARG, "every row of a build that is "
+                                  "not whole");
+    return lrr__hemicube_fbar_rows(b->ctx, &b->geom, &b->o, rows, count, placed, fbar, back);
+}
+
+lrr_status lrr__build_finish(lrr__build *b, double formfactor_seconds, lrr_operator **out)
+{
+    *out = NULL;
+    lrr_operator *op = b->op;
+    if (!op)
+        return lrr__error(b->ctx, LRR_ERR_INVALID_ARG, "finish of a build that is not whole");
+    op->formfactor_seconds = formfactor_seconds;
+    double t1 = lrr__now();
+    lrr_status st = lrr__smw_factor(op);
+    op->smw_seconds = lrr__now() - t1;
+    if (!st)
+        st = lrr__fbar_set_panels(op, 1);
+    if (st)
+        return st;
+    back_face_summary(op, b->back);
+    op->build_seconds = lrr__now() - b->t0;
+    b->op = NULL;
+    *out = op;
+    return LRR_OK;
+}
+
+lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *opts,
+                              lrr_operator **out)
+{
+    *out = NULL;
+    lrr__build *b;
+    lrr_status st = lrr__build_begin(scene, opts, 1, &b);
+    if (st)
+        return st;
+    const double t1 = lrr__now();
+    if (!(st = lrr__build_rows(b, NULL, 0, 0, NULL, NULL)))
+        st = lrr__build_finish(b, lrr__now() - t1, out);
+    lrr__build_destroy(b);
+    return st;
+}

@@ -1,0 +1,288 @@
+/* The distributed build (lrr_mpi_operator_build) against the serial lrr_operator_build, on
+ * 1 to 4 ranks (tests/mpi/mpi.sh):
+ *   F̄ and M bit for bit, the back-face indicator equal, B of the same emission equal, and
+ *   the saved files equal byte for byte but for the timings (build_seconds,
+ *   selection_seconds, and the checksums over them), for a uniform raster build, a ray-cast one, clusters (the replicated
+ *   selection) and two patches on more ranks than patches (empty blocks), rooted at rank 0
+ *   and at the last rank;
+ * and its faults, every rank returning the same error in seconds: a root out of range,
+ * another scene on the last rank (LRR_ERR_DIM), every allocation of the build failing in
+ * turn on the last rank (LRR_ERR_NOMEM). */
+#include "mpi_test.h"
+#include "solve/rows.h" /* lrr__rows_fail_after: the allocation-failure hook */
+
+#define FAULT_SECONDS 10.0
+
+typedef struct kind {
+    const char *name, *scene;
+    size_t K;
+    unsigned levels;
+    int cluster, raycast;
+} kind;
+
+static const kind KINDS[] = {
+    {"uniform raster", "cornell", 54, 1, 0, 0},
+    {"uniform raycast", "cornell", 54, 1, 0, 1},
+    {"clusters", "rooms", 12, 0, 1, 0},
+    {"two patches", "pair", 2, 1, 0, 0},
+};
+
+static lrr_build_options options(const kind *kd)
+{
+    lrr_build_options bo = lrr_build_options_defaults();
+    bo.hemicube_resolution = 16;
+    bo.seed = 5;
+    bo.threads = 1;
+    if (kd->cluster) {
+        bo.adaptive_patches = kd->K;
+        bo.hierarchy = LRR_HIERARCHY_CLUSTER;
+    }
+    if (kd->raycast)
+        bo.formfactor_method = LRR_FORMFACTOR_RAYCAST;
+    return bo;
+}
+
+static lrr_status scene_for(lrr_context *ctx, const kind *kd, size_t K, lrr_scene **sc)
+{
+    lrr_subdivision sd = lrr_subdivision_defaults();
+    sd.target_patches = kd->cluster ? 0 : K;
+    sd.levels = kd->levels;
+    lrr_status st = mt_scene(ctx, kd->scene, sc);
+    return st ? st : lrr_scene_subdivide(*sc, &sd);
+}
+
+/* The file's sections as (id, offset, size); 0 when the table cannot be read. */
+static int sections(const unsigned char *f, size_t len, unsigned id[16], size_t off[16],
+                    size_t size[16])
+{
+    if (len < 64)
+        return 0;
+    unsigned count;
+    memcpy(&count, f + 20, 4);
+    if (count > 16 || 64 + 32 * (size_t)count + 8 > len)
+        return 0;
+    for (unsigned s = 0; s < count; s++) {
+        uint64_t o, z;
+        memcpy(&id[s], f + 64 + 32 * s, 4);
+        memcpy(&o, f + 64 + 32 * s + 8, 8);
+        memcpy(&z, f + 64 + 32 * s + 16, 8);
+        if (o > len || z > len - o)
+            return 0;
+        off[s] = (size_t)o;
+        size[s] = (size_t)z;
+    }
+    return (int)count;
+}
+
+static unsigned char *slurp(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    unsigned char *b = NULL;
+    if (f && fseek(f, 0, SEEK_END) == 0) {
+        long l = ftell(f);
+        rewind(f);
+        if (l > 0 && (b = malloc((size_t)l)) && fread(b, 1, (size_t)l, f) != (size_t)l) {
+            free(b);
+            b = NULL;
+        }
+        *len = l > 0 ? (size_t)l : 0;
+    }
+    if (f)
+        fclose(f);
+    return b;
+}
+
+/* The two files hold the same sections, byte for byte but for the timings: INFO's
+ * build_seconds (bytes 24..31 of section 6) and the selection_seconds that PATCHES and
+ * CLUSTERS (8 and 9) begin with. */
+static int same_files(const char *a, const char *b)
+{
+    size_t la = 0, lb = 0;
+    unsigned char *fa = slurp(a, &la), *fb = slurp(b, &lb);
+    unsigned ia[16], ib[16];
+    size_t oa[16], ob[16], za[16], zb[16];
+    int na = fa ? sections(fa, la, ia, oa, za) : 0, nb = fb ? sections(fb, lb, ib, ob, zb) : 0;
+    int same = la == lb && na > 0 && na == nb && memcmp(fa, fb, 24) == 0;
+    for (int s = 0; same && s < na; s++) {
+        same = ia[s] == ib[s] && oa[s] == ob[s] && za[s] == zb[s];
+        const size_t at = ia[s] == 6 ? 24 : 0;
+        if (same && (ia[s] == 6 || ia[s] == 8 || ia[s] == 9) && za[s] >= at + 8) {
+            memset(fa + oa[s] + at, 0, 8);
+            memset(fb + ob[s] + at, 0, 8);
+        }
+        same = same && memcmp(fa + oa[s], fb + ob[s], za[s]) == 0;
+    }
+    free(fa);
+    free(fb);
+    return same;
+}
+
+/* Root's checks of the distributed operator d against the serial s. */
+static void compare(const char *what, lrr_operator *d, lrr_operator *s, const char *pd,
+                    const char *ps)
+{
+    lrr_operator_info id, is;
+    lrr_operator_get_info(d, &id, sizeof id);
+    lrr_operator_get_info(s, &is, sizeof is);
+    int fbar = id.n == is.n && id.k == is.k;
+    float *rd = calloc(is.k, sizeof(float)), *rs = calloc(is.k, sizeof(float));
+    for (size_t i = 0; fbar && rd && rs && i < is.n; i++) {
+        lrr_operator_fbar_row(d, i, rd);
+        lrr_operator_fbar_row(s, i, rs);
+        fbar = memcmp(rd, rs, is.k * sizeof(float)) == 0;
+    }
+    mt_check(fbar && rd && rs, "%s: F̄ (%zu×%zu) bit for bit the serial build's", what, is.n,
+             is.k);
+    free(rd);
+    free(rs);
+    mt_check(fbar && memcmp(lrr_operator_m(d), lrr_operator_m(s),
+                            3 * is.k * is.k * sizeof(float)) == 0,
+             "%s: M bit for bit", what);
+    mt_check(id.back_face_share == is.back_face_share &&
+                 memcmp(id.condition, is.condition, sizeof id.condition) == 0,
+             "%s: back-face share %g and condition estimates equal", what, id.back_face_share);
+    float *e = calloc(3 * is.n, sizeof(float)), *bd = calloc(3 * is.n, sizeof(float)),
+          *bs = calloc(3 * is.n, sizeof(float));
+    lrr_solver *sd = NULL, *ss = NULL;
+    int ok = e && bd && bs && lrr_solver_create(d, LRR_BACKEND_CPU, &sd) == LRR_OK &&
+             lrr_solver_create(s, LRR_BACKEND_CPU, &ss) == LRR_OK;
+    for (size_t j = 0; ok && j < 3 * is.n; j++)
+        e[j] = (float)((j * 7919) % 101) / 100.0f;
+    ok = ok && lrr_solve(sd, e, bd) == LRR_OK && lrr_solve(ss, e, bs) == LRR_OK;
+    double rel = ok ? mt_max_rel(3 * is.n, bd, bs) : 1;
+    mt_check(ok && rel <= 1e-6, "%s: B of a random emission, max rel diff %.3g", what, rel);
+    lrr_solver_destroy(sd);
+    lrr_solver_destroy(ss);
+    free(e);
+    free(bd);
+    free(bs);
+    ok = lrr_operator_save(d, pd) == LRR_OK && lrr_operator_save(s, ps) == LRR_OK;
+    mt_check(ok && same_files(pd, ps), "%s: the saved files equal but for the timings", what);
+    remove(pd);
+    remove(ps);
+}
+
+static void equality(const kind *kd, int root)
+{
+    char what[128], pd[512], ps[512];
+    snprintf(what, sizeof what, "%s, root %d", kd->name, root);
+    mt_path(pd, sizeof pd, "build-d");
+    mt_path(ps, sizeof ps, "build-s");
+    lrr_context *ctx = NULL;
+    lrr_scene *sc = NULL;
+    lrr_operator *d = NULL, *s = NULL;
+    lrr_build_options bo = options(kd);
+    int ok = lrr_context_create(&ctx) == LRR_OK && scene_for(ctx, kd, kd->K, &sc) == LRR_OK;
+    lrr_mpi_build_info info;
+    lrr_status st = ok ? lrr_mpi_operator_build(sc, &bo, MPI_COMM_WORLD, root, &d, &info,
+                                                sizeof info)
+                       : LRR_ERR_INVALID_ARG;
+    mt_check(st == LRR_OK && (mt_rank == root) == (d != NULL),
+             "%s: the build returns the operator on the root alone (%s)", what,
+             lrr_strerror(st));
+    /* the ranks' receivers add up to n, within a chunk of each other */
+    unsigned long long mine = info.rows, sum = 0, lo = 0, hi = 0;
+    MPI_Allreduce(&mine, &sum, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    MPI_Allreduce(&mine, &lo, 1, MPI_UNSIGNED_LONG_LONG, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(&mine, &hi, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, MPI_COMM_WORLD);
+    if (mt_rank == root && d) {
+        lrr_operator_info oi;
+        lrr_operator_get_info(d, &oi, sizeof oi);
+        mt_check(sum == oi.n && hi - lo <= 64, "%s: the ranks' %llu..%llu receivers add up to "
+                 "n = %zu", what, lo, hi, oi.n);
+        ok = lrr_operator_build(sc, &bo, &s) == LRR_OK;
+        mt_check(ok, "%s: the serial build", what);
+        if (ok)
+            compare(what, d, s, pd, ps);
+    }
+    lrr_operator_destroy(d);
+    lrr_operator_destroy(s);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
+/* One faulty build: every rank's status equal to want within FAULT_SECONDS, *out NULL,
+ * and the message containing needle. */
+static void fault(const char *what, lrr_context *ctx, lrr_scene *sc, int root, lrr_status want,
+                  const char *needle)
+{
+    lrr_build_options bo = options(&KINDS[0]);
+    lrr_operator *op = (lrr_operator *)1;
+    double t0 = MPI_Wtime();
+    lrr_status st = lrr_mpi_operator_build(sc, &bo, MPI_COMM_WORLD, root, &op, NULL, 0);
+    double t = MPI_Wtime() - t0, slowest;
+    int mine = (int)st, lo, hi;
+    MPI_Allreduce(&mine, &lo, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(&mine, &hi, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    MPI_Allreduce(&t, &slowest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    char msg[512];
+    lrr_context_last_error(ctx, msg, sizeof msg);
+    mt_check(lo == (int)want && hi == (int)want && op == NULL && slowest < FAULT_SECONDS,
+             "%s: every rank returns %s within %.3f s, no operator", what, lrr_strerror(want),
+             slowest);
+    mt_check(strstr(msg, needle) != NULL, "%s: rank %d's message: \"%s\"", what, mt_rank, msg);
+}
+
+static void faults(void)
+{
+    const kind *kd = &KINDS[0];
+    const int last = mt_size - 1;
+    lrr_context *ctx = NULL;
+    lrr_scene *sc = NULL;
+    if (lrr_context_create(&ctx) != LRR_OK || scene_for(ctx, kd, kd->K, &sc) != LRR_OK) {
+        mt_check(0, "faults: the test scene");
+        return;
+    }
+    fault("root out of range", ctx, sc, mt_size, LRR_ERR_INVALID_ARG, "is not a rank");
+    lrr_scene *other = NULL;
+    if (mt_size > 1) {
+        int ok = mt_rank != last || scene_for(ctx, kd, 2 * kd->K, &other) == LRR_OK;
+        mt_check(ok, "another scene on rank %d", last);
+        fault("another scene on the last rank", ctx, mt_rank == last ? other : sc, 0,
+              LRR_ERR_DIM, "selected another operator");
+        lrr_scene_destroy(other);
+    }
+    /* every allocation counted on the last rank's context failing in turn, until the build
+     * needs no more (the count is the same on every rank: it stops everywhere at once) */
+    int failing = 0, done = 0;
+    for (unsigned long n = 1; !done && n < 400; n++) {
+        if (mt_rank == last)
+            lrr__rows_fail_after(ctx, n);
+        lrr_build_options bo = options(kd);
+        lrr_operator *op = NULL;
+        lrr_status st = lrr_mpi_operator_build(sc, &bo, MPI_COMM_WORLD, 0, &op, NULL, 0);
+        if (mt_rank == last)
+            lrr__rows_fail_after(ctx, 0);
+        int mine = (int)st, lo, hi;
+        MPI_Allreduce(&mine, &lo, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        MPI_Allreduce(&mine, &hi, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        done = lo == LRR_OK && hi == LRR_OK;
+        if (!done && !(lo == hi && lo == (int)LRR_ERR_NOMEM && op == NULL)) {
+            mt_check(0, "allocation %lu failing on rank %d: statuses %d..%d", n, last, lo, hi);
+            failing = -1;
+            break;
+        }
+        failing += !done;
+        lrr_operator_destroy(op);
+    }
+    mt_check(failing > 0 && done, "each of the %d allocations of the build failing on rank %d "
+             "ends every rank with LRR_ERR_NOMEM, then the build succeeds", failing, last);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
+int main(int argc, char **argv)
+{
+    /* test_mpi_build --same A B: mpi.sh's check of `mpirun lrr preprocess`'s file */
+    if (argc == 4 && strcmp(argv[1], "--same") == 0) {
+        int same = same_files(argv[2], argv[3]);
+        printf("%s: %s and %s\n", same ? "same but for the timings" : "differ", argv[2],
+               argv[3]);
+        return same ? 0 : 1;
+    }
+    mt_init(&argc, &argv);
+    for (size_t c = 0; c < sizeof KINDS / sizeof *KINDS; c++)
+        equality(&KINDS[c], c == 0 ? mt_size - 1 : 0);
+    faults();
+    return mt_finish();
+}

@@ -1,0 +1,74 @@
+/* lrr preprocess across MPI ranks (tools/preprocess_mpi.h; lrr_mpi.h, docs/MPI.md). */
+#ifdef LRR_MPI
+#include <mpi.h>
+#include <stdio.h>
+
+#include "lrr_mpi.h"
+#include "preprocess_mpi.h"
+#include "solve_mpi.h"
+
+static const char prog[] = "lrr preprocess";
+
+int preprocess_mpi_init(preprocess_mpi *m)
+{
+    *m = (preprocess_mpi){.ranks = 1};
+    if (!solve_mpi_launched())
+        return CLI_EXIT_OK;
+    int provided;
+    MPI_Initialized(&m->inited);
+    if (!m->inited && MPI_Init_thread(NULL, NULL, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS)
+        return cli_fail(LRR_ERR_IO, "MPI_Init_thread failed");
+    m->on = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &m->rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &m->ranks);
+    return CLI_EXIT_OK;
+}
+
+lrr_status preprocess_mpi_build(preprocess_mpi *m, const lrr_scene *scene,
+                                const lrr_build_options *bo, lrr_operator **op)
+{
+    if (!m->on)
+        return lrr_operator_build(scene, bo, op);
+    lrr_mpi_build_info info;
+    lrr_status st = lrr_mpi_operator_build(scene, bo, MPI_COMM_WORLD, 0, op, &info,
+                                           sizeof info);
+    m->rows_seconds_min = info.rows_seconds_min;
+    m->rows_seconds_max = info.rows_seconds_max;
+    m->gather_seconds = info.gather_seconds;
+    return st;
+}
+
+int preprocess_mpi_agree(const preprocess_mpi *m, int rc)
+{
+    if (!m->on)
+        return rc;
+    int mine[2] = {rc, rc != CLI_EXIT_OK ? m->rank : m->ranks}, worst[2] = {rc, m->rank};
+    int got = MPI_Allreduce(&mine[0], &worst[0], 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    if (got == MPI_SUCCESS)
+        got = MPI_Allreduce(&mine[1], &worst[1], 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (got != MPI_SUCCESS)
+        return CLI_EXIT_FAIL;
+    if (m->rank == 0 && rc == CLI_EXIT_OK && worst[0] != CLI_EXIT_OK)
+        fprintf(stderr, "%s: rank %d of %d failed (its message is above)\n", prog, worst[1],
+                m->ranks);
+    return worst[0];
+}
+
+void preprocess_mpi_print(const preprocess_mpi *m)
+{
+    if (!m->on)
+        return;
+    printf("ranks: %d\n", m->ranks);
+    printf("rank_hemicube_seconds: %.3f %.3f\n", m->rows_seconds_min, m->rows_seconds_max);
+    printf("gather_seconds: %.3f\n", m->gather_seconds);
+}
+
+void preprocess_mpi_finalize(const preprocess_mpi *m)
+{
+    if (m->on && !m->inited)
+        MPI_Finalize();
+}
+#else
+/* built without MPI: the serial steps are inline in tools/preprocess_mpi.h */
+typedef int lrr_cli_no_mpi_preprocess;
+#endif
