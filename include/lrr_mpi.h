@@ -135,6 +135,21 @@ LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build(const lrr_scene *scene,
                                                         size_t info_size)
     LRR_NONNULL(1, 5);
 
+/* Collective over comm. lrr_reference_path_trace across ranks: every rank passes the same
+ * scene (subdivided alike) and options and traces the subpatches of its chunks (64 dealt
+ * round-robin, as lrr_mpi_operator_build's) on the CPU with opts->threads; rank root
+ * receives radiosity and, when its std_error is not NULL, std_error (n×3 each, the scene's
+ * order; ignored, may be NULL, elsewhere), bit for bit lrr_reference_path_trace's (each
+ * path has its own random stream from (seed, subpatch, sample)). Errors as
+ * lrr_reference_path_trace's, agreed; LRR_ERR_DIM when a rank's subpatch count differs from
+ * the root's. opts->progress is called on each rank for its own subpatches. */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_reference_path_trace(const lrr_scene *scene,
+                                                              const lrr_path_trace_options *opts,
+                                                              MPI_Comm comm, int root,
+                                                              float *radiosity,
+                                                              float *std_error)
+    LRR_NONNULL(1);
+
 /* Collective over comm: every rank passes the status of its own work; returns LRR_OK on
  * every rank when all passed LRR_OK, else the agreed error (above: a failing rank keeps its
  * own; the others get the lowest failing rank's status, its message recorded on ctx as

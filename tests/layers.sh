@@ -20,7 +20,7 @@ allowed() {
         light) echo "core scene operator light" ;;
         probe) echo "core scene operator light probe" ;;
         output) echo "core scene operator output" ;;
-        mpi) echo "solve operator mpi" ;;
+        mpi) echo "solve operator reference mpi" ;;
         *) echo "" ;;
     esac
 }

@@ -7,7 +7,7 @@
 #include <unistd.h>
 
 #include "commands.h"
-#include "preprocess_mpi.h"
+#include "cli_mpi.h"
 
 /* lrr preprocess warns when cond × FLT_EPSILON exceeds this: M_c is stored in float, so a
  * larger condition number leaves less than ~0.1% of accuracy in the solution. */
@@ -95,7 +95,7 @@ typedef struct preprocess_args {
     int fbar_file;         /* --fbar-file: lrr_fbar_format */
     int verify;            /* --verify given */
     size_t verify_samples; /* its S; 0 = automatic */
-    preprocess_mpi mp;     /* the ranks under mpirun (tools/preprocess_mpi.h) */
+    cli_mpi mp;            /* the ranks under mpirun (tools/cli_mpi.h) */
     int quiet;             /* a rank other than 0: no notes, bars or printout */
 } preprocess_args;
 
@@ -322,7 +322,7 @@ static int build_and_save(lrr_context *ctx, preprocess_args *a, const lrr_scene 
     bo.memory_budget = a->budget;
     if (a->quiet)
         bo.progress = NULL;
-    lrr_status s = preprocess_mpi_build(&a->mp, scene, &bo, op);
+    lrr_status s = cli_mpi_build(&a->mp, scene, &bo, op);
     cli_progress_finish(&bar);
     if (a->quiet) /* rank 0 reports the agreed error, naming the rank */
         return s == LRR_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;
@@ -444,13 +444,13 @@ static int preprocess_ranks(preprocess_args *a)
     if (rc == CLI_EXIT_OK)
         rc = open_and_subdivide(ctx, a, &scene);
     /* a rank that cannot open the scene stops them all before the collective build */
-    if ((rc = preprocess_mpi_agree(&a->mp, rc)) == CLI_EXIT_OK) {
+    if ((rc = cli_mpi_agree(&a->mp, rc)) == CLI_EXIT_OK) {
         note_skipped(a, scene);
         rc = build_and_save(ctx, a, scene, &op);
     }
     if (rc == CLI_EXIT_OK && op) {
         print_preprocess(a, op);
-        preprocess_mpi_print(&a->mp);
+        cli_mpi_print(&a->mp);
     }
     lrr_operator_destroy(op);
     lrr_scene_destroy(scene);
@@ -460,7 +460,7 @@ static int preprocess_ranks(preprocess_args *a)
 
 static int run_preprocess(preprocess_args *a)
 {
-    int rc = preprocess_mpi_init(&a->mp);
+    int rc = cli_mpi_init(&a->mp, prog);
     if (rc != CLI_EXIT_OK)
         return rc;
     a->quiet = a->mp.rank != 0;
@@ -468,8 +468,8 @@ static int run_preprocess(preprocess_args *a)
     if (rc == CLI_EXIT_OK)
         rc = preprocess_ranks(a);
     /* every rank ends with the worst status (rank 0's save may fail after the build) */
-    rc = preprocess_mpi_agree(&a->mp, rc);
-    preprocess_mpi_finalize(&a->mp);
+    rc = cli_mpi_agree(&a->mp, rc);
+    cli_mpi_finalize(&a->mp);
     return rc;
 }
 

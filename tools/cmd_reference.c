@@ -6,6 +6,7 @@
 #include <unistd.h>
 #include <stdlib.h>
 
+#include "cli_mpi.h"
 #include "commands.h"
 
 static const char prog[] = "lrr reference";
@@ -39,6 +40,11 @@ static const char reference_help[] =
     "                       " CLI_CSV_HEADER "\n" BUILD_HELP
     "  -h, --help           show this help\n" SUBDIV_HELP
     "\n"
+    "Under mpirun (lrr built with MPI), --method path-trace runs across the ranks: each\n"
+    "traces chunks of 64 subpatches dealt round-robin (OMP_NUM_THREADS threads each), rank 0\n"
+    "receives the rest, writes the CSV and prints, adding ranks; B and the standard errors\n"
+    "are the serial ones bit for bit. The other methods are serial.\n"
+    "\n"
     "Exit status: 0 success, 1 failure, 2 bad command line, 3 the iterative method stopped\n"
     "at --max-iterations before --tol (a warning names the iterations and the residual; the\n"
     "results, and the CSV, are those of the last iterate).\n";
@@ -52,6 +58,8 @@ typedef struct reference_args {
     size_t samples; /* 0: not given */
     double tol;
     size_t max_iterations, budget_mb;
+    cli_mpi mp; /* the ranks under mpirun (tools/cli_mpi.h) */
+    int quiet;  /* a rank other than 0: no bars or printout */
 } reference_args;
 
 /* What a run holds and measures, from the scene to the solution. */
@@ -264,18 +272,20 @@ static int trace_reference(lrr_context *ctx, const reference_args *a, reference_
     if (!r->se)
         return CLI_EXIT_FAIL;
     cli_progress bar;
-    cli_progress_init(&bar, "paths", a->ba.force_progress || isatty(STDERR_FILENO));
+    cli_progress_init(&bar, "paths", !a->quiet && (a->ba.force_progress || isatty(STDERR_FILENO)));
     lrr_path_trace_options o = lrr_path_trace_options_defaults();
     if (a->samples)
         o.samples = a->samples;
     o.seed = a->ba.seed;
     o.threads = (int)a->ba.threads;
-    o.progress = cli_progress_cb;
+    o.progress = a->quiet ? NULL : cli_progress_cb;
     o.progress_user = &bar;
     double t0 = cli_now();
-    lrr_status s = lrr_reference_path_trace(r->scene, &o, r->b, r->se);
+    lrr_status s = cli_mpi_trace(&a->mp, r->scene, &o, r->b, r->se);
     r->trace_seconds = cli_now() - t0;
     cli_progress_finish(&bar);
+    if (a->quiet) /* rank 0 reports the agreed error, naming the rank */
+        return s == LRR_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;
     return s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, s);
 }
 
@@ -291,6 +301,8 @@ static void print_path_trace(const reference_args *a, const reference_run *r)
     printf("method: path-trace\n");
     printf("samples: %zu\n", a->samples ? a->samples : lrr_path_trace_options_defaults().samples);
     printf("trace_seconds: %.3f\n", r->trace_seconds);
+    if (a->mp.on)
+        printf("ranks: %d\n", a->mp.ranks);
     printf("rel_std_error: %.6g\n", sum_b > 0 ? sum_se / sum_b : 0.0);
     print_radiosity_summary(r->n, r->area, r->b);
     if (a->csv)
@@ -310,7 +322,7 @@ static void print_reference(const reference_args *a, const reference_run *r)
         printf("csv: %s\n", a->csv);
 }
 
-static int run_reference(const reference_args *a)
+static int reference_ranks(const reference_args *a)
 {
     lrr_context *ctx = NULL;
     lrr_status s = lrr_context_create(&ctx);
@@ -318,9 +330,10 @@ static int run_reference(const reference_args *a)
         return cli_lib_error(NULL, s);
     reference_run r = {.n = 0, .d = 1, .st = {0, 0.0, 0.0}, .solved = LRR_OK};
     /* Fail before the build, not after it, when the CSV cannot be written. */
-    int rc = a->csv ? check_writable_dir(a->csv) : CLI_EXIT_OK;
+    int rc = a->csv && !a->quiet ? check_writable_dir(a->csv) : CLI_EXIT_OK;
     if (rc == CLI_EXIT_OK)
         rc = open_subdivided_scene(ctx, a->scene, &a->sa, &r.scene);
+    rc = cli_mpi_agree(&a->mp, rc); /* a rank without the scene stops them all */
     if (rc == CLI_EXIT_OK)
         rc = check_direct_budget(a, &r);
     if (rc == CLI_EXIT_OK && !a->path_trace)
@@ -329,11 +342,13 @@ static int run_reference(const reference_args *a)
         rc = get_subpatches(ctx, &r);
     if (rc == CLI_EXIT_OK)
         rc = a->path_trace ? trace_reference(ctx, a, &r) : solve_reference(ctx, a, &r);
-    if (rc == CLI_EXIT_OK)
+    if (a->quiet) /* rank 0 checks, writes and prints */
+        rc = rc == CLI_EXIT_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;
+    else if (rc == CLI_EXIT_OK)
         rc = check_finite(r.b, r.n);
-    if (rc == CLI_EXIT_OK && a->csv)
+    if (rc == CLI_EXIT_OK && a->csv && !a->quiet)
         rc = cli_write_subpatch_csv(a->csv, r.n, r.d, NULL, r.area, r.centre, r.normal, r.b);
-    if (rc == CLI_EXIT_OK) {
+    if (rc == CLI_EXIT_OK && !a->quiet) {
         if (a->path_trace)
             print_path_trace(a, &r);
         else
@@ -349,6 +364,26 @@ static int run_reference(const reference_args *a)
     lrr_reference_destroy(r.ref);
     lrr_scene_destroy(r.scene);
     lrr_context_destroy(ctx);
+    return rc;
+}
+
+/* Under mpirun only the path tracer is distributed: the other methods are a usage error
+ * (every rank sees the same options; rank 0 says why). */
+static int run_reference(reference_args *a)
+{
+    int rc = cli_mpi_init(&a->mp, prog);
+    if (rc != CLI_EXIT_OK)
+        return rc;
+    a->quiet = a->mp.rank != 0;
+    if (a->mp.on && !a->path_trace) {
+        if (!a->quiet)
+            cli_usage_error(prog, "--method %s is not available across MPI ranks (only "
+                            "path-trace is)", lrr_method_name(a->method));
+        rc = CLI_EXIT_USAGE;
+    } else
+        rc = reference_ranks(a);
+    rc = cli_mpi_agree(&a->mp, rc);
+    cli_mpi_finalize(&a->mp);
     return rc;
 }
 

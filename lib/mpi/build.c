@@ -5,9 +5,9 @@
  * hemicube depends on its index alone, so F̄ is the serial one bit for bit, and so are M
  * and everything after it.
  *
- * The receivers are dealt in chunks of CHUNK rows, chunk c to rank c mod P: a hemicube's
- * cost follows what its receiver sees, which varies across a scene, and neighbouring
- * chunks cost about the same. Equal blocks of whole patches took 206 and 240 s on the two
+ * The receivers are dealt in chunks of 64 rows, chunk c to rank c mod P (chunks.c): a
+ * hemicube's cost follows what its receiver sees, which varies across a scene, and
+ * neighbouring chunks cost about the same. Equal blocks of whole patches took 206 and 240 s on the two
  * ranks of the bunny room (--clusters 2000, R 128, one thread each). */
 #include "config.h"
 #include "mpi/mpi_internal.h"
@@ -17,9 +17,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* Rows per chunk: 64 hemicubes are about 0.2 s at R 128 on one core, and the root takes
- * each rank's chunks in one message. */
-#define CHUNK 64
 #define TAG_FBAR 1
 #define TAG_BACK 2
 
@@ -63,19 +60,6 @@ static lrr_status same_selection(dist *d)
     return lrr__mpi_spread(d->ctx, d->comm, st);
 }
 
-/* The receivers of rank r's chunks: their count, and the list when rows is not NULL. */
-static size_t rank_rows(size_t n, int r, int size, size_t *rows)
-{
-    size_t count = 0;
-    for (size_t c0 = (size_t)r * CHUNK; c0 < n; c0 += (size_t)size * CHUNK)
-        for (size_t i = c0; i < n && i < c0 + CHUNK; i++) {
-            if (rows)
-                rows[count] = i;
-            count++;
-        }
-    return count;
-}
-
 /* This rank's receivers and buffers. */
 static lrr_status split(dist *d)
 {
@@ -84,16 +68,16 @@ static lrr_status split(dist *d)
     if (d->n > INT_MAX)
         return lrr__mpi_error(d->ctx, LRR_ERR_OVERFLOW, "lrr_mpi_operator_build: n = %zu "
                               "subpatches exceeds MPI's int counts", d->n);
-    const size_t rows = rank_rows(d->n, d->rank, d->size, NULL);
+    const size_t rows = lrr__mpi_chunk_rows(d->n, d->rank, d->size, NULL);
     d->info.rows = rows;
     if (rows && !(d->rows = calloc(rows, sizeof *d->rows)))
         return lrr__mpi_error(d->ctx, LRR_ERR_NOMEM, "lrr_mpi_operator_build: cannot allocate "
                               "the list of this rank's %zu receivers", rows);
-    rank_rows(d->n, d->rank, d->size, d->rows);
+    lrr__mpi_chunk_rows(d->n, d->rank, d->size, d->rows);
     if (d->rank == d->root) {
         /* allocated before the hemicubes: the receives cannot fail for memory while the
          * other ranks wait in their sends */
-        const size_t most = (d->n + CHUNK - 1) / CHUNK / (size_t)d->size + 1;
+        const size_t most = lrr__mpi_chunk_most(d->n, d->size);
         d->fbar = lrr__build_fbar(d->b);
         d->back = lrr__build_back(d->b);
         d->len = calloc(most, sizeof(int));
@@ -115,21 +99,14 @@ static lrr_status split(dist *d)
  * of F̄ (k floats) and one of back-face shares. */
 static int receive_rank(dist *d, MPI_Datatype row, int r)
 {
-    const size_t chunks = (d->n + CHUNK - 1) / CHUNK;
-    int *len = d->len, *at = d->at, rc = MPI_SUCCESS;
-    size_t m = 0;
-    for (size_t c = (size_t)r; c < chunks; c += (size_t)d->size, m++) {
-        at[m] = (int)(c * CHUNK);
-        len[m] = (int)((c + 1) * CHUNK < d->n ? CHUNK : d->n - c * CHUNK);
-    }
+    if (lrr__mpi_chunk_rows(d->n, r, d->size, NULL) == 0)
+        return MPI_SUCCESS; /* it sends nothing */
     MPI_Datatype tf = MPI_DATATYPE_NULL, tb = MPI_DATATYPE_NULL;
-    if (rc == MPI_SUCCESS && m > 0 &&
-        (rc = MPI_Type_indexed((int)m, len, at, row, &tf)) == MPI_SUCCESS &&
-        (rc = MPI_Type_commit(&tf)) == MPI_SUCCESS &&
-        (rc = MPI_Type_indexed((int)m, len, at, MPI_DOUBLE, &tb)) == MPI_SUCCESS &&
-        (rc = MPI_Type_commit(&tb)) == MPI_SUCCESS &&
-        (rc = MPI_Recv(d->fbar, 1, tf, r, TAG_FBAR, d->comm, MPI_STATUS_IGNORE)) ==
-            MPI_SUCCESS)
+    int rc = lrr__mpi_chunk_type(d->n, r, d->size, row, d->len, d->at, &tf);
+    if (rc == MPI_SUCCESS)
+        rc = lrr__mpi_chunk_type(d->n, r, d->size, MPI_DOUBLE, d->len, d->at, &tb);
+    if (rc == MPI_SUCCESS &&
+        (rc = MPI_Recv(d->fbar, 1, tf, r, TAG_FBAR, d->comm, MPI_STATUS_IGNORE)) == MPI_SUCCESS)
         rc = MPI_Recv(d->back, 1, tb, r, TAG_BACK, d->comm, MPI_STATUS_IGNORE);
     if (tf != MPI_DATATYPE_NULL)
         MPI_Type_free(&tf);

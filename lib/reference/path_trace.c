@@ -8,6 +8,7 @@
  */
 #include "config.h"
 #include "reference/reference.h"
+#include "reference/rows.h"
 #include "scene/bvh.h"
 
 #include <math.h>
@@ -405,6 +406,21 @@ lrr_status lrr__tracer_rows(const lrr__tracer *t, const lrr_path_trace_options *
                       std_error);
     return st ? st : lrr__bvh_status(scene->ctx, &t->bvh, "ray query");
 }
+
+lrr_status lrr__trace_rows(const lrr_scene *scene, const lrr_path_trace_options *opts,
+                           const size_t *rows, size_t count, float *radiosity, float *std_error)
+{
+    lrr_path_trace_options o;
+    lrr_status st = read_options(scene, opts, &o); /* before the BVH is built */
+    lrr__tracer *t;
+    if (st || !rows || !count || (st = lrr__tracer_create(scene, NULL, &t)))
+        return st;
+    st = lrr__tracer_rows(t, &o, rows, count, radiosity, std_error);
+    lrr__tracer_destroy(t);
+    return st;
+}
+
+lrr_context *lrr__trace_context(const lrr_scene *scene) { return scene->ctx; }
 
 lrr_status lrr_reference_path_trace(const lrr_scene *scene, const lrr_path_trace_options *opts,
                                     float *radiosity, float *std_error)

@@ -3,7 +3,9 @@
 # that a hang fails instead of blocking: the library's distributed solver against the
 # serial one with 1 to 4 ranks (test_mpi_solve) and its fault cases (test_mpi_faults), then
 # `mpirun -np P lrr solve` against `lrr solve` (same CSV within 1e-6, same summary) and its
-# failures (rank 0 alone prints the error), and a smoke run of lrr-bench mpi. Root may run them (--allow-run-as-root); more
+# failures (rank 0 alone prints the error), the distributed build and path tracer
+# (test_mpi_build; `mpirun lrr preprocess` and `mpirun lrr reference --method path-trace`
+# against the serial commands), and a smoke run of lrr-bench mpi. Root may run them (--allow-run-as-root); more
 # ranks than cores (--oversubscribe) is the point on a 2-core machine.
 # Environment: LRR_MPIRUN, LRR_MPI_TESTS (the test programs' folder), LRR_BIN,
 # LRR_TEST_TMP (as make check sets them).
@@ -177,6 +179,27 @@ if [ "$rc" -eq 1 ] && grep -q "missing.obj" "$T/err" && [ ! -e "$T/pre-missing.l
     pass "mpirun -np 2 lrr preprocess of a missing scene: exit 1: $(head -n 1 "$T/err")"
 else
     cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr preprocess of a missing scene: exit $rc"
+fi
+
+# mpirun lrr reference --method path-trace: the serial CSV byte for byte (each path has its
+# own random stream); the other methods are serial
+"$LRR" reference cornell --method path-trace --samples 8 --csv "$T/ref-serial.csv" \
+    >"$T/ref-serial.out" 2>"$T/err" || { cat "$T/err"; fail "lrr reference --method path-trace"; }
+for np in 2 4; do
+    mpi "$np" "$LRR" reference cornell --method path-trace --samples 8 --csv "$T/ref-mpi.csv"
+    if [ "$rc" -eq 0 ] && [ "$(value ranks)" = "$np" ] && [ "$(grep -c '^n: ' "$T/out")" -eq 1 ] &&
+        cmp -s "$T/ref-mpi.csv" "$T/ref-serial.csv" &&
+        [ "$(value rel_std_error)" = "$(sed -n 's/^rel_std_error: //p' "$T/ref-serial.out")" ]; then
+        pass "mpirun -np $np lrr reference --method path-trace: rank 0 alone prints, the serial CSV byte for byte"
+    else
+        cat "$T/out" "$T/err"; fail "mpirun -np $np lrr reference --method path-trace: exit $rc"
+    fi
+done
+mpi 2 "$LRR" reference cornell --method jacobi
+if [ "$rc" -eq 2 ] && [ "$(grep -c "not available across MPI ranks" "$T/err")" -eq 1 ]; then
+    pass "mpirun -np 2 lrr reference --method jacobi: exit 2, once: $(head -n 1 "$T/err")"
+else
+    cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr reference --method jacobi: exit $rc"
 fi
 
 # lrr-bench mpi: a smoke run (3 frames of the small box; the numbers are not judged)

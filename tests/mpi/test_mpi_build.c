@@ -7,7 +7,8 @@
  *   and at the last rank;
  * and its faults, every rank returning the same error in seconds: a root out of range,
  * another scene on the last rank (LRR_ERR_DIM), every allocation of the build failing in
- * turn on the last rank (LRR_ERR_NOMEM). */
+ * turn on the last rank (LRR_ERR_NOMEM); and the distributed path tracer
+ * (lrr_mpi_reference_path_trace) against the serial one, bit for bit. */
 #include "mpi_test.h"
 #include "solve/rows.h" /* lrr__rows_fail_after: the allocation-failure hook */
 
@@ -271,6 +272,59 @@ static void faults(void)
     lrr_context_destroy(ctx);
 }
 
+/* lrr_mpi_reference_path_trace against lrr_reference_path_trace: radiosity and standard
+ * errors bit for bit (rooted at the last rank, and without std_error at rank 0); samples
+ * of 1 fail on every rank. */
+static void traces(void)
+{
+    const kind *kd = &KINDS[0];
+    lrr_context *ctx = NULL;
+    lrr_scene *sc = NULL;
+    if (lrr_context_create(&ctx) != LRR_OK || scene_for(ctx, kd, kd->K, &sc) != LRR_OK) {
+        mt_check(0, "path trace: the test scene");
+        return;
+    }
+    lrr_scene_info si;
+    lrr_scene_get_info(sc, &si, sizeof si);
+    const size_t n = si.subpatches;
+    float *b = calloc(3 * n, sizeof(float)), *se = calloc(3 * n, sizeof(float)),
+          *bs = calloc(3 * n, sizeof(float)), *ses = calloc(3 * n, sizeof(float));
+    lrr_path_trace_options o = lrr_path_trace_options_defaults();
+    o.samples = 16;
+    o.seed = 11;
+    o.threads = 1;
+    for (int pass = 0; pass < 2; pass++) {
+        const int root = pass == 0 ? mt_size - 1 : 0;
+        float *want_se = pass == 0 ? se : NULL;
+        lrr_status st = lrr_mpi_reference_path_trace(sc, &o, MPI_COMM_WORLD, root, b, want_se);
+        mt_check(st == LRR_OK, "path trace, root %d%s: %s", root,
+                 want_se ? "" : ", no std_error", lrr_strerror(st));
+        if (mt_rank != root)
+            continue;
+        int ok = b && se && bs && ses &&
+                 lrr_reference_path_trace(sc, &o, bs, ses) == LRR_OK &&
+                 memcmp(b, bs, 3 * n * sizeof(float)) == 0 &&
+                 (!want_se || memcmp(se, ses, 3 * n * sizeof(float)) == 0);
+        mt_check(ok, "path trace, root %d: the serial radiosity%s bit for bit (n = %zu)", root,
+                 want_se ? " and standard errors" : "", n);
+    }
+    o.samples = 1;
+    double t0 = MPI_Wtime();
+    lrr_status st = lrr_mpi_reference_path_trace(sc, &o, MPI_COMM_WORLD, 0, b, NULL);
+    double t = MPI_Wtime() - t0;
+    int mine = (int)st, lo, hi;
+    MPI_Allreduce(&mine, &lo, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(&mine, &hi, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    mt_check(lo == LRR_ERR_INVALID_ARG && hi == LRR_ERR_INVALID_ARG && t < FAULT_SECONDS,
+             "path trace with 1 sample: every rank returns invalid argument");
+    free(b);
+    free(se);
+    free(bs);
+    free(ses);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
 int main(int argc, char **argv)
 {
     /* test_mpi_build --same A B: mpi.sh's check of `mpirun lrr preprocess`'s file */
@@ -284,5 +338,6 @@ int main(int argc, char **argv)
     for (size_t c = 0; c < sizeof KINDS / sizeof *KINDS; c++)
         equality(&KINDS[c], c == 0 ? mt_size - 1 : 0);
     faults();
+    traces();
     return mt_finish();
 }

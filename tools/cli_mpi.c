@@ -1,17 +1,16 @@
-/* lrr preprocess across MPI ranks (tools/preprocess_mpi.h; lrr_mpi.h, docs/MPI.md). */
+/* lrr preprocess and lrr reference across MPI ranks (tools/cli_mpi.h; lrr_mpi.h,
+ * docs/MPI.md). */
 #ifdef LRR_MPI
 #include <mpi.h>
 #include <stdio.h>
 
 #include "lrr_mpi.h"
-#include "preprocess_mpi.h"
+#include "cli_mpi.h"
 #include "solve_mpi.h"
 
-static const char prog[] = "lrr preprocess";
-
-int preprocess_mpi_init(preprocess_mpi *m)
+int cli_mpi_init(cli_mpi *m, const char *prog)
 {
-    *m = (preprocess_mpi){.ranks = 1};
+    *m = (cli_mpi){.prog = prog, .ranks = 1};
     if (!solve_mpi_launched())
         return CLI_EXIT_OK;
     int provided;
@@ -24,7 +23,7 @@ int preprocess_mpi_init(preprocess_mpi *m)
     return CLI_EXIT_OK;
 }
 
-lrr_status preprocess_mpi_build(preprocess_mpi *m, const lrr_scene *scene,
+lrr_status cli_mpi_build(cli_mpi *m, const lrr_scene *scene,
                                 const lrr_build_options *bo, lrr_operator **op)
 {
     if (!m->on)
@@ -38,7 +37,14 @@ lrr_status preprocess_mpi_build(preprocess_mpi *m, const lrr_scene *scene,
     return st;
 }
 
-int preprocess_mpi_agree(const preprocess_mpi *m, int rc)
+lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
+                         const lrr_path_trace_options *o, float *b, float *se)
+{
+    return m->on ? lrr_mpi_reference_path_trace(scene, o, MPI_COMM_WORLD, 0, b, se)
+                 : lrr_reference_path_trace(scene, o, b, se);
+}
+
+int cli_mpi_agree(const cli_mpi *m, int rc)
 {
     if (!m->on)
         return rc;
@@ -49,12 +55,12 @@ int preprocess_mpi_agree(const preprocess_mpi *m, int rc)
     if (got != MPI_SUCCESS)
         return CLI_EXIT_FAIL;
     if (m->rank == 0 && rc == CLI_EXIT_OK && worst[0] != CLI_EXIT_OK)
-        fprintf(stderr, "%s: rank %d of %d failed (its message is above)\n", prog, worst[1],
+        fprintf(stderr, "%s: rank %d of %d failed (its message is above)\n", m->prog, worst[1],
                 m->ranks);
     return worst[0];
 }
 
-void preprocess_mpi_print(const preprocess_mpi *m)
+void cli_mpi_print(const cli_mpi *m)
 {
     if (!m->on)
         return;
@@ -63,12 +69,12 @@ void preprocess_mpi_print(const preprocess_mpi *m)
     printf("gather_seconds: %.3f\n", m->gather_seconds);
 }
 
-void preprocess_mpi_finalize(const preprocess_mpi *m)
+void cli_mpi_finalize(const cli_mpi *m)
 {
     if (m->on && !m->inited)
         MPI_Finalize();
 }
 #else
-/* built without MPI: the serial steps are inline in tools/preprocess_mpi.h */
-typedef int lrr_cli_no_mpi_preprocess;
+/* built without MPI: the serial steps are inline in tools/cli_mpi.h */
+typedef int lrr_cli_no_mpi;
 #endif

@@ -1,0 +1,63 @@
+/* `mpirun -np P lrr preprocess` and `mpirun -np P lrr reference --method path-trace`
+ * (tools/cli_mpi.c: lrr_mpi_operator_build, lrr_mpi_reference_path_trace), taken only when
+ * an MPI launcher started the process and lrr was built with MPI (LRR_MPI); otherwise these
+ * are the serial steps. Every rank opens the scene and computes its share; rank 0 receives
+ * the rest, writes and prints. (`mpirun lrr solve` has its own path: solve_mpi.h.) */
+#ifndef LRR_CLI_MPI_H
+#define LRR_CLI_MPI_H
+
+#include "commands.h"
+
+typedef struct cli_mpi {
+    const char *prog; /* for rank 0's messages */
+    int on;          /* started by an MPI launcher (MPI initialised here) */
+    int rank, ranks;
+    int inited;      /* MPI was initialised before (then not finalised here) */
+    double rows_seconds_min, rows_seconds_max, gather_seconds; /* of the build */
+} cli_mpi;
+
+#ifdef LRR_MPI
+/* MPI_Init when launched (m->on), else rank 0 of 1: CLI_EXIT_OK or the failure. */
+int cli_mpi_init(cli_mpi *m, const char *prog);
+/* lrr_mpi_operator_build across MPI_COMM_WORLD (root 0) when m->on, else
+ * lrr_operator_build: *op on rank 0 only. */
+lrr_status cli_mpi_build(cli_mpi *m, const lrr_scene *scene,
+                                const lrr_build_options *bo, lrr_operator **op);
+/* lrr_mpi_reference_path_trace across MPI_COMM_WORLD (root 0) when m->on, else
+ * lrr_reference_path_trace: b and se whole on rank 0. */
+lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
+                         const lrr_path_trace_options *o, float *b, float *se);
+/* The worst exit status over the ranks (rc where not m->on); rank 0 names the lowest
+ * failing rank when it did not fail itself (that rank printed why). */
+int cli_mpi_agree(const cli_mpi *m, int rc);
+/* Rank 0's lines for a distributed build: ranks and the balance of the hemicubes. */
+void cli_mpi_print(const cli_mpi *m);
+void cli_mpi_finalize(const cli_mpi *m);
+#else
+static inline int cli_mpi_init(cli_mpi *m, const char *prog)
+{
+    *m = (cli_mpi){.prog = prog, .ranks = 1};
+    return CLI_EXIT_OK;
+}
+static inline lrr_status cli_mpi_build(cli_mpi *m, const lrr_scene *scene,
+                                              const lrr_build_options *bo, lrr_operator **op)
+{
+    (void)m;
+    return lrr_operator_build(scene, bo, op);
+}
+static inline lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
+                                       const lrr_path_trace_options *o, float *b, float *se)
+{
+    (void)m;
+    return lrr_reference_path_trace(scene, o, b, se);
+}
+static inline int cli_mpi_agree(const cli_mpi *m, int rc)
+{
+    (void)m;
+    return rc;
+}
+static inline void cli_mpi_print(const cli_mpi *m) { (void)m; }
+static inline void cli_mpi_finalize(const cli_mpi *m) { (void)m; }
+#endif
+
+#endif
