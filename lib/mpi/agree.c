@@ -71,3 +71,21 @@ lrr_status lrr_mpi_agree(lrr_context *ctx, MPI_Comm comm, lrr_status status)
 {
     return lrr__mpi_spread(ctx, comm, status);
 }
+
+lrr_status lrr__mpi_open(lrr_context *ctx, MPI_Comm comm, int root, const char *fn,
+                         MPI_Comm *dup, int *rank, int *size)
+{
+    int rc = MPI_Comm_dup(comm, dup);
+    if (rc != MPI_SUCCESS) {
+        *dup = MPI_COMM_NULL;
+        return lrr__mpi_failed(ctx, "MPI_Comm_dup", rc);
+    }
+    MPI_Comm_set_errhandler(*dup, MPI_ERRORS_RETURN);
+    MPI_Comm_rank(*dup, rank);
+    MPI_Comm_size(*dup, size);
+    /* the same check on every rank: they all return alike */
+    if (root < 0 || root >= *size)
+        return lrr__mpi_error(ctx, LRR_ERR_INVALID_ARG, "%s: root %d is not a rank of %d", fn,
+                              root, *size);
+    return LRR_OK;
+}

@@ -176,18 +176,13 @@ lrr_status lrr_mpi_operator_build(const lrr_scene *scene, const lrr_build_option
     memset(&d, 0, sizeof d);
     d.ctx = lrr__build_scene_context(scene);
     d.root = root;
-    int rc = MPI_Comm_dup(comm, &d.comm);
-    if (rc != MPI_SUCCESS)
-        return lrr__mpi_failed(d.ctx, "MPI_Comm_dup", rc);
-    MPI_Comm_set_errhandler(d.comm, MPI_ERRORS_RETURN);
-    MPI_Comm_rank(d.comm, &d.rank);
-    MPI_Comm_size(d.comm, &d.size);
+    lrr_status st = lrr__mpi_open(d.ctx, comm, root, "lrr_mpi_operator_build", &d.comm,
+                                  &d.rank, &d.size);
+    if (d.comm == MPI_COMM_NULL)
+        return st;
     d.info.ranks = d.size;
-    /* the same check on every rank: they all return here alike */
-    lrr_status st = root < 0 || root >= d.size
-                        ? lrr__mpi_error(d.ctx, LRR_ERR_INVALID_ARG, "lrr_mpi_operator_build: "
-                                         "root %d is not a rank of %d", root, d.size)
-                        : build_steps(&d, scene, opts, out);
+    if (!st)
+        st = build_steps(&d, scene, opts, out);
     if (st) {
         lrr_operator_destroy(*out);
         *out = NULL;

@@ -18,6 +18,13 @@ lrr_status lrr__mpi_failed(lrr_context *ctx, const char *call, int rc);
  * Returns LRR_OK on every rank when mine was LRR_OK everywhere. */
 lrr_status lrr__mpi_spread(lrr_context *ctx, MPI_Comm comm, lrr_status mine);
 
+/* The start of a collective call rooted at root (agree.c): *dup a duplicate of comm with
+ * MPI_ERRORS_RETURN (MPI_COMM_NULL when that fails; free it otherwise), this rank and the
+ * size; LRR_ERR_INVALID_ARG, on every rank alike, when root is not a rank (fn names the
+ * call in the message). */
+lrr_status lrr__mpi_open(lrr_context *ctx, MPI_Comm comm, int root, const char *fn,
+                         MPI_Comm *dup, int *rank, int *size);
+
 /* Chunks (chunks.c): rows 64c .. 64c+63 are chunk c, and chunk c goes to rank c mod P.
  * 64 hemicubes are about 0.2 s at R 128 on one core. */
 #define LRR__MPI_CHUNK 64

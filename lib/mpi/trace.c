@@ -121,17 +121,11 @@ lrr_status lrr_mpi_reference_path_trace(const lrr_scene *scene,
     memset(&t, 0, sizeof t);
     t.ctx = lrr__trace_context(scene);
     t.root = root;
-    int rc = MPI_Comm_dup(comm, &t.comm);
-    if (rc != MPI_SUCCESS)
-        return lrr__mpi_failed(t.ctx, "MPI_Comm_dup", rc);
-    MPI_Comm_set_errhandler(t.comm, MPI_ERRORS_RETURN);
-    MPI_Comm_rank(t.comm, &t.rank);
-    MPI_Comm_size(t.comm, &t.size);
-    lrr_status st;
-    if (root < 0 || root >= t.size) /* the same check on every rank */
-        st = lrr__mpi_error(t.ctx, LRR_ERR_INVALID_ARG, "lrr_mpi_reference_path_trace: root "
-                            "%d is not a rank of %d", root, t.size);
-    else {
+    lrr_status st = lrr__mpi_open(t.ctx, comm, root, "lrr_mpi_reference_path_trace", &t.comm,
+                                  &t.rank, &t.size);
+    if (t.comm == MPI_COMM_NULL)
+        return st;
+    if (!st) {
         st = t.rank == root && !radiosity
                  ? lrr__mpi_error(t.ctx, LRR_ERR_INVALID_ARG, "lrr_mpi_reference_path_trace: "
                                   "the root's radiosity is NULL")

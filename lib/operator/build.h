@@ -12,13 +12,7 @@
 
 #include "lrr.h"
 
-#ifndef LRR__PRIVATE_API /* as lib/solve/rows.h defines it */
-#if defined(__GNUC__) && __GNUC__ >= 4
-#define LRR__PRIVATE_API __attribute__((visibility("default")))
-#else
-#define LRR__PRIVATE_API
-#endif
-#endif
+#include "core/private_api.h"
 
 typedef struct lrr__build lrr__build;
 

@@ -6,13 +6,7 @@
 
 #include "lrr.h"
 
-#ifndef LRR__PRIVATE_API /* as lib/solve/rows.h defines it */
-#if defined(__GNUC__) && __GNUC__ >= 4
-#define LRR__PRIVATE_API __attribute__((visibility("default")))
-#else
-#define LRR__PRIVATE_API
-#endif
-#endif
+#include "core/private_api.h"
 
 /* lrr_reference_path_trace's estimates of subpatches rows[0..count) (the scene's order):
  * radiosity and std_error (count×3 each, std_error may be NULL) row r for subpatch

@@ -11,11 +11,7 @@
 
 #include "lrr.h"
 
-#if defined(__GNUC__) && __GNUC__ >= 4
-#define LRR__PRIVATE_API __attribute__((visibility("default")))
-#else
-#define LRR__PRIVATE_API
-#endif
+#include "core/private_api.h"
 
 typedef struct lrr__rows lrr__rows;
 
