@@ -7,8 +7,8 @@
  *
  * The receivers are dealt in chunks of 64 rows, chunk c to rank c mod P (chunks.c): a
  * hemicube's cost follows what its receiver sees, which varies across a scene, and
- * neighbouring chunks cost about the same. Equal blocks of whole patches took 206 and 240 s on the two
- * ranks of the bunny room (--clusters 2000, R 128, one thread each). */
+ * neighbouring chunks cost about the same. Equal blocks of whole patches took 206 and
+ * 240 s on the two ranks of the bunny room (--clusters 2000, R 128, one thread each). */
 #include "config.h"
 #include "mpi/mpi_internal.h"
 #include "operator/build.h"
@@ -40,8 +40,7 @@ static double now(void) { return MPI_Wtime(); }
  * order, triangles) against the root's; all ranks compare the same table. */
 static lrr_status same_selection(dist *d)
 {
-    const size_t *first;
-    lrr__build_size(d->b, &d->n, &d->k, &first);
+    lrr__build_size(d->b, &d->n, &d->k);
     uint64_t mine[3] = {d->n, d->k, lrr__build_fingerprint(d->b)}, theirs[3];
     memcpy(theirs, mine, sizeof mine);
     int rc = MPI_Bcast(theirs, 3, MPI_UINT64_T, d->root, d->comm);
@@ -63,8 +62,6 @@ static lrr_status same_selection(dist *d)
 /* This rank's receivers and buffers. */
 static lrr_status split(dist *d)
 {
-    const size_t *first;
-    lrr__build_size(d->b, &d->n, &d->k, &first);
     if (d->n > INT_MAX)
         return lrr__mpi_error(d->ctx, LRR_ERR_OVERFLOW, "lrr_mpi_operator_build: n = %zu "
                               "subpatches exceeds MPI's int counts", d->n);
@@ -95,26 +92,6 @@ static lrr_status split(dist *d)
     return LRR_OK;
 }
 
-/* The root receives rank r's rows into place: its chunks as one indexed datatype of rows
- * of F̄ (k floats) and one of back-face shares. */
-static int receive_rank(dist *d, MPI_Datatype row, int r)
-{
-    if (lrr__mpi_chunk_rows(d->n, r, d->size, NULL) == 0)
-        return MPI_SUCCESS; /* it sends nothing */
-    MPI_Datatype tf = MPI_DATATYPE_NULL, tb = MPI_DATATYPE_NULL;
-    int rc = lrr__mpi_chunk_type(d->n, r, d->size, row, d->len, d->at, &tf);
-    if (rc == MPI_SUCCESS)
-        rc = lrr__mpi_chunk_type(d->n, r, d->size, MPI_DOUBLE, d->len, d->at, &tb);
-    if (rc == MPI_SUCCESS &&
-        (rc = MPI_Recv(d->fbar, 1, tf, r, TAG_FBAR, d->comm, MPI_STATUS_IGNORE)) == MPI_SUCCESS)
-        rc = MPI_Recv(d->back, 1, tb, r, TAG_BACK, d->comm, MPI_STATUS_IGNORE);
-    if (tf != MPI_DATATYPE_NULL)
-        MPI_Type_free(&tf);
-    if (tb != MPI_DATATYPE_NULL)
-        MPI_Type_free(&tb);
-    return rc;
-}
-
 /* The hemicubes of this rank's rows, then every rank's rows to the root; the slowest and
  * fastest rank's times and the transfer's. */
 static lrr_status rows_and_gather(dist *d)
@@ -136,10 +113,14 @@ static lrr_status rows_and_gather(dist *d)
                                  MPI_SUCCESS)
         rc = MPI_Type_commit(&row);
     double t1 = now();
-    if (rc == MPI_SUCCESS && root)
+    if (rc == MPI_SUCCESS && root) {
         for (int r = 0; r < d->size && rc == MPI_SUCCESS; r++)
-            rc = r == d->root ? MPI_SUCCESS : receive_rank(d, row, r);
-    else if (rc == MPI_SUCCESS && d->info.rows &&
+            if (r != d->root &&
+                (rc = lrr__mpi_chunk_recv(d->comm, d->n, r, d->size, row, d->len, d->at,
+                                          d->fbar, TAG_FBAR)) == MPI_SUCCESS)
+                rc = lrr__mpi_chunk_recv(d->comm, d->n, r, d->size, MPI_DOUBLE, d->len,
+                                         d->at, d->back, TAG_BACK);
+    } else if (rc == MPI_SUCCESS && d->info.rows &&
              (rc = MPI_Send(d->fbar, (int)d->info.rows, row, d->root, TAG_FBAR, d->comm)) ==
                  MPI_SUCCESS)
         rc = MPI_Send(d->back, (int)d->info.rows, MPI_DOUBLE, d->root, TAG_BACK, d->comm);

@@ -30,16 +30,13 @@ lrr_status lrr__mpi_open(lrr_context *ctx, MPI_Comm comm, int root, const char *
 #define LRR__MPI_CHUNK 64
 /* Rank r's rows (ascending) into rows (may be NULL); their count. */
 size_t lrr__mpi_chunk_rows(size_t n, int r, int size, size_t *rows);
-/* The most chunks any rank gets: the size of lrr__mpi_chunk_type's len and at. */
+/* The most chunks any rank gets: the size of lrr__mpi_chunk_recv's len and at. */
 size_t lrr__mpi_chunk_most(size_t n, int size);
-/* *out: an indexed datatype of rank r's rows in an array of n rows of type row (committed;
- * free it), built in len and at (lrr__mpi_chunk_most entries each). An MPI error code. */
-int lrr__mpi_chunk_type(size_t n, int r, int size, MPI_Datatype row, int *len, int *at,
-                        MPI_Datatype *out);
-
-/* The first patch of rank r's block of rows: the first patch boundary at or after
- * r·n/size rows, so that blocks hold whole patches and about n/size rows each (rank size:
- * k). The solver's split (solver.c). */
-size_t lrr__mpi_block_start(const size_t *first, size_t n, size_t k, int r, int size);
+/* The root's receive of rank r's rows (one message with tag, as rank r sends its rows
+ * packed, row after row) into their places in buf, an array of n rows of type row; len and
+ * at are scratch of lrr__mpi_chunk_most entries. Nothing when rank r has no rows. An MPI
+ * error code. */
+int lrr__mpi_chunk_recv(MPI_Comm comm, size_t n, int r, int size, MPI_Datatype row,
+                        int *len, int *at, void *buf, int tag);
 
 #endif

@@ -93,7 +93,9 @@ static lrr_status same_operator(lrr_mpi_solver *s, const char *path, const size_
     return st;
 }
 
-size_t lrr__mpi_block_start(const size_t *first, size_t n, size_t k, int r, int size)
+/* The first patch of rank r's block: the first patch boundary at or after r·n/size rows,
+ * so blocks hold whole patches and about n/size rows each (rank size: k). */
+static size_t block_start(const size_t *first, size_t n, size_t k, int r, int size)
 {
     const size_t target = (size_t)((unsigned __int128)n * (unsigned)r / (unsigned)size);
     size_t lo = 0, hi = k; /* first[k] = n >= target */
@@ -127,7 +129,7 @@ static lrr_status split(lrr_mpi_solver *s, const lrr_operator *op)
                               "(k = %zu, %d ranks)", k, s->size);
     size_t p0 = 0, mine0 = 0, mine1 = 0;
     for (int r = 0; r < s->size; r++) {
-        size_t p1 = r + 1 == s->size ? k : lrr__mpi_block_start(first, n, k, r + 1, s->size);
+        size_t p1 = r + 1 == s->size ? k : block_start(first, n, k, r + 1, s->size);
         s->displs[r] = (int)first[p0];
         s->counts[r] = (int)(first[p1] - first[p0]);
         if (r == s->rank)

@@ -54,18 +54,6 @@ static lrr_status prepare(trace *t, const lrr_scene *scene, const float *std_err
     return LRR_OK;
 }
 
-/* Rank r's rows of one n×3 array into place on the root. */
-static int receive(trace *t, MPI_Datatype rgb, int r, float *out, int tag)
-{
-    MPI_Datatype type;
-    int rc = lrr__mpi_chunk_type(t->n, r, t->size, rgb, t->len, t->at, &type);
-    if (rc == MPI_SUCCESS) {
-        rc = MPI_Recv(out, 1, type, r, tag, t->comm, MPI_STATUS_IGNORE);
-        MPI_Type_free(&type);
-    }
-    return rc;
-}
-
 /* Every rank's estimates to the root, in place (its own copied). */
 static int collect(trace *t, MPI_Datatype rgb, float *radiosity, float *std_error)
 {
@@ -81,12 +69,12 @@ static int collect(trace *t, MPI_Datatype rgb, float *radiosity, float *std_erro
         if (t->want_se)
             memcpy(std_error + 3 * t->rows[j], t->se + 3 * j, 3 * sizeof(float));
     }
-    for (int r = 0; r < t->size && rc == MPI_SUCCESS; r++) {
-        if (r == t->root || lrr__mpi_chunk_rows(t->n, r, t->size, NULL) == 0)
-            continue;
-        if ((rc = receive(t, rgb, r, radiosity, TAG_B)) == MPI_SUCCESS && t->want_se)
-            rc = receive(t, rgb, r, std_error, TAG_SE);
-    }
+    for (int r = 0; r < t->size && rc == MPI_SUCCESS; r++)
+        if (r != t->root &&
+            (rc = lrr__mpi_chunk_recv(t->comm, t->n, r, t->size, rgb, t->len, t->at, radiosity,
+                                      TAG_B)) == MPI_SUCCESS && t->want_se)
+            rc = lrr__mpi_chunk_recv(t->comm, t->n, r, t->size, rgb, t->len, t->at, std_error,
+                                     TAG_SE);
     return rc;
 }
 

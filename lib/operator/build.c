@@ -15,7 +15,8 @@ struct lrr__build {
     lrr_context *ctx;
     const lrr_scene *scene;
     lrr_build_options o;  /* defaults filled in */
-    lrr__geometry geom;   /* the hierarchy's */
+    lrr__geometry own;    /* an adaptive or cluster selection's hierarchy */
+    const lrr__geometry *g; /* the hierarchy: the scene's, own, or the whole operator's */
     int cluster;          /* its patches are clusters (visibility weights) */
     lrr_operator *op;     /* whole builds: F̄ filled in place */
     double *back;         /* whole builds: n back-face shares */
@@ -78,9 +79,9 @@ static lrr_status scene_materials(const lrr_scene *scene, lrr_operator *op)
     return LRR_OK;
 }
 
-/* The grouping of the scene's patches the options ask for, into *hg: the scene's own
- * (uniform), an adaptive quadtree selection or clusters (both over the scene's patches as
- * subpatches); *cluster says which. */
+/* The grouping of the scene's patches the options ask for: an adaptive quadtree selection
+ * or clusters (both over the scene's patches as subpatches) into *hg, *cluster saying
+ * which; nothing for the scene's own (uniform, *hg left empty). */
 static lrr_status select_hierarchy(const lrr_scene *scene, const lrr_build_options *o,
                                    lrr__geometry *hg, int *cluster)
 {
@@ -88,7 +89,7 @@ static lrr_status select_hierarchy(const lrr_scene *scene, const lrr_build_optio
     memset(hg, 0, sizeof *hg);
     *cluster = o->adaptive_patches && o->hierarchy == LRR_HIERARCHY_CLUSTER;
     if (!o->adaptive_patches)
-        return lrr__geometry_copy(ctx, hg, &scene->geom);
+        return LRR_OK;
     const size_t n = scene->geom.n;
     float *rho = NULL, *emission = NULL, *area = NULL, *centre = NULL, *normal = NULL;
     lrr_status st;
@@ -116,13 +117,16 @@ static lrr_status select_hierarchy(const lrr_scene *scene, const lrr_build_optio
     return st;
 }
 
-/* The whole build's operator over b->geom, with what the hemicubes do not give. */
+/* The whole build's operator over b->g, with what the hemicubes do not give; b->g is then
+ * the operator's copy (the selection's is freed). */
 static lrr_status new_whole(lrr__build *b)
 {
-    lrr_status st = lrr__operator_new(b->ctx, &b->geom, LRR_STORAGE_F32, &b->op);
+    lrr_status st = lrr__operator_new(b->ctx, b->g, LRR_STORAGE_F32, &b->op);
     if (st)
         return st;
     lrr_operator *op = b->op;
+    lrr__geometry_free(&b->own);
+    b->g = &op->geom;
     if (b->cluster)
         op->weighting = LRR__WEIGHTS_VISIBILITY;
     op->selection_seconds = b->selection;
@@ -161,12 +165,13 @@ lrr_status lrr__build_begin(const lrr_scene *scene, const lrr_build_options *opt
     b->scene = scene;
     b->o = o;
     b->t0 = lrr__now();
-    if (!(st = select_hierarchy(scene, &b->o, &b->geom, &b->cluster))) {
+    if (!(st = select_hierarchy(scene, &b->o, &b->own, &b->cluster))) {
         b->selection = lrr__now() - b->t0;
+        b->g = o.adaptive_patches ? &b->own : &scene->geom;
         if (whole)
             st = new_whole(b);
         else /* the method is checked as a whole build checks it */
-            st = lrr__formfactor_method(ctx, &b->geom, &b->o, &(int){0});
+            st = lrr__formfactor_method(ctx, b->g, &b->o, &(int){0});
     }
     if (st) {
         lrr__build_destroy(b);
@@ -182,18 +187,16 @@ void lrr__build_destroy(lrr__build *b)
         return;
     lrr_operator_destroy(b->op);
     lrr_aligned_free(b->back);
-    lrr__geometry_free(&b->geom);
+    lrr__geometry_free(&b->own);
     free(b);
 }
 
-lrr_context *lrr__build_context(const lrr__build *b) { return b->ctx; }
 lrr_context *lrr__build_scene_context(const lrr_scene *scene) { return scene->ctx; }
 
-void lrr__build_size(const lrr__build *b, size_t *n, size_t *k, const size_t **first)
+void lrr__build_size(const lrr__build *b, size_t *n, size_t *k)
 {
-    *n = b->geom.n;
-    *k = b->geom.k;
-    *first = b->geom.first;
+    *n = b->g->n;
+    *k = b->g->k;
 }
 
 /* FNV-1a over bytes, continuing from h. */
@@ -207,7 +210,7 @@ static uint64_t fnv(uint64_t h, const void *data, size_t len)
 
 uint64_t lrr__build_fingerprint(const lrr__build *b)
 {
-    const lrr__geometry *g = &b->geom;
+    const lrr__geometry *g = b->g;
     uint64_t h = fnv(0xcbf29ce484222325ULL, &g->n, sizeof g->n);
     h = fnv(h, &g->k, sizeof g->k);
     h = fnv(h, g->first, (g->k + 1) * sizeof *g->first);
@@ -223,10 +226,10 @@ lrr_status lrr__build_rows(lrr__build *b, const size_t *rows, size_t count, int 
                            float *fbar, double *back)
 {
     if (!rows)
-        return b->op ? lrr__hemicube_fbar(b->ctx, &b->geom, &b->o, b->op->fbar, b->back)
+        return b->op ? lrr__hemicube_fbar(b->ctx, b->g, &b->o, b->op->fbar, b->back)
                      : lrr__error(b->ctx, LRR_ERR_INVALID_ARG, "every row of a build that is "
                                   "not whole");
-    return lrr__hemicube_fbar_rows(b->ctx, &b->geom, &b->o, rows, count, placed, fbar, back);
+    return lrr__hemicube_fbar_rows(b->ctx, b->g, &b->o, rows, count, placed, fbar, back);
 }
 
 lrr_status lrr__build_finish(lrr__build *b, double formfactor_seconds, lrr_operator **out)

@@ -23,12 +23,10 @@ LRR__PRIVATE_API lrr_status lrr__build_begin(const lrr_scene *scene,
                                              const lrr_build_options *opts, int whole,
                                              lrr__build **out);
 LRR__PRIVATE_API void lrr__build_destroy(lrr__build *b);
-/* The context of the build's scene, and of a scene (errors are recorded there). */
-LRR__PRIVATE_API lrr_context *lrr__build_context(const lrr__build *b);
+/* A scene's context (errors are recorded there). */
 LRR__PRIVATE_API lrr_context *lrr__build_scene_context(const lrr_scene *scene);
-/* n, k and the patch offsets (k+1: patch p holds rows first[p] .. first[p+1] − 1). */
-LRR__PRIVATE_API void lrr__build_size(const lrr__build *b, size_t *n, size_t *k,
-                                      const size_t **first);
+/* The selected hierarchy's subpatches n and patches k. */
+LRR__PRIVATE_API void lrr__build_size(const lrr__build *b, size_t *n, size_t *k);
 /* A 64-bit checksum of the selected hierarchy (n, k, the offsets, the subpatch order and
  * the triangles): equal on two ranks when they selected the same operator. */
 LRR__PRIVATE_API uint64_t lrr__build_fingerprint(const lrr__build *b);
