@@ -13,6 +13,7 @@
 #include "config.h"
 #include "operator/operator.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -128,7 +129,10 @@ float lrr__f16_scale(float max_abs)
         return 1.0f;
     int e;
     frexpf(max_abs, &e); /* max_abs = f·2^e, f in [0.5, 1) */
-    return ldexpf(1.0f, e - 15);
+    /* at least FLT_MIN: below 2^-111 the power of two would be subnormal or 0, and a row of
+     * such values (a loaded M of 2.5e-42, found by the fuzzer) divided by it gave NaN; a
+     * normal scale codes them as binary16 subnormals or 0, an error below 2^-151 */
+    return ldexpf(1.0f, e - 15 < FLT_MIN_EXP - 1 ? FLT_MIN_EXP - 1 : e - 15);
 }
 
 static float f16_row_scale(const float *row, size_t k)
