@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "commands.h"
+#include "solve_mpi.h"
 
 static const char prog[] = "lrr render";
 
@@ -33,13 +34,17 @@ static const char render_help[] =
     "                       to target - eye)\n"
     "  --fov DEGREES        vertical field of view, 0 < fov < 180 (default 60 for --eye and\n"
     "                       the inside view, 40 for 'fit', 39.3 for 'cornell')\n"
+    "  --csv FILE           also write the radiosity drawn, as 'lrr solve --csv' does\n"
     PROBE_LIGHT_HELP
-    "  -h, --help           show this help\n";
+    "  -h, --help           show this help\n"
+    "\n"
+    "Under mpirun (an MPI build), every rank solves its block of rows (as 'mpirun lrr\n"
+    "solve') and rank 0 gathers B, draws, writes and prints, adding 'ranks'.\n";
 
 enum { FORMAT_NONE, FORMAT_PNG, FORMAT_EXR };
 
 typedef struct render_args {
-    const char *file, *output;
+    const char *file, *output, *csv;
     probe_args pa;
     view_args view;              /* size, exposure, camera */
     double scale;
@@ -57,6 +62,7 @@ static const cli_opt render_opts[] = {
      .min = 0, .max = 1e300},
     {.name = "format", .kind = CLI_OPT_CHOICE, .field = CLI_FIELD(render_args, format),
      .choices = formats},
+    {.name = "csv", .kind = CLI_OPT_STRING, .field = CLI_FIELD(render_args, csv)},
     {.name = NULL}};
 
 /* The output format: --format, else the extension (.png, .exr, any case). */
@@ -80,6 +86,25 @@ static int parse_render(render_args *a, int argc, char *argv[])
 }
 
 /* ------------------------------------------------------------------ running */
+/* The picture of B (and the CSV); ranks > 0: drawn by rank 0 of that many (mpirun). */
+static int draw(lrr_context *ctx, const lrr_operator *op, const float *b, int ranks,
+                const void *arg)
+{
+    const render_args *a = arg;
+    lrr_status s = a->format == FORMAT_EXR ? lrr_render_exr(op, b, &a->view.ro, a->output)
+                                           : lrr_render_png(op, b, &a->view.ro, a->output);
+    if (s != LRR_OK)
+        return cli_lib_error(ctx, s);
+    if (a->csv && cli_write_radiosity_csv(a->csv, op, b) != CLI_EXIT_OK)
+        return CLI_EXIT_FAIL;
+    if (ranks > 0)
+        printf("ranks: %d\n", ranks);
+    printf("output: %s\n", a->output);
+    if (a->csv)
+        printf("csv: %s\n", a->csv);
+    return CLI_EXIT_OK;
+}
+
 static int run_render(const render_args *a)
 {
     lrr_context *ctx = NULL;
@@ -89,14 +114,8 @@ static int run_render(const render_args *a)
     lrr_operator *op = NULL;
     float *b = NULL;
     int rc = solve_lit(ctx, a->file, a->scale, &a->pa, &op, &b);
-    if (rc == CLI_EXIT_OK) {
-        s = a->format == FORMAT_EXR ? lrr_render_exr(op, b, &a->view.ro, a->output)
-                                    : lrr_render_png(op, b, &a->view.ro, a->output);
-        if (s != LRR_OK)
-            rc = cli_lib_error(ctx, s);
-    }
     if (rc == CLI_EXIT_OK)
-        printf("output: %s\n", a->output);
+        rc = draw(ctx, op, b, 0, a);
     free(b);
     lrr_operator_destroy(op);
     lrr_context_destroy(ctx);
@@ -111,5 +130,12 @@ int cmd_render(int argc, char *argv[])
         return rc;
     if (cli_parse_only)
         return CLI_EXIT_OK;
+#ifdef LRR_MPI
+    if (solve_mpi_launched()) /* mpirun -np P lrr render (tools/cmd_solve_mpi.c) */
+        return solve_mpi_run(&(solve_mpi_args){.file = a.file, .pa = &a.pa, .scale = a.scale,
+                                               .backend = LRR_BACKEND_CPU,
+                                               .path = LRR_PATH_AUTO, .fbar = LRR_FBAR_AUTO,
+                                               .finish = draw, .finish_arg = &a});
+#endif
     return run_render(&a);
 }

@@ -197,8 +197,10 @@ int cmd_solve(int argc, char *argv[])
         return CLI_EXIT_OK;
 #ifdef LRR_MPI
     if (solve_mpi_launched()) /* mpirun -np P lrr solve (tools/cmd_solve_mpi.c) */
-        return solve_mpi_run(&(solve_mpi_args){a.file, a.csv, &a.pa, a.scale, a.repeat, a.path,
-                                               a.backend, a.fbar, a.m != SOLVE_M_AUTO});
+        return solve_mpi_run(&(solve_mpi_args){.file = a.file, .csv = a.csv, .pa = &a.pa,
+                                               .scale = a.scale, .repeat = a.repeat,
+                                               .path = a.path, .backend = a.backend,
+                                               .fbar = a.fbar, .m_given = a.m != SOLVE_M_AUTO});
 #endif
     return run_solve(&a);
 }

@@ -1,8 +1,9 @@
-/* lrr solve across MPI ranks (tools/solve_mpi.h; lrr_mpi.h, docs/MPI.md): rank 0 loads the
- * operator as the serial lrr solve does (for the emission, the probe and lights, the
+/* lrr solve and lrr render across MPI ranks (tools/solve_mpi.h; lrr_mpi.h, docs/MPI.md): rank 0
+ * loads the operator as the serial lrr solve does (for the emission, the probe and lights, the
  * printout and the CSV), every rank holds its block of rows in an lrr_mpi_solver, rank 0
  * scatters E, the frames run on every rank, and B is gathered back to rank 0, which prints
- * the serial command's summary and writes the same CSV. The distributed frame always
+ * the serial command's summary and writes the same CSV, or draws (lrr render: the args'
+ * finish callback). The distributed frame always
  * takes the full path on the CPU. */
 #ifdef LRR_MPI
 #include <mpi.h>
@@ -59,7 +60,9 @@ static int root_prepare(lrr_context *ctx, const solve_mpi_args *a, lrr_operator 
 static lrr_status timed_frames(lrr_context *ctx, lrr_mpi_solver *s, const float *e, float *b,
                                unsigned repeat, int rank, double *median_ms)
 {
-    double *t = calloc(repeat, sizeof *t), *tmax = calloc(repeat, sizeof *tmax);
+    /* repeat 0 (lrr render): the warm-up frame alone */
+    double *t = calloc(repeat ? repeat : 1, sizeof *t),
+           *tmax = calloc(repeat ? repeat : 1, sizeof *tmax);
     lrr_status st = lrr_mpi_agree(ctx, MPI_COMM_WORLD, t && tmax ? LRR_OK : LRR_ERR_NOMEM);
     if (st == LRR_OK)
         st = lrr_mpi_solve(s, e, b);
@@ -69,7 +72,7 @@ static lrr_status timed_frames(lrr_context *ctx, lrr_mpi_solver *s, const float 
         st = lrr_mpi_solve(s, e, b);
         t[r] = 1e3 * (cli_now() - t0);
     }
-    if (st == LRR_OK) {
+    if (st == LRR_OK && repeat) {
         MPI_Reduce(t, tmax, (int)repeat, MPI_DOUBLE, MPI_MAX, 0, MPI_COMM_WORLD);
         if (rank == 0)
             *median_ms = cli_median(tmax, repeat);
@@ -154,6 +157,8 @@ static int solve_ranks(lrr_context *ctx, const solve_mpi_args *a, int rank,
     if (rank != 0)
         return CLI_EXIT_OK;
     int rc = check_finite(b, n);
+    if (rc == CLI_EXIT_OK && a->finish)
+        return a->finish(ctx, op, b, si.ranks, a->finish_arg);
     if (rc == CLI_EXIT_OK && a->csv)
         rc = cli_write_radiosity_csv(a->csv, op, b);
     if (rc == CLI_EXIT_OK)

@@ -13,6 +13,12 @@ typedef struct solve_mpi_args {
     unsigned repeat;
     int path, backend, fbar; /* lrr_path, lrr_backend, lrr_fbar_format as parsed */
     int m_given;             /* --m was given */
+    /* lrr render (and any command that draws or writes what it solved): when set, rank 0
+     * calls it with the operator and the gathered B instead of printing the solve's summary
+     * and CSV; its return is rank 0's exit status */
+    int (*finish)(lrr_context *ctx, const lrr_operator *op, const float *b, int ranks,
+                  const void *arg);
+    const void *finish_arg;
 } solve_mpi_args;
 
 /* Whether an MPI launcher (Open MPI's mpirun, a PMI or PMIx one) started this process. */

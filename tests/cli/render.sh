@@ -15,6 +15,18 @@ else
     show_err
 fi
 
+# --csv: the radiosity drawn is what lrr solve computes for the same emission
+run render "$LRRFILE" -o "$T/csv.png" --width 16 --height 16 --emission-scale 2 --csv "$T/drawn.csv"
+"$LRR" solve "$LRRFILE" --emission-scale 2 --csv "$T/solved.csv" >/dev/null 2>&1
+max=$("$LRR" compare "$T/drawn.csv" "$T/solved.csv" 2>/dev/null | sed -n 's/^max_rel: //p')
+if [ "$rc" -eq 0 ] && grep -q "^csv: $T/drawn.csv" "$T/out" &&
+    awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+    pass "render --csv: the radiosity drawn, lrr solve's within max_rel $max"
+else
+    fail "render --csv (exit $rc), max_rel '$max' against lrr solve --csv"
+    show_err
+fi
+
 # cameras: --eye/--target (and --up, --fov) give a pinhole camera; each bad value is a usage
 # error naming its option
 run render "$LRRFILE" -o "$T/eye.png" --width 32 --height 24 --eye 278,273,-800 \

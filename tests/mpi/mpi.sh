@@ -3,7 +3,7 @@
 # that a hang fails instead of blocking: the library's distributed solver against the
 # serial one with 1 to 4 ranks (test_mpi_solve) and its fault cases (test_mpi_faults), then
 # `mpirun -np P lrr solve` against `lrr solve` (same CSV within 1e-6, same summary) and its
-# failures (rank 0 alone prints the error), the distributed build and path tracer
+# failures (rank 0 alone prints the error), `mpirun lrr render` against `lrr render`, the distributed build and path tracer
 # (test_mpi_build; `mpirun lrr preprocess` and `mpirun lrr reference --method path-trace`
 # against the serial commands), and a smoke run of lrr-bench mpi. Root may run them (--allow-run-as-root); more
 # ranks than cores (--oversubscribe) is the point on a 2-core machine.
@@ -125,6 +125,38 @@ if [ "$rc" -eq 0 ] && [ "$(value lights)" = 1 ] &&
     pass "mpirun -np 3 lrr solve --light: rank 0's emission scattered, max_rel $max <= 1e-6"
 else
     cat "$T/out" "$T/err" "$T/cmp"; fail "mpirun -np 3 lrr solve --light: exit $rc, max_rel '$max'"
+fi
+
+# mpirun lrr render: the distributed solve, then rank 0 draws; the radiosity it drew (--csv)
+# within 1e-6 of the serial render's, and the picture of the asked size (PNG: IHDR's width
+# and height, big-endian at bytes 16..23; EXR: its magic number)
+"$LRR" render "$OP" -o "$T/serial.png" --width 48 --height 32 --light "$LIGHT" \
+    --csv "$T/render-serial.csv" >/dev/null 2>"$T/err" || { cat "$T/err"; fail "serial lrr render"; }
+for np in 2 3; do
+    mpi "$np" "$LRR" render "$OP" -o "$T/mpi.png" --width 48 --height 32 --light "$LIGHT" \
+        --csv "$T/render-mpi.csv"
+    "$LRR" compare "$T/render-mpi.csv" "$T/render-serial.csv" >"$T/cmp" 2>&1
+    max=$(sed -n 's/^max_rel: //p' "$T/cmp")
+    size=$(od -An -tx1 -j16 -N8 "$T/mpi.png" 2>/dev/null | tr -d ' \n')
+    if [ "$rc" -eq 0 ] && [ "$(value ranks)" = "$np" ] && [ "$(grep -c '^output: ' "$T/out")" -eq 1 ] &&
+        [ "$size" = "0000003000000020" ] &&
+        awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+        pass "mpirun -np $np lrr render --light: rank 0 alone draws a 48x32 PNG, its B within $max of the serial render's"
+    else
+        cat "$T/out" "$T/err" "$T/cmp"; fail "mpirun -np $np lrr render: exit $rc, size '$size', max_rel '$max'"
+    fi
+done
+mpi 2 "$LRR" render "$OP" -o "$T/mpi.exr" --width 16 --height 16
+if [ "$rc" -eq 0 ] && [ "$(od -An -tx1 -N4 "$T/mpi.exr" | tr -d ' ')" = "762f3101" ]; then
+    pass "mpirun -np 2 lrr render -o X.exr: an OpenEXR file"
+else
+    cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr render -o X.exr: exit $rc"
+fi
+mpi 2 "$LRR" render "$T/missing.lrr" -o "$T/missing.png"
+if [ "$rc" -eq 1 ] && [ "$(grep -c "missing.lrr" "$T/err")" -eq 1 ] && [ ! -e "$T/missing.png" ]; then
+    pass "mpirun -np 2 lrr render of a missing file: exit 1, once: $(head -n 1 "$T/err")"
+else
+    cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr render of a missing file: exit $rc"
 fi
 
 # failures: exit 1 (2 for usage) on every rank, one message, from rank 0, within LIMIT
