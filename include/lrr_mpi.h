@@ -150,6 +150,22 @@ LRR_API LRR_NODISCARD lrr_status lrr_mpi_reference_path_trace(const lrr_scene *s
                                                               float *std_error)
     LRR_NONNULL(1);
 
+/* Collective over comm. lrr_operator_verify across ranks: rank root passes the operator
+ * (op, ignored elsewhere, may be NULL there) and runs the verify; each of its path tracings
+ * (the scout, then the two estimates) is dealt across the ranks in chunks of 64 subpatches,
+ * every rank tracing its own with a tracer it builds once from its scene (the same scene,
+ * subdivided alike, on every rank: LRR_ERR_DIM when a rank's subpatch count differs) and
+ * opts->threads (opts may be NULL; only the root's samples, seed and progress count). The
+ * figures in op are lrr_operator_verify's bit for bit (each path has its own random stream
+ * from (seed, subpatch, sample)). Errors as lrr_operator_verify's, agreed; the root's are
+ * recorded on op's context, and sent to the others from the scene's: give the root's op
+ * and scene one context. opts->progress is called on the root for its own share. */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_verify(lrr_operator *op,
+                                                         const lrr_scene *scene,
+                                                         const lrr_verify_options *opts,
+                                                         MPI_Comm comm, int root)
+    LRR_NONNULL(2);
+
 /* Collective over comm: every rank passes the status of its own work; returns LRR_OK on
  * every rank when all passed LRR_OK, else the agreed error (above: a failing rank keeps its
  * own; the others get the lowest failing rank's status, its message recorded on ctx as

@@ -17,12 +17,13 @@ trap 'rm -rf "$tmp"' EXIT
 # function names after LRR_API (declarations may wrap after the name's parenthesis)
 sed -n 's/^LRR_API[^(]*[^a-z0-9_]\(lrr_[a-z0-9_]*\)(.*/\1/p' "$top/include/lrr.h" | sort -u > "$tmp/header"
 # the public names (lrr_x); the private ones (lrr__x, node LRR_PRIVATE_N, for liblrr_mpi)
-# are checked apart below, against the LRR__PRIVATE_API declarations of lib/solve/rows.h and lib/operator/build.h
+# are checked apart below, against the LRR__PRIVATE_API declarations of the private headers (lib/*/rows.h, build.h)
 sed -n '/global:/,/local:/s/^[[:space:]]*\(lrr_[a-z0-9_]*\);.*/\1/p' "$top/lib/liblrr.map" | sort -u > "$tmp/all"
 grep -v '^lrr__' "$tmp/all" > "$tmp/map"
 grep '^lrr__' "$tmp/all" > "$tmp/private_map"
 sed -n 's/^LRR__PRIVATE_API[^(]*[^a-z0-9_]\(lrr__[a-z0-9_]*\)(.*/\1/p' "$top/lib/solve/rows.h" \
-    "$top/lib/operator/build.h" "$top/lib/reference/rows.h" | sort -u > "$tmp/private_header"
+    "$top/lib/operator/build.h" "$top/lib/reference/rows.h" "$top/lib/verify/rows.h" |
+    sort -u > "$tmp/private_header"
 nm -D --defined-only "$so" | awk '{print $3}' | sed 's/@.*//' | grep -v '^LRR_' | sort -u > "$tmp/all_so"
 grep -v '^lrr__' "$tmp/all_so" > "$tmp/so"
 grep '^lrr__' "$tmp/all_so" > "$tmp/private_so"
@@ -40,8 +41,8 @@ report header map "declared LRR_API in lrr.h but not in lib/liblrr.map" || fail=
 report map header "in lib/liblrr.map but not declared LRR_API in lrr.h" || fail=1
 report map so "in lib/liblrr.map but not defined by liblrr.so" || fail=1
 report so map "exported by liblrr.so but not in lib/liblrr.map" || fail=1
-report private_header private_map "declared LRR__PRIVATE_API in rows.h, build.h or reference/rows.h but not in lib/liblrr.map" || fail=1
-report private_map private_header "private in lib/liblrr.map but not declared in rows.h, build.h or reference/rows.h" || fail=1
+report private_header private_map "declared LRR__PRIVATE_API in a private header but not in lib/liblrr.map" || fail=1
+report private_map private_header "private in lib/liblrr.map but not declared in a private header" || fail=1
 report private_map private_so "private in lib/liblrr.map but not defined by liblrr.so" || fail=1
 report private_so private_map "exported by liblrr.so (lrr__) but not in lib/liblrr.map" || fail=1
 if [ -s "$tmp/private_node" ]; then cat "$tmp/private_node"; fail=1; fi

@@ -1,4 +1,4 @@
-/* lrr preprocess and lrr reference across MPI ranks (tools/cli_mpi.h; lrr_mpi.h,
+/* lrr preprocess (and its --verify) and lrr reference across MPI ranks (tools/cli_mpi.h; lrr_mpi.h,
  * docs/MPI.md). */
 #ifdef LRR_MPI
 #include <mpi.h>
@@ -42,6 +42,16 @@ lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
 {
     return m->on ? lrr_mpi_reference_path_trace(scene, o, MPI_COMM_WORLD, 0, b, se)
                  : lrr_reference_path_trace(scene, o, b, se);
+}
+
+lrr_status cli_mpi_verify(const cli_mpi *m, lrr_context *ctx, lrr_operator *op,
+                          const lrr_scene *scene, const lrr_verify_options *vo,
+                          lrr_status before)
+{
+    if (!m->on)
+        return before ? before : lrr_operator_verify(op, scene, vo);
+    lrr_status st = lrr_mpi_agree(ctx, MPI_COMM_WORLD, before);
+    return st ? st : lrr_mpi_operator_verify(op, scene, vo, MPI_COMM_WORLD, 0);
 }
 
 int cli_mpi_agree(const cli_mpi *m, int rc)

@@ -1,5 +1,6 @@
-/* `mpirun -np P lrr preprocess` and `mpirun -np P lrr reference --method path-trace`
- * (tools/cli_mpi.c: lrr_mpi_operator_build, lrr_mpi_reference_path_trace), taken only when
+/* `mpirun -np P lrr preprocess [--verify]` and `mpirun -np P lrr reference --method
+ * path-trace` (tools/cli_mpi.c: lrr_mpi_operator_build, lrr_mpi_operator_verify,
+ * lrr_mpi_reference_path_trace), taken only when
  * an MPI launcher started the process and lrr was built with MPI (LRR_MPI); otherwise these
  * are the serial steps. Every rank opens the scene and computes its share; rank 0 receives
  * the rest, writes and prints. (`mpirun lrr solve` has its own path: solve_mpi.h.) */
@@ -27,6 +28,12 @@ lrr_status cli_mpi_build(cli_mpi *m, const lrr_scene *scene,
  * lrr_reference_path_trace: b and se whole on rank 0. */
 lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
                          const lrr_path_trace_options *o, float *b, float *se);
+/* --verify: `before` agreed over the ranks, then lrr_mpi_operator_verify across
+ * MPI_COMM_WORLD (root 0, op there) when m->on; else lrr_operator_verify unless `before`
+ * failed. */
+lrr_status cli_mpi_verify(const cli_mpi *m, lrr_context *ctx, lrr_operator *op,
+                          const lrr_scene *scene, const lrr_verify_options *vo,
+                          lrr_status before);
 /* The worst exit status over the ranks (rc where not m->on); rank 0 names the lowest
  * failing rank when it did not fail itself (that rank printed why). */
 int cli_mpi_agree(const cli_mpi *m, int rc);
@@ -50,6 +57,14 @@ static inline lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
 {
     (void)m;
     return lrr_reference_path_trace(scene, o, b, se);
+}
+static inline lrr_status cli_mpi_verify(const cli_mpi *m, lrr_context *ctx, lrr_operator *op,
+                                        const lrr_scene *scene, const lrr_verify_options *vo,
+                                        lrr_status before)
+{
+    (void)m;
+    (void)ctx;
+    return before ? before : lrr_operator_verify(op, scene, vo);
 }
 static inline int cli_mpi_agree(const cli_mpi *m, int rc)
 {

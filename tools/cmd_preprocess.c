@@ -80,7 +80,8 @@ static const char preprocess_help[] =
     "and computes its share of the hemicubes (chunks of 64 receivers dealt round-robin,\n"
     "OMP_NUM_THREADS threads each); rank 0 gathers them, factorises, writes FILE.lrr (the\n"
     "serial file but for its timings) and prints, adding ranks, rank_hemicube_seconds\n"
-    "(the fastest and the slowest rank's) and gather_seconds. --backend opencl is serial.\n";
+    "(the fastest and the slowest rank's) and gather_seconds. --verify's path tracing is\n"
+    "dealt across the ranks too (the same figures). --backend opencl is serial.\n";
 
 typedef struct preprocess_args {
     const char *scene, *output;
@@ -290,18 +291,22 @@ static void note_skipped(const preprocess_args *a, const lrr_scene *scene)
                 si.clamped_texels);
 }
 
-/* --verify: the operator's error bar, from the path tracer (lrr_operator_verify). */
-static lrr_status verify(lrr_operator *op, const preprocess_args *a, const lrr_scene *scene)
+/* --verify: the operator's error bar, from the path tracer (lrr_operator_verify), unless
+ * `before` failed; under mpirun on every rank (op on rank 0 only), the ranks' `before`
+ * agreed first. */
+static lrr_status verify(lrr_context *ctx, lrr_operator *op, const preprocess_args *a,
+                         const lrr_scene *scene, lrr_status before)
 {
     cli_progress bar;
-    cli_progress_init(&bar, "verify", a->ba.force_progress || isatty(STDERR_FILENO));
+    cli_progress_init(&bar, "verify",
+                      !a->quiet && (a->ba.force_progress || isatty(STDERR_FILENO)));
     lrr_verify_options vo = lrr_verify_options_defaults();
     vo.samples = a->verify_samples;
     vo.seed = a->ba.seed;
     vo.threads = (int)a->ba.threads;
-    vo.progress = cli_progress_cb;
+    vo.progress = a->quiet ? NULL : cli_progress_cb;
     vo.progress_user = &bar;
-    lrr_status s = lrr_operator_verify(op, scene, &vo);
+    lrr_status s = cli_mpi_verify(&a->mp, ctx, op, scene, &vo, before);
     cli_progress_finish(&bar);
     return s;
 }
@@ -324,8 +329,11 @@ static int build_and_save(lrr_context *ctx, preprocess_args *a, const lrr_scene 
         bo.progress = NULL;
     lrr_status s = cli_mpi_build(&a->mp, scene, &bo, op);
     cli_progress_finish(&bar);
-    if (a->quiet) /* rank 0 reports the agreed error, naming the rank */
+    if (a->quiet) { /* rank 0 reports the agreed error, naming the rank */
+        if (s == LRR_OK && a->verify)
+            s = verify(ctx, NULL, a, scene, LRR_OK);
         return s == LRR_OK ? CLI_EXIT_OK : CLI_EXIT_FAIL;
+    }
     if (s == LRR_ERR_BUDGET) {
         rc = cli_lib_error(ctx, s);
         budget_hint(prog, a->budget, a->clusters);
@@ -333,13 +341,12 @@ static int build_and_save(lrr_context *ctx, preprocess_args *a, const lrr_scene 
     }
     if (s == LRR_OK && *op)
         s = lrr_operator_set_storage(*op, a->storage);
-    if (s == LRR_OK && *op) {
+    if (s == LRR_OK && *op)
         warn_condition(*op);
-        if (a->verify)
-            s = verify(*op, a, scene);
-        if (s == LRR_OK)
-            s = lrr_operator_save_fbar(*op, a->output, (lrr_fbar_format)a->fbar_file);
-    }
+    if (*op && a->verify)
+        s = verify(ctx, *op, a, scene, s);
+    if (s == LRR_OK && *op)
+        s = lrr_operator_save_fbar(*op, a->output, (lrr_fbar_format)a->fbar_file);
     if (s != LRR_OK)
         rc = cli_lib_error(ctx, s);
     return rc;

@@ -350,6 +350,7 @@ struct lrr__tracer {
     tracer tr;
     lrr__bvh bvh;
     int have_bvh;
+    float *own; /* lrr__trace_start's uniform emission, or NULL */
 };
 
 void lrr__tracer_destroy(lrr__tracer *t)
@@ -359,6 +360,7 @@ void lrr__tracer_destroy(lrr__tracer *t)
     if (t->have_bvh)
         lrr__bvh_release(&t->bvh);
     tracer_free(&t->tr);
+    lrr_aligned_free(t->own);
     lrr_aligned_free(t);
 }
 
@@ -419,6 +421,31 @@ lrr_status lrr__trace_rows(const lrr_scene *scene, const lrr_path_trace_options 
     lrr__tracer_destroy(t);
     return st;
 }
+
+lrr_status lrr__trace_start(const lrr_scene *scene, int uniform, lrr__tracer **out)
+{
+    *out = NULL;
+    float *ones = NULL;
+    const size_t values = 3 * scene->geom.n_tri;
+    lrr_status st = uniform ? lrr__calloc(scene->ctx, &ones, values ? values : 1,
+                                          sizeof(float), "uniform emission (n_tri×3)")
+                            : LRR_OK;
+    for (size_t v = 0; !st && ones && v < values; v++)
+        ones[v] = 1.0f;
+    if (!st && !(st = lrr__tracer_create(scene, ones, out)))
+        (*out)->own = ones;
+    else
+        lrr_aligned_free(ones);
+    return st;
+}
+
+lrr_status lrr__trace_list(const lrr__tracer *t, const lrr_path_trace_options *opts,
+                           const size_t *rows, size_t count, float *radiosity, float *std_error)
+{
+    return lrr__tracer_rows(t, opts, rows, count, radiosity, std_error);
+}
+
+void lrr__trace_stop(lrr__tracer *t) { lrr__tracer_destroy(t); }
 
 lrr_context *lrr__trace_context(const lrr_scene *scene) { return scene->ctx; }
 

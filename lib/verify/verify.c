@@ -28,6 +28,7 @@
 #include "config.h"
 #include "operator/operator.h"
 #include "reference/reference.h"
+#include "verify/rows.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -214,8 +215,16 @@ static lrr_status emissions(const lrr_operator *op, int *uniform, float **E, flo
     return LRR_OK;
 }
 
+/* Who traces: the tracer here, or a caller's function (lrr__verify_with: across ranks). */
+typedef struct tracing {
+    const lrr__tracer *tracer;
+    int uniform;
+    lrr__verify_trace_fn fn;
+    void *user;
+} tracing;
+
 /* Path tracing with o's seed and threads: rows (count) with `samples` paths, seed `seed`. */
-static lrr_status trace(const lrr__tracer *tracer, const lrr_verify_options *o, uint64_t seed,
+static lrr_status trace(const tracing *tr, const lrr_verify_options *o, uint64_t seed,
                         size_t samples, const size_t *rows, size_t count, lrr_progress_fn fn,
                         void *user, float *p, float *se)
 {
@@ -225,12 +234,13 @@ static lrr_status trace(const lrr__tracer *tracer, const lrr_verify_options *o, 
     po.threads = o->threads;
     po.progress = fn;
     po.progress_user = user;
-    return lrr__tracer_rows(tracer, &po, rows, count, p, se);
+    return tr->fn ? tr->fn(tr->user, tr->tracer, tr->uniform, &po, rows, count, p, se)
+                  : lrr__tracer_rows(tr->tracer, &po, rows, count, p, se);
 }
 
 /* The scout (see SCOUT_SAMPLES): every subpatch's spread, A_i·s_i (s_i the standard deviation
  * of one path, RGB), into spread; the seconds it took. */
-static lrr_status scout(const lrr_operator *op, const lrr__tracer *tracer,
+static lrr_status scout(const lrr_operator *op, const tracing *tracer,
                         const lrr_verify_options *o, const size_t *rows, size_t count,
                         double *spread, double *seconds)
 {
@@ -303,7 +313,7 @@ static int halves_progress(void *user, size_t done, size_t total)
 
 /* Traces rows (count) twice, independent seeds, subpatch s with m_s·S/2 paths in each, into
  * p (count×6: the first estimate, then the second); batch is scratch (count + 3·count). */
-static lrr_status trace_twice(const lrr__tracer *tracer, const lrr_verify_options *o,
+static lrr_status trace_twice(const tracing *tracer, const lrr_verify_options *o,
                               const size_t *rows, const unsigned char *m, size_t count,
                               size_t *batch, float *bp, float *p)
 {
@@ -332,7 +342,7 @@ static lrr_status trace_twice(const lrr__tracer *tracer, const lrr_verify_option
 
 /* Traces rows (count) and compares with B (step 2 of the top): the figures go into
  * op->verify. */
-static lrr_status trace_and_compare(lrr_operator *op, const lrr__tracer *tracer,
+static lrr_status trace_and_compare(lrr_operator *op, const tracing *tracer,
                                     const lrr_verify_options *o, const float *E,
                                     const float *B, const size_t *rows,
                                     const unsigned char *m, size_t count)
@@ -365,7 +375,8 @@ out:
 
 /* Everything after the checks, with the emissions E (n×3) and tri_e (the path tracer's). */
 static lrr_status run(lrr_operator *op, const lrr_scene *scene, lrr_verify_options *o,
-                      int uniform, const float *E, const float *tri_e, size_t *traced)
+                      int uniform, const float *E, const float *tri_e, tracing *tr,
+                      size_t *traced)
 {
     size_t *rows = NULL, count = 0;
     float *B = NULL;
@@ -383,14 +394,15 @@ static lrr_status run(lrr_operator *op, const lrr_scene *scene, lrr_verify_optio
     if ((st = lrr__calloc(op->ctx, &spread, count, sizeof(double), "verify spreads")) ||
         (st = lrr__calloc(op->ctx, &m, count, 1, "verify paths")) ||
         (st = lrr__tracer_create(scene, tri_e, &tracer)) ||
-        (st = scout(op, tracer, o, rows, count, spread, &seconds)) ||
+        (tr->tracer = tracer, tr->uniform = uniform,
+         st = scout(op, tr, o, rows, count, spread, &seconds)) ||
         (st = lrr__calloc(op->ctx, &B, op->n, 3 * sizeof(float), "operator radiosity")) ||
         (st = operator_radiosity(op, E, B)))
         goto out;
     if (!o->samples)
         o->samples = auto_samples(op, seconds, count);
     multipliers(spread, count, m);
-    st = trace_and_compare(op, tracer, o, E, B, rows, m, count);
+    st = trace_and_compare(op, tr, o, E, B, rows, m, count);
     *traced = count;
 out:
     lrr__tracer_destroy(tracer);
@@ -404,6 +416,12 @@ out:
 lrr_status lrr_operator_verify(lrr_operator *op, const lrr_scene *scene,
                                const lrr_verify_options *opts)
 {
+    return lrr__verify_with(op, scene, opts, NULL, NULL);
+}
+
+lrr_status lrr__verify_with(lrr_operator *op, const lrr_scene *scene,
+                            const lrr_verify_options *opts, lrr__verify_trace_fn fn, void *user)
+{
     lrr_verify_options o;
     lrr_status st;
     if ((st = read_options(op->ctx, opts, &o)) || (st = same_scene(op, scene)))
@@ -413,7 +431,7 @@ lrr_status lrr_operator_verify(lrr_operator *op, const lrr_scene *scene,
     float *E = NULL, *tri_e = NULL;
     size_t traced = 0;
     if (!(st = emissions(op, &uniform, &E, &tri_e)) &&
-        !(st = run(op, scene, &o, uniform, E, tri_e, &traced))) {
+        !(st = run(op, scene, &o, uniform, E, tri_e, &(tracing){NULL, 0, fn, user}, &traced))) {
         op->verify.subpatches = traced;
         op->verify.samples = o.samples;
         op->verify.uniform = uniform;

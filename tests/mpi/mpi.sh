@@ -4,8 +4,8 @@
 # serial one with 1 to 4 ranks (test_mpi_solve) and its fault cases (test_mpi_faults), then
 # `mpirun -np P lrr solve` against `lrr solve` (same CSV within 1e-6, same summary) and its
 # failures (rank 0 alone prints the error), `mpirun lrr render` against `lrr render`, the distributed build and path tracer
-# (test_mpi_build; `mpirun lrr preprocess` and `mpirun lrr reference --method path-trace`
-# against the serial commands), and a smoke run of lrr-bench mpi. Root may run them (--allow-run-as-root); more
+# (test_mpi_build; `mpirun lrr preprocess [--verify]` and `mpirun lrr reference --method
+# path-trace` against the serial commands), and a smoke run of lrr-bench mpi. Root may run them (--allow-run-as-root); more
 # ranks than cores (--oversubscribe) is the point on a 2-core machine.
 # Environment: LRR_MPIRUN, LRR_MPI_TESTS (the test programs' folder), LRR_BIN,
 # LRR_TEST_TMP (as make check sets them).
@@ -182,8 +182,9 @@ for opt in "--backend opencl" "--path sparse" "--fbar dense" "--m f32"; do
 done
 
 # mpirun lrr preprocess: the serial file but for its timings (test_mpi_build --same), for
-# the quadtree and for clusters (the selection replicated on every rank)
-for args in "--patches 54 --levels 1" "--clusters 12"; do
+# the quadtree, for clusters (the selection replicated on every rank) and with --verify (its
+# path tracing across the ranks: the same figures, stored in the file)
+for args in "--patches 54 --levels 1" "--clusters 12" "--patches 54 --levels 1 --verify 16"; do
     # shellcheck disable=SC2086 # args are options
     "$LRR" preprocess cornell $args --hemicube 16 --seed 3 -o "$T/pre-serial.lrr" \
         >"$T/pre-serial.out" 2>"$T/err" || { cat "$T/err"; fail "lrr preprocess $args"; }
@@ -192,6 +193,7 @@ for args in "--patches 54 --levels 1" "--clusters 12"; do
         mpi "$np" "$LRR" preprocess cornell $args --hemicube 16 --seed 3 -o "$T/pre-mpi.lrr"
         if [ "$rc" -eq 0 ] && [ "$(value ranks)" = "$np" ] && [ "$(grep -c '^n: ' "$T/out")" -eq 1 ] &&
             [ "$(value n)" = "$(sed -n 's/^n: //p' "$T/pre-serial.out")" ] &&
+            [ "$(value verify_rel_l2)" = "$(sed -n 's/^verify_rel_l2: //p' "$T/pre-serial.out")" ] &&
             "$DIR/test_mpi_build" --same "$T/pre-mpi.lrr" "$T/pre-serial.lrr" >"$T/same"; then
             pass "mpirun -np $np lrr preprocess $args: rank 0 alone prints, the serial file but for its timings"
         else

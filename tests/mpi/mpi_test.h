@@ -66,8 +66,8 @@ static inline void mt_path(char *buf, size_t len, const char *name)
 
 /* The test scenes: "cornell" (the open box, 36 triangles), "rooms" (four closed unit rooms
  * side by side, 48 triangles: a patch sees its own room only, so F̄ is sparse and the
- * solver reads strips), "pair" (two triangles facing each other, 1 apart: k = 2 patches,
- * fewer than the ranks, so some blocks are empty). */
+ * solver reads strips), "dark" (the rooms emitting nothing), "pair" (two triangles facing
+ * each other, 1 apart: k = 2 patches, fewer than the ranks, so some blocks are empty). */
 static inline lrr_status mt_scene(lrr_context *ctx, const char *kind, lrr_scene **out)
 {
     if (strcmp(kind, "cornell") == 0)
@@ -99,7 +99,7 @@ static inline lrr_status mt_scene(lrr_context *ctx, const char *kind, lrr_scene 
     for (size_t t = 0; t < T; t++)
         for (int c = 0; c < 3; c++) {
             rho[3 * t + c] = 0.3f + 0.2f * (float)c;
-            e[3 * t + c] = t == 0 || t == 5 ? 1.0f : 0.0f;
+            e[3 * t + c] = (t == 0 || t == 5) && strcmp(kind, "dark") != 0 ? 1.0f : 0.0f;
         }
     return lrr_scene_create(ctx, T, v, rho, e, kind, out);
 }

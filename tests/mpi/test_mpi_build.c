@@ -8,7 +8,9 @@
  * and its faults, every rank returning the same error in seconds: a root out of range,
  * another scene on the last rank (LRR_ERR_DIM), every allocation of the build failing in
  * turn on the last rank (LRR_ERR_NOMEM); and the distributed path tracer
- * (lrr_mpi_reference_path_trace) against the serial one, bit for bit. */
+ * (lrr_mpi_reference_path_trace) against the serial one, bit for bit; and the distributed
+ * verify (lrr_mpi_operator_verify) against lrr_operator_verify, its figures bit for bit for
+ * the scene's emission and for a scene that emits nothing, and its faults. */
 #include "mpi_test.h"
 #include "solve/rows.h" /* lrr__rows_fail_after: the allocation-failure hook */
 
@@ -94,8 +96,8 @@ static unsigned char *slurp(const char *path, size_t *len)
 }
 
 /* The two files hold the same sections, byte for byte but for the timings: INFO's
- * build_seconds (bytes 24..31 of section 6) and the selection_seconds that PATCHES and
- * CLUSTERS (8 and 9) begin with. */
+ * build_seconds (bytes 24..31 of section 6), the selection_seconds that PATCHES and
+ * CLUSTERS (8 and 9) begin with, and VERIFY's seconds (bytes 16..23 of section 10). */
 static int same_files(const char *a, const char *b)
 {
     size_t la = 0, lb = 0;
@@ -106,8 +108,9 @@ static int same_files(const char *a, const char *b)
     int same = la == lb && na > 0 && na == nb && memcmp(fa, fb, 24) == 0;
     for (int s = 0; same && s < na; s++) {
         same = ia[s] == ib[s] && oa[s] == ob[s] && za[s] == zb[s];
-        const size_t at = ia[s] == 6 ? 24 : 0;
-        if (same && (ia[s] == 6 || ia[s] == 8 || ia[s] == 9) && za[s] >= at + 8) {
+        const size_t at = ia[s] == 6 ? 24 : ia[s] == 10 ? 16 : 0;
+        if (same && (ia[s] == 6 || ia[s] == 8 || ia[s] == 9 || ia[s] == 10) &&
+            za[s] >= at + 8) {
             memset(fa + oa[s] + at, 0, 8);
             memset(fb + ob[s] + at, 0, 8);
         }
@@ -325,6 +328,120 @@ static void traces(void)
     lrr_context_destroy(ctx);
 }
 
+/* Every rank's status equal to want within FAULT_SECONDS. */
+static int all_return(lrr_status st, lrr_status want, double seconds)
+{
+    int mine = (int)st, lo, hi;
+    double slowest;
+    MPI_Allreduce(&mine, &lo, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(&mine, &hi, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    MPI_Allreduce(&seconds, &slowest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    return lo == (int)want && hi == (int)want && slowest < FAULT_SECONDS;
+}
+
+/* lrr_mpi_operator_verify on the root's operator against lrr_operator_verify on a second
+ * build of it (the build is deterministic): the figures equal to the last bit. */
+static void verify_equal(const kind *kd, int root)
+{
+    lrr_context *ctx = NULL;
+    lrr_scene *sc = NULL;
+    lrr_operator *od = NULL, *os = NULL;
+    lrr_build_options bo = options(kd);
+    lrr_verify_options vo = lrr_verify_options_defaults();
+    vo.samples = 16;
+    vo.seed = 7;
+    vo.threads = 1;
+    int ok = lrr_context_create(&ctx) == LRR_OK && scene_for(ctx, kd, kd->K, &sc) == LRR_OK &&
+             (mt_rank != root || (lrr_operator_build(sc, &bo, &od) == LRR_OK &&
+                                  lrr_operator_build(sc, &bo, &os) == LRR_OK));
+    mt_check(ok, "verify %s: the test operators", kd->name);
+    lrr_status st = lrr_mpi_operator_verify(od, sc, &vo, MPI_COMM_WORLD, root);
+    mt_check(st == LRR_OK, "verify %s, root %d: %s", kd->name, root, lrr_strerror(st));
+    if (mt_rank == root && st == LRR_OK && lrr_operator_verify(os, sc, &vo) == LRR_OK) {
+        lrr_operator_info id, is;
+        lrr_operator_get_info(od, &id, sizeof id);
+        lrr_operator_get_info(os, &is, sizeof is);
+        mt_check(id.verify_rel_l2 == is.verify_rel_l2 && id.verify_noise == is.verify_noise &&
+                     id.verify_subpatches == is.verify_subpatches &&
+                     id.verify_samples == is.verify_samples &&
+                     id.verify_uniform == is.verify_uniform && id.verify_subpatches > 0,
+                 "verify %s, root %d: rel_l2 %.17g, noise %.17g, %zu subpatches%s: the serial "
+                 "figures bit for bit", kd->name, root, id.verify_rel_l2, id.verify_noise,
+                 id.verify_subpatches, id.verify_uniform ? ", uniform emission" : "");
+    }
+    lrr_operator_destroy(od);
+    lrr_operator_destroy(os);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
+/* Its faults: root out of range, no operator on the root, too few samples, another scene
+ * on the last rank, and each allocation counted on the last rank failing in turn. */
+static void verify_faults(void)
+{
+    const kind *kd = &KINDS[0];
+    const int last = mt_size - 1;
+    lrr_context *ctx = NULL;
+    lrr_scene *sc = NULL, *other = NULL;
+    lrr_operator *op = NULL;
+    lrr_build_options bo = options(kd);
+    lrr_verify_options vo = lrr_verify_options_defaults();
+    vo.samples = 4;
+    vo.threads = 1;
+    if (lrr_context_create(&ctx) != LRR_OK || scene_for(ctx, kd, kd->K, &sc) != LRR_OK ||
+        (mt_rank == 0 && lrr_operator_build(sc, &bo, &op) != LRR_OK) ||
+        (mt_rank == last && scene_for(ctx, kd, 2 * kd->K, &other) != LRR_OK)) {
+        mt_check(0, "verify faults: the test scenes");
+        return;
+    }
+    struct {
+        const char *what;
+        int root, other, with_op;
+        size_t samples;
+        lrr_status want;
+    } cases[] = {{"root out of range", mt_size, 0, 1, 4, LRR_ERR_INVALID_ARG},
+                 {"no operator on the root", last, 0, 0, 4, LRR_ERR_INVALID_ARG},
+                 {"2 samples", 0, 0, 1, 2, LRR_ERR_INVALID_ARG},
+                 {"another scene on the last rank", 0, 1, 1, 4, LRR_ERR_DIM}};
+    for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+        if (cases[c].other && mt_size == 1)
+            continue;
+        vo.samples = cases[c].samples;
+        double t0 = MPI_Wtime();
+        lrr_status st = lrr_mpi_operator_verify(
+            cases[c].with_op ? op : NULL, /* op is rank 0's (NULL elsewhere) */
+            cases[c].other && mt_rank == last ? other : sc, &vo, MPI_COMM_WORLD, cases[c].root);
+        char msg[512];
+        lrr_context_last_error(ctx, msg, sizeof msg);
+        mt_check(all_return(st, cases[c].want, MPI_Wtime() - t0),
+                 "verify, %s: every rank returns %s (rank %d: \"%s\")", cases[c].what,
+                 lrr_strerror(cases[c].want), mt_rank, msg);
+    }
+    vo.samples = 4;
+    int failing = 0, done = 0;
+    for (unsigned long n = 1; !done && n < 400; n++) {
+        if (mt_rank == last)
+            lrr__rows_fail_after(ctx, n);
+        lrr_status st = lrr_mpi_operator_verify(op, sc, &vo, MPI_COMM_WORLD, 0);
+        if (mt_rank == last)
+            lrr__rows_fail_after(ctx, 0);
+        done = all_return(st, LRR_OK, 0);
+        if (!done && !all_return(st, LRR_ERR_NOMEM, 0)) {
+            mt_check(0, "verify, allocation %lu failing on rank %d: not LRR_ERR_NOMEM "
+                     "everywhere (%s here)", n, last, lrr_strerror(st));
+            failing = -1;
+            break;
+        }
+        failing += !done;
+    }
+    mt_check(failing > 0 && done, "verify: each of the %d allocations on rank %d failing ends "
+             "every rank with LRR_ERR_NOMEM, then the verify succeeds", failing, last);
+    lrr_operator_destroy(op);
+    lrr_scene_destroy(other);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
 int main(int argc, char **argv)
 {
     /* test_mpi_build --same A B: mpi.sh's check of `mpirun lrr preprocess`'s file */
@@ -339,5 +456,8 @@ int main(int argc, char **argv)
         equality(&KINDS[c], c == 0 ? mt_size - 1 : 0);
     faults();
     traces();
+    verify_equal(&KINDS[0], mt_size - 1);
+    verify_equal(&(kind){"dark clusters", "dark", 12, 0, 1, 0}, 0);
+    verify_faults();
     return mt_finish();
 }
