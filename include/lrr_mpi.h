@@ -25,9 +25,9 @@
  * MPI_ERRORS_RETURN) as LRR_ERR_IO naming the call and MPI's error string. A rank that dies
  * is for the MPI runtime to handle (Open MPI's mpirun ends the job).
  *
- * Memory: today each rank loads the whole .lrr file (lrr_operator_load: its checksums
- * cover whole sections), keeps its rows and frees the rest, so a rank needs the whole
- * operator's memory once, during lrr_mpi_solver_create.
+ * Memory: each rank reads only its rows of F̄ into memory (the file's F̄ section is streamed
+ * whole for its checksum), so a rank holds about F̄/P, all of M and the per-subpatch
+ * arrays.
  *
  * The library never prints, never exits and keeps no global state; it does not call
  * MPI_Init (the caller does, before any collective call here, with a thread level of at
@@ -48,8 +48,9 @@ typedef struct lrr_mpi_solver lrr_mpi_solver;
 
 /* Collective over comm (duplicated: the solver's messages never mix with the caller's).
  * Every rank loads the operator file at path (the same file: their n, k and patch offsets
- * are compared, LRR_ERR_DIM naming the rank that differs), keeps its block of rows and
- * frees the rest. Errors as lrr_operator_load's and lrr_solver_create's, agreed (above).
+ * are compared, LRR_ERR_DIM naming the rank that differs), its rows of F̄ alone: the file
+ * is checked as lrr_operator_load checks it, but a dense F̄'s entries only within the
+ * rank's block (the blocks together cover them). Errors as lrr_operator_load's and lrr_solver_create's, agreed (above).
  * *out is NULL on every rank on error. ctx records the errors; the solver holds a reference
  * to it. Thread safety: one thread per rank. */
 LRR_API LRR_NODISCARD lrr_status lrr_mpi_solver_create(lrr_context *ctx, const char *path,

@@ -78,6 +78,37 @@ struct reader {
     int fd;
     uint64_t file_size;
 };
+
+/* The header fields the rest of the load uses. */
+struct header {
+    uint32_t version, count, dtype;
+    uint64_t n, k, d;
+    bool adaptive;  /* d = 0: version 2 (PATCHES) or 3 (CLUSTERS) */
+    bool clusters;  /* version 3 or 4 */
+    bool visibility; /* version 4 (5: INFO bit 2): Vᵀ's weights from F̄'s row sums */
+    bool strips;     /* version 5: F̄ as FBAR_STRIPS, any hierarchy */
+};
+
+/* load.c, in the order a load calls them (lrr_operator_load; lrr__operator_load_rows in
+ * load_rows.c): open path into r (closed by the caller when r->fd >= 0); the header, the
+ * section table, the geometry and hierarchy, INFO, and an operator of it (F̄ allocated when
+ * with_fbar; its rho and emission read and checked, its weighting set); the row scales
+ * (16-bit F̄) and M, read and checked; INFO's fields into the operator. */
+struct load_head {
+    struct header hd;
+    struct section sec[SEC_KNOWN]; /* indexed by id − 1 */
+    unsigned char info[INFO_SIZE];
+    int builtin;
+    double selection_seconds;
+};
+lrr_status lrr__load_open(lrr_context *ctx, const char *path, struct reader *r);
+lrr_status lrr__load_head(struct reader *r, struct load_head *lh, int with_fbar,
+                          lrr_operator **out);
+lrr_status lrr__load_row_scales(struct reader *r, const struct load_head *lh, lrr_operator *op);
+lrr_status lrr__load_m(struct reader *r, const struct load_head *lh, lrr_operator *op);
+void lrr__load_info(const struct load_head *lh, lrr_operator *op);
+/* Reads section s into buf and verifies its checksum. */
+lrr_status lrr__read_section(struct reader *r, const struct section *s, void *buf);
 /* Reads len bytes at offset (checked against the file size by the caller); what names them
  * in errors. */
 lrr_status lrr__file_read_at(struct reader *r, uint64_t offset, void *buf, size_t len,
@@ -110,6 +141,11 @@ void lrr__strips_out_free(struct strips_out *so);
 /* Loading: the section s into op's zeroed F̄ (any layout) and its checks (row scales
  * already checked), with the checksum verified over the whole payload. */
 lrr_status lrr__strips_load(struct reader *r, const struct section *s, lrr_operator *op);
+/* The same, every strip checked and the checksum too, but only rows [row0, row0 + rows)
+ * stored, row-major, into win (rows×k in op's storage, zeroed); op (without F̄, rows
+ * layout) gives n, k, the storage and the row scales. */
+lrr_status lrr__strips_load_rows(struct reader *r, const struct section *s,
+                                 const lrr_operator *op, size_t row0, size_t rows, void *win);
 /* Bytes of the strip counts at the section's start for n rows (a multiple of 8). */
 static inline uint64_t strips_counts_bytes(uint64_t n)
 {

@@ -68,6 +68,11 @@ static lrr_status read_section(struct reader *r, const struct section *s, void *
     return LRR_OK;
 }
 
+lrr_status lrr__read_section(struct reader *r, const struct section *s, void *buf)
+{
+    return read_section(r, s, buf);
+}
+
 static lrr_status expect_size(struct reader *r, const struct section *s, uint64_t count,
                               uint64_t elem, const char *formula)
 {
@@ -84,15 +89,6 @@ static lrr_status expect_size(struct reader *r, const struct section *s, uint64_
     return LRR_OK;
 }
 
-/* The header fields the rest of the load uses. */
-struct header {
-    uint32_t version, count, dtype;
-    uint64_t n, k, d;
-    bool adaptive;  /* d = 0: version 2 (PATCHES) or 3 (CLUSTERS) */
-    bool clusters;  /* version 3 or 4 */
-    bool visibility; /* version 4 (5: INFO bit 2): Vᵀ's weights from F̄'s row sums */
-    bool strips;     /* version 5: F̄ as FBAR_STRIPS, any hierarchy */
-};
 
 /* Reads the header into h and checks that it is one this library reads: magic, version and
  * byte order (the first 16 bytes, which keep their meaning in every version), then its
@@ -530,15 +526,14 @@ static lrr_status read_fbar(struct reader *r, const struct header *hd,
     return lrr__check_fbar(r, op);
 }
 
-lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **out)
+lrr_status lrr__load_open(lrr_context *ctx, const char *path, struct reader *r)
 {
-    *out = NULL;
+    *r = (struct reader){ctx, path, -1, 0};
     if (!LRR__FILE_LITTLE_ENDIAN)
         return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
                           "file %s: .lrr files are little-endian; this host is not", path);
-    struct reader r = {ctx, path, -1, 0};
     struct stat sb;
-    int e = lrr__open_regular_fd(path, &r.fd, &sb); /* a FIFO would block open() */
+    int e = lrr__open_regular_fd(path, &r->fd, &sb); /* a FIFO would block open() */
     if (e == LRR__NOT_REGULAR || e == EISDIR)
         return lrr__error(ctx, LRR_ERR_IO, "file %s: " LRR__NOT_REGULAR_TEXT, path);
     if (e) {
@@ -546,41 +541,66 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
         return lrr__error(ctx, LRR_ERR_IO, "file %s: cannot open: %s", path,
                           lrr__errno_text(e, eb, sizeof eb));
     }
-    r.file_size = (uint64_t)sb.st_size;
+    r->file_size = (uint64_t)sb.st_size;
+    return LRR_OK;
+}
 
-    struct header hd = {0};
-    struct section sec[SEC_KNOWN] = {{0}};
+lrr_status lrr__load_head(struct reader *r, struct load_head *lh, int with_fbar,
+                          lrr_operator **out)
+{
+    lrr_context *ctx = r->ctx;
+    struct header *hd = &lh->hd;
     unsigned char *geom_buf = NULL;
     lrr__geometry g;
     memset(&g, 0, sizeof g);
     lrr_operator *op = NULL;
-    unsigned char info[INFO_SIZE];
-    int builtin = 0;
-    double selection_seconds = 0;
-
-    lrr_status st = read_layout(&r, &hd, sec);
+    *out = NULL;
+    lrr_status st = read_layout(r, hd, lh->sec);
     if (st)
-        goto done;
-    const struct section *gs = &sec[SEC_GEOMETRY - 1];
+        return st;
+    const struct section *gs = &lh->sec[SEC_GEOMETRY - 1];
     if ((st = lrr__calloc(ctx, &geom_buf, (size_t)gs->size, 1, "GEOMETRY section")) ||
-        (st = read_section(&r, gs, geom_buf)) ||
-        (st = parse_geometry(&r, geom_buf, gs->size, hd.n, hd.k, hd.d, &g, &builtin)) ||
-        (hd.adaptive && !hd.clusters &&
-         (st = parse_patches(&r, &sec[SEC_PATCHES - 1], hd.k, &g, &selection_seconds))) ||
-        (hd.clusters &&
-         (st = parse_clusters(&r, &sec[SEC_CLUSTERS - 1], hd.k, &g, &selection_seconds))) ||
-        (st = read_section(&r, &sec[SEC_INFO - 1], info)) ||
-        (st = info_weights(&r, &hd, get32(info + 36))) ||
-        (st = lrr__operator_new(ctx, &g, (lrr_storage)hd.dtype, &op)))
-        goto done;
-    if ((st = read_section(&r, &sec[SEC_RHO - 1], op->rho)) ||
-        (st = read_section(&r, &sec[SEC_EMISSION - 1], op->emission)) ||
-        (st = lrr__check_materials(&r, op)) || (st = read_fbar(&r, &hd, sec, op)) ||
-        (st = read_section(&r, &sec[SEC_M - 1], op->m)) || (st = lrr__check_m(&r, op)) ||
-        (op->weighting = hd.visibility ? LRR__WEIGHTS_VISIBILITY : LRR__WEIGHTS_AREA,
-         st = lrr__visibility_weights(op)) || /* the weights M was factorised with */
-        (st = lrr__fbar_set_panels(op, 1))) /* the kernels read panels (no-op for strips) */
-        goto done;
+        (st = read_section(r, gs, geom_buf)) ||
+        (st = parse_geometry(r, geom_buf, gs->size, hd->n, hd->k, hd->d, &g, &lh->builtin)) ||
+        (hd->adaptive && !hd->clusters &&
+         (st = parse_patches(r, &lh->sec[SEC_PATCHES - 1], hd->k, &g,
+                             &lh->selection_seconds))) ||
+        (hd->clusters &&
+         (st = parse_clusters(r, &lh->sec[SEC_CLUSTERS - 1], hd->k, &g,
+                              &lh->selection_seconds))) ||
+        (st = read_section(r, &lh->sec[SEC_INFO - 1], lh->info)) ||
+        (st = info_weights(r, hd, get32(lh->info + 36))) ||
+        (st = lrr__operator_alloc(ctx, &g, (lrr_storage)hd->dtype, with_fbar, &op)) ||
+        (st = read_section(r, &lh->sec[SEC_RHO - 1], op->rho)) ||
+        (st = read_section(r, &lh->sec[SEC_EMISSION - 1], op->emission)) ||
+        (st = lrr__check_materials(r, op)))
+        lrr_operator_destroy(op);
+    else {
+        op->weighting = hd->visibility ? LRR__WEIGHTS_VISIBILITY : LRR__WEIGHTS_AREA;
+        *out = op;
+    }
+    lrr_aligned_free(geom_buf);
+    lrr__geometry_free(&g);
+    return st;
+}
+
+lrr_status lrr__load_m(struct reader *r, const struct load_head *lh, lrr_operator *op)
+{
+    lrr_status st = read_section(r, &lh->sec[SEC_M - 1], op->m);
+    return st ? st : lrr__check_m(r, op);
+}
+
+lrr_status lrr__load_row_scales(struct reader *r, const struct load_head *lh, lrr_operator *op)
+{
+    if (lh->hd.dtype == DTYPE_F32)
+        return LRR_OK;
+    lrr_status st = read_section(r, &lh->sec[SEC_ROWSCALE - 1], op->row_scale);
+    return st ? st : lrr__check_row_scales(r, op);
+}
+
+void lrr__load_info(const struct load_head *lh, lrr_operator *op)
+{
+    const unsigned char *info = lh->info;
     for (int c = 0; c < 3; c++)
         memcpy(&op->cond[c], info + 8 * c, 8);
     memcpy(&op->build_seconds, info + 24, 8);
@@ -588,15 +608,30 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     op->no_rotation = (get32(info + 36) & 1u) != 0;
     op->receiver_sampling = get32(info + 36) & 2u ? LRR_RECEIVER_AREA : LRR_RECEIVER_CENTRE;
     op->seed = get64(info + 40);
-    op->builtin = builtin;
-    op->selection_seconds = selection_seconds;
-    if (sec[SEC_VERIFY - 1].id)
-        st = read_verify(&r, &sec[SEC_VERIFY - 1], op);
+    op->builtin = lh->builtin;
+    op->selection_seconds = lh->selection_seconds;
+}
 
+lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **out)
+{
+    *out = NULL;
+    struct reader r;
+    struct load_head lh;
+    memset(&lh, 0, sizeof lh);
+    lrr_operator *op = NULL;
+    lrr_status st = lrr__load_open(ctx, path, &r);
+    if (st)
+        return st;
+    if ((st = lrr__load_head(&r, &lh, 1, &op)) || (st = read_fbar(&r, &lh.hd, lh.sec, op)) ||
+        (st = lrr__load_m(&r, &lh, op)) ||
+        (st = lrr__visibility_weights(op)) || /* the weights M was factorised with */
+        (st = lrr__fbar_set_panels(op, 1))) /* the kernels read panels (no-op for strips) */
+        goto done;
+    lrr__load_info(&lh, op);
+    if (lh.sec[SEC_VERIFY - 1].id)
+        st = read_verify(&r, &lh.sec[SEC_VERIFY - 1], op);
 done:
     close(r.fd);
-    lrr_aligned_free(geom_buf);
-    lrr__geometry_free(&g);
     if (st) {
         lrr_operator_destroy(op);
         return st;

@@ -112,6 +112,8 @@ struct strips_in {
     const unsigned char *counts; /* the section's strip counts */
     size_t tiles, es;
     char msg[512]; /* the first fault found, reported only if the checksum holds */
+    unsigned char *win; /* NULL: into op's F̄; else rows [row0, row0 + rows) only, row-major */
+    size_t row0, rows;
 };
 
 /* Records a fault of the section (the message after "section FBAR_STRIPS: ") without
@@ -177,8 +179,11 @@ static lrr_status put_strip(struct strips_in *in, size_t t, size_t j, unsigned q
                             const unsigned char *val, const lrr__tile_at *a)
 {
     lrr_operator *op = in->op;
-    unsigned char *f = op->storage == LRR_STORAGE_F32 ? (unsigned char *)op->fbar
-                                                      : (unsigned char *)op->fbar16;
+    unsigned char *f = in->win                          ? in->win
+                       : op->storage == LRR_STORAGE_F32 ? (unsigned char *)op->fbar
+                                                        : (unsigned char *)op->fbar16;
+    /* a window's op holds rows (a.base = i0·k): its entry (i, q) at (i − row0)·k + q */
+    const size_t off = in->win ? in->row0 * op->k : 0;
     for (size_t r = 0; r < LRR__TILE; r++) {
         uint32_t raw = 0;
         memcpy(&raw, val + r * in->es, in->es); /* little-endian host */
@@ -195,7 +200,8 @@ static lrr_status put_strip(struct strips_in *in, size_t t, size_t j, unsigned q
             return finite ? tile_error(in, t, j, q, "row %zu is %g (form factors divided by d "
                                        "lie in [0, 1])", i, (double)v)
                           : tile_error(in, t, j, q, "row %zu is not finite", i);
-        memcpy(f + (a->base + q * a->sq + r * a->si) * in->es, &raw, in->es);
+        if (!in->win || (i >= in->row0 && i - in->row0 < in->rows))
+            memcpy(f + (a->base + q * a->sq + r * a->si - off) * in->es, &raw, in->es);
     }
     return LRR_OK;
 }
@@ -254,10 +260,11 @@ static lrr_status stream_tiles(struct strips_in *in, uint64_t pos, unsigned char
     return LRR_OK;
 }
 
-lrr_status lrr__strips_load(struct reader *r, const struct section *s, lrr_operator *op)
+static lrr_status strips_in(struct reader *r, const struct section *s, lrr_operator *op,
+                            unsigned char *win, size_t row0, size_t rows)
 {
     struct strips_in in = {r, s, op, NULL, (op->n + LRR__TILE - 1) / LRR__TILE,
-                           lrr__fbar_elem_bytes(op), ""};
+                           lrr__fbar_elem_bytes(op), "", win, row0, rows};
     const size_t cbytes = (size_t)strips_counts_bytes(op->n); /* <= s->size, checked */
     unsigned char *counts = NULL, *buf = NULL;
     uint64_t widest = 0, h = lrr__checksum_begin(s->size);
@@ -285,4 +292,17 @@ done:
     lrr_aligned_free(counts);
     lrr_aligned_free(buf);
     return st;
+}
+
+lrr_status lrr__strips_load(struct reader *r, const struct section *s, lrr_operator *op)
+{
+    return strips_in(r, s, op, NULL, 0, 0);
+}
+
+lrr_status lrr__strips_load_rows(struct reader *r, const struct section *s,
+                                 const lrr_operator *op, size_t row0, size_t rows, void *win)
+{
+    /* op is only read: its F̄ is not touched with a window, and its row layout (panels 0)
+     * places the window's entries */
+    return strips_in(r, s, (lrr_operator *)(uintptr_t)op, win, row0, rows);
 }

@@ -18,6 +18,7 @@ struct lrr_mpi_solver {
     lrr__rows *rows;
     size_t n, k, row0, nrows;
     int *counts, *displs; /* per rank, in subpatches (rgb) */
+    uint64_t hash;        /* of the patch offsets this rank loaded */
     float *w, *wsum;      /* 3k + 1: this rank's Vᵀ E and its failure flag; their sums */
     float *b;             /* nrows×3: this rank's B for lrr_mpi_solve_gather */
 };
@@ -58,9 +59,9 @@ static uint64_t offsets_hash(const size_t *first, size_t k)
 
 /* Every rank loaded the same operator: n, k and the offsets' hash against rank 0's. All
  * ranks see the same table, so they agree without another step. */
-static lrr_status same_operator(lrr_mpi_solver *s, const char *path, const size_t *first)
+static lrr_status same_operator(lrr_mpi_solver *s, const char *path)
 {
-    uint64_t mine[3] = {s->n, s->k, offsets_hash(first, s->k)};
+    uint64_t mine[3] = {s->n, s->k, s->hash};
     uint64_t *all = calloc((size_t)s->size, sizeof mine);
     int bad = all ? 0 : 1, any = 0, rc;
     /* an allocation failure on one rank must not leave the others in MPI_Allgather */
@@ -109,12 +110,18 @@ static size_t block_start(const size_t *first, size_t n, size_t k, int r, int si
     return lo;
 }
 
-/* Counts and displacements of every rank's rows (the same table on every rank), the
- * frame's buffers, and this rank's block of op. */
-static lrr_status split(lrr_mpi_solver *s, const lrr_operator *op)
+/* The loader's pick (lrr__rows_pick_fn), before any F̄ is read: n, k and the offsets'
+ * hash, the counts and displacements of every rank's rows (the same table on every rank
+ * that loaded the same file), the frame's buffers, and this rank's block. Local: a rank
+ * whose load failed earlier never gets here, so the ranks agree only afterwards. */
+static lrr_status split(void *user, const lrr_operator *op, size_t *mine0, size_t *mine1)
 {
+    lrr_mpi_solver *s = user;
     const size_t *first = lrr_operator_patch_offsets(op);
-    const size_t n = s->n, k = s->k;
+    lrr_operator_info oi;
+    lrr_operator_get_info(op, &oi, sizeof oi);
+    const size_t n = s->n = oi.n, k = s->k = oi.k;
+    s->hash = offsets_hash(first, k);
     if (n > INT_MAX || k > (INT_MAX - 1) / 3)
         return lrr__mpi_error(s->ctx, LRR_ERR_OVERFLOW,
                               "lrr_mpi_solver_create: n = %zu or 3k + 1 (k = %zu) exceeds MPI's "
@@ -127,43 +134,32 @@ static lrr_status split(lrr_mpi_solver *s, const lrr_operator *op)
         return lrr__mpi_error(s->ctx, LRR_ERR_NOMEM,
                               "lrr_mpi_solver_create: cannot allocate the frame's buffers "
                               "(k = %zu, %d ranks)", k, s->size);
-    size_t p0 = 0, mine0 = 0, mine1 = 0;
+    size_t p0 = 0;
     for (int r = 0; r < s->size; r++) {
         size_t p1 = r + 1 == s->size ? k : block_start(first, n, k, r + 1, s->size);
         s->displs[r] = (int)first[p0];
         s->counts[r] = (int)(first[p1] - first[p0]);
         if (r == s->rank)
-            mine0 = p0, mine1 = p1;
+            *mine0 = p0, *mine1 = p1;
         p0 = p1;
     }
-    lrr_status st = lrr__rows_create(op, mine0, mine1, &s->rows);
-    if (st)
-        return st;
-    lrr__rows_range(s->rows, &s->row0, &s->nrows);
-    if (s->nrows && !(s->b = calloc(s->nrows, 3 * sizeof(float))))
+    const size_t rows = first[*mine1] - first[*mine0];
+    if (rows && !(s->b = calloc(rows, 3 * sizeof(float))))
         return lrr__mpi_error(s->ctx, LRR_ERR_NOMEM,
-                              "lrr_mpi_solver_create: cannot allocate B's %zu rows", s->nrows);
+                              "lrr_mpi_solver_create: cannot allocate B's %zu rows", rows);
     return LRR_OK;
 }
 
 /* The steps after the communicator exists; each ends agreed. */
 static lrr_status create_steps(lrr_mpi_solver *s, const char *path)
 {
-    lrr_operator *op = NULL;
-    lrr_status st = lrr__mpi_spread(s->ctx, s->comm, lrr_operator_load(s->ctx, path, &op));
-    if (st) {
-        lrr_operator_destroy(op); /* loaded here, though another rank failed */
+    /* this rank's rows of F̄ alone are read into memory (lrr__rows_load); the ranks then
+     * agree that they read the same operator */
+    lrr_status st = lrr__mpi_spread(s->ctx, s->comm, lrr__rows_load(s->ctx, path, split, s,
+                                                                    &s->rows));
+    if (st || (st = lrr__mpi_spread(s->ctx, s->comm, same_operator(s, path))))
         return st;
-    }
-    lrr_operator_info oi;
-    lrr_operator_get_info(op, &oi, sizeof oi);
-    s->n = oi.n;
-    s->k = oi.k;
-    if (!(st = same_operator(s, path, lrr_operator_patch_offsets(op))))
-        st = split(s, op);
-    lrr_operator_destroy(op); /* the block keeps what this rank needs */
-    if ((st = lrr__mpi_spread(s->ctx, s->comm, st)))
-        return st;
+    lrr__rows_range(s->rows, &s->row0, &s->nrows);
     s->ctx = lrr__rows_context(s->rows);
     int rc = MPI_Type_contiguous(3, MPI_FLOAT, &s->rgb);
     if (rc == MPI_SUCCESS && (rc = MPI_Type_commit(&s->rgb)) != MPI_SUCCESS)

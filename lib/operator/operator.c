@@ -31,6 +31,12 @@ void lrr_operator_destroy(lrr_operator *op)
 lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
                              lrr_operator **out)
 {
+    return lrr__operator_alloc(ctx, g, storage, 1, out);
+}
+
+lrr_status lrr__operator_alloc(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
+                               int with_fbar, lrr_operator **out)
+{
     *out = NULL;
     lrr_operator *op = lrr__zalloc(ctx, sizeof *op);
     if (!op)
@@ -59,9 +65,11 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
         goto fail;
     op->storage = storage;
     if (storage == LRR_STORAGE_F32)
-        st = lrr__calloc(ctx, &op->fbar, g->n, g->k * sizeof(float), "F̄ (n×k floats)");
-    else if (!(st = lrr__calloc(ctx, &op->fbar16, g->n, g->k * sizeof(uint16_t),
-                                "F̄ (n×k 16-bit)")))
+        st = with_fbar ? lrr__calloc(ctx, &op->fbar, g->n, g->k * sizeof(float),
+                                     "F̄ (n×k floats)")
+                       : LRR_OK;
+    else if (!with_fbar || !(st = lrr__calloc(ctx, &op->fbar16, g->n, g->k * sizeof(uint16_t),
+                                              "F̄ (n×k 16-bit)")))
         st = lrr__calloc(ctx, &op->row_scale, g->n, sizeof(float), "F̄ row scales");
     if (st)
         goto fail;

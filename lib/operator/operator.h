@@ -51,12 +51,36 @@ enum { LRR__WEIGHTS_AREA = 0, LRR__WEIGHTS_VISIBILITY = 1 };
 /* weights.c: with LRR__WEIGHTS_VISIBILITY, w_j = d_p A_j R_j / Σ_{i∈p} A_i R_i from the stored
  * F̄ (R_j = Σ_q F̄_jq d_q); otherwise nothing to do (the area weights stay). */
 lrr_status lrr__visibility_weights(lrr_operator *op);
+/* The same for the patches [p0, p1) alone, from their rows of F̄ held apart in fbar
+ * (first[p0] .. first[p1] − 1, row-major in op's storage, op's row scales): what a row
+ * block loaded alone needs (lrr__operator_load_rows). */
+lrr_status lrr__visibility_weights_rows(lrr_operator *op, size_t p0, size_t p1,
+                                        const void *fbar);
+
+/* file/load_rows.c: a block of whole patches' rows of a saved operator, without the rest of
+ * F̄. pick (called once, after the geometry, M and the row scales are read; op has no F̄)
+ * chooses patches [*p0, *p1); *out is the operator without F̄ (rho, emission, weights, M,
+ * row scales for all n; the block's Vᵀ weights as a whole load gives them) and b its rows
+ * (b->fbar: rows×k in op's storage, row-major, lrr_aligned_free). Every check of
+ * lrr_operator_load but those of F̄'s entries outside the block of a dense file. */
+typedef struct lrr__fbar_block {
+    size_t p0, p1, row0, rows;
+    void *fbar;
+} lrr__fbar_block;
+typedef lrr_status (*lrr__pick_fn)(void *user, const lrr_operator *op, size_t *p0, size_t *p1);
+lrr_status lrr__operator_load_rows(lrr_context *ctx, const char *path, lrr__pick_fn pick,
+                                   void *user, lrr_operator **out, lrr__fbar_block *b);
 
 /* Allocates an operator for geometry g (copied): rho, emission, area, centre, normal, m and
  * F̄ in the given storage (fbar, or fbar16 + row_scale) are allocated (zeroed);
  * area/centre/normal/weight are filled from the geometry. */
 lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
                              lrr_operator **out);
+/* The same, without F̄ unless with_fbar (fbar and fbar16 NULL; 16-bit storage keeps its n
+ * row scales): the rest of an operator whose rows of F̄ are held elsewhere (a row block
+ * loaded alone, lrr__operator_load_rows). */
+lrr_status lrr__operator_alloc(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
+                               int with_fbar, lrr_operator **out);
 
 /* Round-to-nearest-even conversions (storage.c). */
 uint16_t lrr__f32_to_f16(float f);

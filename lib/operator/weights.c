@@ -17,45 +17,75 @@
 #include "operator/operator.h"
 
 #include <omp.h>
+#include <string.h>
 
-lrr_status lrr__visibility_weights(lrr_operator *op)
+/* Row i's F̄ decoded: from op, or from a block (row-major, op's storage) holding rows from
+ * row0 on, as lrr_operator_fbar_row decodes them. */
+static void fbar_row(const lrr_operator *op, const void *block, size_t row0, size_t i,
+                     float *out)
+{
+    const size_t k = op->k;
+    if (!block) {
+        lrr_operator_fbar_row(op, i, out);
+    } else if (op->storage == LRR_STORAGE_F32) {
+        memcpy(out, (const float *)block + (i - row0) * k, k * sizeof(float));
+    } else {
+        const uint16_t *h = (const uint16_t *)block + (i - row0) * k;
+        const float s = op->row_scale[i];
+        for (size_t q = 0; q < k; q++)
+            out[q] = s * (op->storage == LRR_STORAGE_F16 ? lrr__f16_to_f32(h[q])
+                                                         : lrr__bf16_to_f32(h[q]));
+    }
+}
+
+/* The weights of patches [p0, p1), from op's F̄ or a block of their rows. */
+static lrr_status weights(lrr_operator *op, size_t p0, size_t p1, const void *block)
 {
     if (op->weighting != LRR__WEIGHTS_VISIBILITY)
         return LRR_OK; /* quadtree (1) and area-weighted clusters: from the geometry */
-    const size_t n = op->n, k = op->k, *first = op->geom.first;
+    const size_t k = op->k, *first = op->geom.first, i0 = first[p0], rows = first[p1] - i0;
     double *ar;
-    float *rows;
+    float *buf;
     const int threads = omp_get_max_threads();
-    lrr_status st = lrr__calloc(op->ctx, &ar, n, sizeof(double), "visibility weights");
+    lrr_status st = lrr__calloc(op->ctx, &ar, rows ? rows : 1, sizeof(double),
+                                "visibility weights");
     if (st)
         return st;
-    if ((st = lrr__calloc(op->ctx, &rows, (size_t)threads, k * sizeof(float),
+    if ((st = lrr__calloc(op->ctx, &buf, (size_t)threads, k * sizeof(float),
                           "decoded F̄ rows"))) {
         lrr_aligned_free(ar);
         return st;
     }
     lrr__patch_weights(&op->geom, op->weight);
     #pragma omp parallel for schedule(static) num_threads(threads)
-    for (size_t i = 0; i < n; i++) {
-        float *row = rows + (size_t)omp_get_thread_num() * k;
-        lrr_operator_fbar_row(op, i, row);
+    for (size_t i = i0; i < i0 + rows; i++) {
+        float *row = buf + (size_t)omp_get_thread_num() * k;
+        fbar_row(op, block, i0, i, row);
         double r = 0;
         for (size_t q = 0; q < k; q++)
             r += (double)row[q] * (double)(first[q + 1] - first[q]);
-        ar[i] = (double)op->area[i] * r;
+        ar[i - i0] = (double)op->area[i] * r;
     }
     #pragma omp parallel for schedule(static) num_threads(threads)
-    for (size_t p = 0; p < k; p++) {
+    for (size_t p = p0; p < p1; p++) {
         double sum = 0;
         for (size_t i = first[p]; i < first[p + 1]; i++)
-            sum += ar[i];
+            sum += ar[i - i0];
         if (!(sum > 0))
             continue; /* the area weights written above */
         const double dp = (double)(first[p + 1] - first[p]);
         for (size_t i = first[p]; i < first[p + 1]; i++)
-            op->weight[i] = (float)(dp * ar[i] / sum);
+            op->weight[i] = (float)(dp * ar[i - i0] / sum);
     }
     lrr_aligned_free(ar);
-    lrr_aligned_free(rows);
+    lrr_aligned_free(buf);
     return LRR_OK;
+}
+
+lrr_status lrr__visibility_weights(lrr_operator *op) { return weights(op, 0, op->k, NULL); }
+
+lrr_status lrr__visibility_weights_rows(lrr_operator *op, size_t p0, size_t p1,
+                                        const void *fbar)
+{
+    return weights(op, p0, p1, fbar);
 }

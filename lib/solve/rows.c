@@ -44,31 +44,38 @@ void lrr__rows_destroy(lrr__rows *r)
     free(r);
 }
 
-/* s's F̄ (rows × k in op's storage, and row scales) from op's rows [row0, row0 + rows),
- * then rewritten into panels for the kernels. */
-static lrr_status copy_fbar(const lrr_operator *op, lrr_operator *s, size_t row0)
+/* s's F̄ (rows × k in op's storage, and row scales) from op's rows [row0, row0 + rows), or
+ * the block *own of those rows (row-major, taken over: *own becomes NULL), then rewritten
+ * into panels for the kernels. */
+static lrr_status copy_fbar(const lrr_operator *op, lrr_operator *s, size_t row0, void **own)
 {
     lrr_context *ctx = op->ctx;
     const size_t rows = s->n, k = s->k;
-    lrr_status st;
-    if (op->storage == LRR_STORAGE_F32)
+    lrr_status st = LRR_OK;
+    void **dst = op->storage == LRR_STORAGE_F32 ? (void **)&s->fbar : (void **)&s->fbar16;
+    if (own) {
+        *dst = *own;
+        *own = NULL;
+    } else if (op->storage == LRR_STORAGE_F32) {
         st = lrr__calloc(ctx, &s->fbar, rows, k * sizeof(float), "row block F̄ (rows×k floats)");
-    else if (!(st = lrr__calloc(ctx, &s->fbar16, rows, k * sizeof(uint16_t),
-                                "row block F̄ (rows×k 16-bit)")) &&
-             !(st = lrr__calloc(ctx, &s->row_scale, rows, sizeof(float),
-                                "row block F̄ row scales")))
+    } else {
+        st = lrr__calloc(ctx, &s->fbar16, rows, k * sizeof(uint16_t),
+                         "row block F̄ (rows×k 16-bit)");
+    }
+    if (!st && op->storage != LRR_STORAGE_F32 &&
+        !(st = lrr__calloc(ctx, &s->row_scale, rows, sizeof(float), "row block F̄ row scales")))
         memcpy(s->row_scale, op->row_scale + row0, rows * sizeof(float));
     if (st)
         return st;
-    lrr__fbar_copy_rows(op, row0, row0 + rows, s->storage == LRR_STORAGE_F32
-                                                   ? (void *)s->fbar : (void *)s->fbar16);
+    if (!own)
+        lrr__fbar_copy_rows(op, row0, row0 + rows, *dst);
     s->panels = 0;
     return lrr__fbar_set_panels(s, 1);
 }
 
-/* r->sub: the rows of r's block of op, their per-row data and all of M. Sizes fit: op holds
- * arrays of n ≥ rows entries of each kind and M itself. */
-static lrr_status sub_operator(const lrr_operator *op, lrr__rows *r)
+/* r->sub: the rows of r's block of op (or of own, taken over), their per-row data and all
+ * of M. Sizes fit: op holds arrays of n ≥ rows entries of each kind and M itself. */
+static lrr_status sub_operator(const lrr_operator *op, lrr__rows *r, void **own)
 {
     lrr_context *ctx = op->ctx;
     lrr_operator *s = lrr__zalloc(ctx, sizeof *s);
@@ -92,10 +99,35 @@ static lrr_status sub_operator(const lrr_operator *op, lrr__rows *r)
     memcpy(s->emission, op->emission + 3 * row0, rows * 3 * sizeof(float));
     memcpy(s->weight, op->weight + row0, rows * sizeof(float));
     memcpy(s->m, op->m, k * k * 3 * sizeof(float));
-    return copy_fbar(op, s, row0);
+    return copy_fbar(op, s, row0, own);
 }
 
+static lrr_status rows_make(const lrr_operator *op, size_t p0, size_t p1, void **own,
+                            lrr__rows **out);
+
 lrr_status lrr__rows_create(const lrr_operator *op, size_t p0, size_t p1, lrr__rows **out)
+{
+    return rows_make(op, p0, p1, NULL, out);
+}
+
+lrr_status lrr__rows_load(lrr_context *ctx, const char *path, lrr__rows_pick_fn pick,
+                          void *user, lrr__rows **out)
+{
+    *out = NULL;
+    lrr_operator *op = NULL;
+    lrr__fbar_block b;
+    lrr_status st = lrr__operator_load_rows(ctx, path, pick, user, &op, &b);
+    if (st)
+        return st;
+    st = rows_make(op, b.p0, b.p1, &b.fbar, out);
+    lrr_aligned_free(b.fbar); /* NULL once taken over */
+    lrr_operator_destroy(op);
+    return st;
+}
+
+/* The block of patches [p0, p1) of op: its F̄ copied from op, or taken over from *own. */
+static lrr_status rows_make(const lrr_operator *op, size_t p0, size_t p1, void **own,
+                            lrr__rows **out)
 {
     *out = NULL;
     lrr_context *ctx = op->ctx;
@@ -116,7 +148,7 @@ lrr_status lrr__rows_create(const lrr_operator *op, size_t p0, size_t p1, lrr__r
     r->row0 = first[p0];
     r->rows = first[p1] - first[p0];
     r->kernel = lrr__kernel_select(&simd, op->k);
-    if ((st = sub_operator(op, r)) ||
+    if ((st = sub_operator(op, r, own)) ||
         (st = lrr__calloc(ctx, &r->first, p1 - p0 + 1, sizeof(size_t), "row block offsets")) ||
         (st = lrr__calloc(ctx, &r->z, op->k, 3 * sizeof(float), "row block z (3×k)")))
         goto fail;

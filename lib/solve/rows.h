@@ -24,6 +24,17 @@ typedef struct lrr__rows lrr__rows;
  * LRR_SIMD is read as lrr_solver_create reads it. */
 LRR__PRIVATE_API lrr_status lrr__rows_create(const lrr_operator *op, size_t p0, size_t p1,
                                              lrr__rows **out);
+/* The same block loaded from a .lrr file without the rest of F̄: pick (called once, with
+ * the operator's n, k and patch offsets first[0..k]) chooses [*p0, *p1); the file is
+ * checked as lrr_operator_load checks it (F̄'s section by its checksum; a dense F̄'s
+ * entries within the block), and the block equals lrr__rows_create's of the loaded
+ * operator. A rank holds its rows of F̄ (and, while loading, one 1 MiB piece) instead of
+ * the whole. */
+typedef lrr_status (*lrr__rows_pick_fn)(void *user, const lrr_operator *op, size_t *p0,
+                                        size_t *p1);
+LRR__PRIVATE_API lrr_status lrr__rows_load(lrr_context *ctx, const char *path,
+                                           lrr__rows_pick_fn pick, void *user,
+                                           lrr__rows **out);
 LRR__PRIVATE_API void lrr__rows_destroy(lrr__rows *r);
 /* The block's context (held by it), its first row (global index) and row count. */
 LRR__PRIVATE_API lrr_context *lrr__rows_context(const lrr__rows *r);

@@ -58,9 +58,9 @@ static outcome create(lrr_context *ctx, const char *path, lrr_mpi_solver **s)
     return o;
 }
 
-/* Rank 0 copies src to dst with one byte of F̄'s section flipped (past the header and the
- * table: the section checksum fails). */
-static void write_corrupt(const char *src, const char *dst)
+/* Rank 0 copies src to dst with the byte at `at` of its size flipped (past the header and
+ * the table: a section's checksum fails; 3/4 of the Cornell file is in M, 1/3 in F̄). */
+static void write_corrupt(const char *src, const char *dst, double at)
 {
     if (mt_rank == 0) {
         FILE *f = fopen(src, "rb");
@@ -71,7 +71,7 @@ static void write_corrupt(const char *src, const char *dst)
         if (fread(buf, 1, (size_t)size, f) != (size_t)size)
             size = 0;
         fclose(f);
-        buf[size * 3 / 4] ^= 0x5a;
+        buf[(long)((double)size * at)] ^= 0x5a;
         f = fopen(dst, "wb");
         fwrite(buf, 1, (size_t)size, f);
         fclose(f);
@@ -81,12 +81,15 @@ static void write_corrupt(const char *src, const char *dst)
 }
 
 static void files_faults(lrr_context *ctx, const char *good, const char *corrupt,
-                         const char *other)
+                         const char *corrupt_fbar, const char *other)
 {
     lrr_mpi_solver *s = (lrr_mpi_solver *)1;
     outcome o = create(ctx, corrupt, &s);
     check_outcome("corrupt file on every rank", &o, LRR_ERR_CORRUPT, "checksum", -1);
     mt_check(s == NULL, "corrupt file: no solver");
+    /* every rank reads F̄'s whole section for its checksum, though it keeps its rows only */
+    o = create(ctx, corrupt_fbar, &s);
+    check_outcome("corrupt F̄ on every rank", &o, LRR_ERR_CORRUPT, "section FBAR", -1);
     if (mt_size == 1)
         return;
     const int last = mt_size - 1;
@@ -194,22 +197,24 @@ static void allocation_faults(lrr_context *ctx, const char *good)
 int main(int argc, char **argv)
 {
     mt_init(&argc, &argv);
-    char good[4096], corrupt[4096], other[4096];
+    char good[4096], corrupt[4096], corrupt_fbar[4096], other[4096];
     mt_path(good, sizeof good, "fault-good");
     mt_path(corrupt, sizeof corrupt, "fault-corrupt");
+    mt_path(corrupt_fbar, sizeof corrupt_fbar, "fault-corrupt-fbar");
     mt_path(other, sizeof other, "fault-other");
     mt_write_op(good, "cornell", 54, 1, LRR_STORAGE_F32);
     mt_write_op(other, "cornell", 40, 1, LRR_STORAGE_F32);
-    write_corrupt(good, corrupt);
+    write_corrupt(good, corrupt, 0.75);
+    write_corrupt(good, corrupt_fbar, 1.0 / 3);
     lrr_context *ctx;
     if (lrr_context_create(&ctx) != LRR_OK)
         return 1;
-    files_faults(ctx, good, corrupt, other);
+    files_faults(ctx, good, corrupt, corrupt_fbar, other);
     emission_faults(ctx, good);
     allocation_faults(ctx, good);
     lrr_context_destroy(ctx);
     MPI_Barrier(MPI_COMM_WORLD);
     if (mt_rank == 0)
-        unlink(good), unlink(corrupt), unlink(other);
+        unlink(good), unlink(corrupt), unlink(corrupt_fbar), unlink(other);
     return mt_finish();
 }
