@@ -90,7 +90,7 @@ struct header {
 };
 
 /* load.c, in the order a load calls them (lrr_operator_load; lrr__operator_load_rows in
- * load_rows.c): open path into r (closed by the caller when r->fd >= 0); the header, the
+ * load_rows.c): open path into r (closed by the caller when r->fd >= 0) and clear lh; the header, the
  * section table, the geometry and hierarchy, INFO, and an operator of it (F̄ allocated when
  * with_fbar; its rho and emission read and checked, its weighting set); the row scales
  * (16-bit F̄) and M, read and checked; INFO's fields into the operator. */
@@ -101,7 +101,8 @@ struct load_head {
     int builtin;
     double selection_seconds;
 };
-lrr_status lrr__load_open(lrr_context *ctx, const char *path, struct reader *r);
+lrr_status lrr__load_open(lrr_context *ctx, const char *path, struct reader *r,
+                          struct load_head *lh);
 lrr_status lrr__load_head(struct reader *r, struct load_head *lh, int with_fbar,
                           lrr_operator **out);
 lrr_status lrr__load_row_scales(struct reader *r, const struct load_head *lh, lrr_operator *op);

@@ -526,9 +526,11 @@ static lrr_status read_fbar(struct reader *r, const struct header *hd,
     return lrr__check_fbar(r, op);
 }
 
-lrr_status lrr__load_open(lrr_context *ctx, const char *path, struct reader *r)
+lrr_status lrr__load_open(lrr_context *ctx, const char *path, struct reader *r,
+                          struct load_head *lh)
 {
     *r = (struct reader){ctx, path, -1, 0};
+    memset(lh, 0, sizeof *lh);
     if (!LRR__FILE_LITTLE_ENDIAN)
         return lrr__error(ctx, LRR_ERR_UNSUPPORTED,
                           "file %s: .lrr files are little-endian; this host is not", path);
@@ -617,9 +619,8 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     *out = NULL;
     struct reader r;
     struct load_head lh;
-    memset(&lh, 0, sizeof lh);
     lrr_operator *op = NULL;
-    lrr_status st = lrr__load_open(ctx, path, &r);
+    lrr_status st = lrr__load_open(ctx, path, &r, &lh);
     if (st)
         return st;
     if ((st = lrr__load_head(&r, &lh, 1, &op)) || (st = read_fbar(&r, &lh.hd, lh.sec, op)) ||

@@ -93,9 +93,8 @@ lrr_status lrr__operator_load_rows(lrr_context *ctx, const char *path, lrr__pick
     memset(b, 0, sizeof *b);
     struct reader r;
     struct load_head lh;
-    memset(&lh, 0, sizeof lh);
     lrr_operator *op = NULL;
-    lrr_status st = lrr__load_open(ctx, path, &r);
+    lrr_status st = lrr__load_open(ctx, path, &r, &lh);
     if (st)
         return st;
     if (!(st = lrr__load_head(&r, &lh, 0, &op)) && !(st = lrr__load_row_scales(&r, &lh, op)) &&

@@ -13,6 +13,11 @@
  * Seeds strips_*.lrr hold F̄ as strips (version 5, section FBAR_STRIPS). Such a file expands
  * to a dense F̄ larger than itself, but RHO and M bound n and k by its size: below MAX_INPUT
  * at most (2^20/12)^1.5 entries, 100 MB of floats, within the smoke's -malloc_limit_mb.
+ *
+ * Then the middle third of the patches is loaded alone (lrr__rows_load, what each rank of
+ * a distributed solver loads: F̄ streamed for its checksum, only the block kept): it fails
+ * with a message or succeeds, and where the whole file loaded it succeeds with the same
+ * rows of the stored emission.
  */
 #include <math.h>
 #include <stdlib.h>
@@ -20,6 +25,7 @@
 
 #include "fuzz.h"
 #include "lrr.h"
+#include "solve/rows.h" /* lrr__rows_load: the row block an MPI rank loads */
 
 #define HEADER_SIZE 64u
 #define ENTRY_SIZE 32u
@@ -136,6 +142,39 @@ static void solve(lrr_operator *op)
     free(row);
 }
 
+static lrr_status middle_third(void *user, const lrr_operator *op, size_t *p0, size_t *p1)
+{
+    (void)user;
+    lrr_operator_info info;
+    lrr_operator_get_info(op, &info, sizeof info);
+    *p0 = info.k / 3;
+    *p1 = 2 * info.k / 3;
+    return LRR_OK;
+}
+
+/* The row block of the middle third of the patches, against op (NULL: the whole load
+ * failed). */
+static void row_block(lrr_context *ctx, const char *path, const lrr_operator *op)
+{
+    lrr__rows *rows = NULL;
+    lrr_status st = lrr__rows_load(ctx, path, middle_third, NULL, &rows);
+    char msg[512] = "";
+    lrr_status recorded = lrr_context_last_error(ctx, msg, sizeof msg);
+    if (st != LRR_OK && (rows || recorded == LRR_OK || !msg[0]))
+        fuzz_fail("lrr__rows_load failed (%s) %s", lrr_strerror(st),
+                  rows ? "but returned a block" : "without a message");
+    if (st != LRR_OK && op && st != LRR_ERR_NOMEM)
+        fuzz_fail("lrr__rows_load failed (%s: %s) on a file that loads", lrr_strerror(st), msg);
+    if (st == LRR_OK && op) {
+        size_t row0, count;
+        lrr__rows_range(rows, &row0, &count);
+        const float *e = lrr__rows_emission(rows);
+        if (count && memcmp(e, lrr_operator_emission(op) + 3 * row0, count * 3 * sizeof *e))
+            fuzz_fail("the row block's emission differs from the loaded operator's");
+    }
+    lrr__rows_destroy(rows);
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     fuzz_init();
@@ -165,6 +204,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         fuzz_fail("lrr_operator_load failed (%s) %s", lrr_strerror(st),
                   op ? "but returned an operator" : "without a message");
     }
+    row_block(ctx, path, st == LRR_OK ? op : NULL);
     lrr_operator_destroy(op);
     lrr_context_destroy(ctx);
     fuzz_remove("op.lrr");
