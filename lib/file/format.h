@@ -108,8 +108,6 @@ lrr_status lrr__load_head(struct reader *r, struct load_head *lh, int with_fbar,
 lrr_status lrr__load_row_scales(struct reader *r, const struct load_head *lh, lrr_operator *op);
 lrr_status lrr__load_m(struct reader *r, const struct load_head *lh, lrr_operator *op);
 void lrr__load_info(const struct load_head *lh, lrr_operator *op);
-/* Reads section s into buf and verifies its checksum. */
-lrr_status lrr__read_section(struct reader *r, const struct section *s, void *buf);
 /* Reads len bytes at offset (checked against the file size by the caller); what names them
  * in errors. */
 lrr_status lrr__file_read_at(struct reader *r, uint64_t offset, void *buf, size_t len,

@@ -68,11 +68,6 @@ static lrr_status read_section(struct reader *r, const struct section *s, void *
     return LRR_OK;
 }
 
-lrr_status lrr__read_section(struct reader *r, const struct section *s, void *buf)
-{
-    return read_section(r, s, buf);
-}
-
 static lrr_status expect_size(struct reader *r, const struct section *s, uint64_t count,
                               uint64_t elem, const char *formula)
 {
