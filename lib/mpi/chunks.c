@@ -6,6 +6,8 @@
 #include "config.h"
 #include "mpi/mpi_internal.h"
 
+#include <string.h>
+
 size_t lrr__mpi_chunk_rows(size_t n, int r, int size, size_t *rows)
 {
     size_t count = 0;
@@ -41,5 +43,27 @@ int lrr__mpi_chunk_recv(MPI_Comm comm, size_t n, int r, int size, MPI_Datatype r
     if ((rc = MPI_Type_commit(&type)) == MPI_SUCCESS)
         rc = MPI_Recv(buf, 1, type, r, tag, comm, MPI_STATUS_IGNORE);
     MPI_Type_free(&type);
+    return rc;
+}
+
+int lrr__mpi_chunk_gather(MPI_Comm comm, int root, size_t n, const size_t *mine, size_t count,
+                          const float *packed, float *whole, int *len, int *at, int tag)
+{
+    int rank, size, rc;
+    MPI_Datatype rgb;
+    if ((rc = MPI_Comm_rank(comm, &rank)) != MPI_SUCCESS ||
+        (rc = MPI_Comm_size(comm, &size)) != MPI_SUCCESS ||
+        (rc = MPI_Type_contiguous(3, MPI_FLOAT, &rgb)) != MPI_SUCCESS)
+        return rc;
+    if ((rc = MPI_Type_commit(&rgb)) == MPI_SUCCESS && rank != root && count) {
+        rc = MPI_Send(packed, (int)count, rgb, root, tag, comm);
+    } else if (rc == MPI_SUCCESS && rank == root) {
+        for (size_t j = 0; j < count; j++)
+            memcpy(whole + 3 * mine[j], packed + 3 * j, 3 * sizeof(float));
+        for (int r = 0; r < size && rc == MPI_SUCCESS; r++)
+            if (r != root)
+                rc = lrr__mpi_chunk_recv(comm, n, r, size, rgb, len, at, whole, tag);
+    }
+    MPI_Type_free(&rgb);
     return rc;
 }

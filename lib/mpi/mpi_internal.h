@@ -38,5 +38,11 @@ size_t lrr__mpi_chunk_most(size_t n, int size);
  * error code. */
 int lrr__mpi_chunk_recv(MPI_Comm comm, size_t n, int r, int size, MPI_Datatype row,
                         int *len, int *at, void *buf, int tag);
+/* Every rank's estimates (3 floats a row) of its chunks of n rows to the root: a rank sends
+ * its `count` rows, packed in chunk order; the root places its own, packed[j] at row
+ * mine[j] of whole (n×3), and receives every other rank's in place (len and at: scratch of
+ * lrr__mpi_chunk_most entries). whole is the root's alone. An MPI error code. */
+int lrr__mpi_chunk_gather(MPI_Comm comm, int root, size_t n, const size_t *mine, size_t count,
+                          const float *packed, float *whole, int *len, int *at, int tag);
 
 #endif

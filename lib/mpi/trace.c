@@ -54,30 +54,6 @@ static lrr_status prepare(trace *t, const lrr_scene *scene, const float *std_err
     return LRR_OK;
 }
 
-/* Every rank's estimates to the root, in place (its own copied). */
-static int collect(trace *t, MPI_Datatype rgb, float *radiosity, float *std_error)
-{
-    int rc = MPI_SUCCESS;
-    if (t->rank != t->root) {
-        if (t->count && (rc = MPI_Send(t->b, (int)t->count, rgb, t->root, TAG_B, t->comm)) ==
-                            MPI_SUCCESS && t->want_se)
-            rc = MPI_Send(t->se, (int)t->count, rgb, t->root, TAG_SE, t->comm);
-        return rc;
-    }
-    for (size_t j = 0; j < t->count; j++) {
-        memcpy(radiosity + 3 * t->rows[j], t->b + 3 * j, 3 * sizeof(float));
-        if (t->want_se)
-            memcpy(std_error + 3 * t->rows[j], t->se + 3 * j, 3 * sizeof(float));
-    }
-    for (int r = 0; r < t->size && rc == MPI_SUCCESS; r++)
-        if (r != t->root &&
-            (rc = lrr__mpi_chunk_recv(t->comm, t->n, r, t->size, rgb, t->len, t->at, radiosity,
-                                      TAG_B)) == MPI_SUCCESS && t->want_se)
-            rc = lrr__mpi_chunk_recv(t->comm, t->n, r, t->size, rgb, t->len, t->at, std_error,
-                                     TAG_SE);
-    return rc;
-}
-
 static lrr_status trace_steps(trace *t, const lrr_scene *scene,
                               const lrr_path_trace_options *opts, float *radiosity,
                               float *std_error)
@@ -89,12 +65,11 @@ static lrr_status trace_steps(trace *t, const lrr_scene *scene,
     st = lrr__trace_rows(scene, opts, t->rows, t->count, t->b, t->want_se ? t->se : NULL);
     if ((st = lrr__mpi_spread(t->ctx, t->comm, st)))
         return st;
-    MPI_Datatype rgb;
-    int rc = MPI_Type_contiguous(3, MPI_FLOAT, &rgb);
-    if (rc == MPI_SUCCESS && (rc = MPI_Type_commit(&rgb)) == MPI_SUCCESS) {
-        rc = collect(t, rgb, radiosity, std_error);
-        MPI_Type_free(&rgb);
-    }
+    int rc = lrr__mpi_chunk_gather(t->comm, t->root, t->n, t->rows, t->count, t->b, radiosity,
+                                   t->len, t->at, TAG_B);
+    if (rc == MPI_SUCCESS && t->want_se)
+        rc = lrr__mpi_chunk_gather(t->comm, t->root, t->n, t->rows, t->count, t->se, std_error,
+                                   t->len, t->at, TAG_SE);
     return lrr__mpi_spread(t->ctx, t->comm,
                            rc == MPI_SUCCESS
                                ? LRR_OK

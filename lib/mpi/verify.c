@@ -96,13 +96,13 @@ static lrr_status share(verify *v, const lrr__tracer *given, const lrr_path_trac
     lrr_status st = v->early;
     v->early = LRR_OK;
     if (!st && !given && (!v->tracer || v->uniform != (int)cmd[5])) {
-        lrr__trace_stop(v->tracer);
+        lrr__tracer_destroy(v->tracer);
         v->tracer = NULL;
         v->uniform = (int)cmd[5];
         st = lrr__trace_start(v->scene, v->uniform, &v->tracer);
     }
     if (!st && count)
-        st = lrr__trace_list(given ? given : v->tracer, &po, mine, count, p,
+        st = lrr__tracer_rows(given ? given : v->tracer, &po, mine, count, p,
                              cmd[4] ? se : NULL);
     return st;
 }
@@ -121,31 +121,13 @@ static lrr_status batch(verify *v, const lrr__tracer *given, const lrr_path_trac
                         ? share(v, given, ro, cmd, rows, pos, mine, bp, bp + 3 * most)
                         : lrr__mpi_error(v->ctx, LRR_ERR_NOMEM, "lrr_mpi_operator_verify: "
                                          "cannot allocate this rank's %zu subpatches", most);
-    MPI_Datatype rgb = MPI_DATATYPE_NULL;
     int rc = MPI_SUCCESS;
     if (!(st = lrr__mpi_spread(v->ctx, v->comm, st)) &&
-        (rc = MPI_Type_contiguous(3, MPI_FLOAT, &rgb)) == MPI_SUCCESS &&
-        (rc = MPI_Type_commit(&rgb)) == MPI_SUCCESS) {
-        if (v->rank != v->root) {
-            if (most && (rc = MPI_Send(bp, (int)most, rgb, v->root, TAG_P, v->comm)) ==
-                            MPI_SUCCESS && cmd[4])
-                rc = MPI_Send(bp + 3 * most, (int)most, rgb, v->root, TAG_SE, v->comm);
-        } else {
-            for (size_t j = 0; j < most; j++) {
-                memcpy(p + 3 * pos[j], bp + 3 * j, 3 * sizeof(float));
-                if (cmd[4])
-                    memcpy(se + 3 * pos[j], bp + 3 * (most + j), 3 * sizeof(float));
-            }
-            for (int r = 0; r < v->size && rc == MPI_SUCCESS; r++)
-                if (r != v->root &&
-                    (rc = lrr__mpi_chunk_recv(v->comm, count, r, v->size, rgb, len, at, p,
-                                              TAG_P)) == MPI_SUCCESS && cmd[4])
-                    rc = lrr__mpi_chunk_recv(v->comm, count, r, v->size, rgb, len, at, se,
-                                             TAG_SE);
-        }
-    }
-    if (rgb != MPI_DATATYPE_NULL)
-        MPI_Type_free(&rgb);
+        (rc = lrr__mpi_chunk_gather(v->comm, v->root, count, pos, most, bp, p, len, at,
+                                    TAG_P)) == MPI_SUCCESS &&
+        cmd[4])
+        rc = lrr__mpi_chunk_gather(v->comm, v->root, count, pos, most, bp + 3 * most, se, len,
+                                   at, TAG_SE);
     free(pos);
     free(mine);
     free(bp);
@@ -212,10 +194,14 @@ lrr_status lrr_mpi_operator_verify(lrr_operator *op, const lrr_scene *scene,
                                                   "operator is NULL")
                                  : LRR_OK);
     if (!st && v.rank != root) {
-        /* the tracer for the scene's emission, built while the root builds its own and
-         * solves (the first command rebuilds it for a scene that emits nothing); a failure
-         * is reported at the first command, where the ranks agree */
-        v.early = lrr__trace_start(scene, 0, &v.tracer);
+        /* the tracer, built while the root builds its own and solves: for the scene's
+         * emission, or E = 1 where no triangle emits (the first command says which, and a
+         * wrong guess is built again); a failure is reported at the first command, where
+         * the ranks agree */
+        lrr_scene_info si;
+        lrr_scene_get_info(scene, &si, sizeof si);
+        v.uniform = si.emitters == 0;
+        v.early = lrr__trace_start(scene, v.uniform, &v.tracer);
         st = serve(&v);
     } else if (!st) {
         st = lrr__verify_with(op, scene, opts, root_trace, &v);
@@ -223,7 +209,7 @@ lrr_status lrr_mpi_operator_verify(lrr_operator *op, const lrr_scene *scene,
         lrr_status sent = command(&v, done, NULL);
         st = lrr__mpi_spread(v.ctx, v.comm, st ? st : sent);
     }
-    lrr__trace_stop(v.tracer);
+    lrr__tracer_destroy(v.tracer);
     MPI_Comm_free(&v.comm);
     return st;
 }

@@ -439,14 +439,6 @@ lrr_status lrr__trace_start(const lrr_scene *scene, int uniform, lrr__tracer **o
     return st;
 }
 
-lrr_status lrr__trace_list(const lrr__tracer *t, const lrr_path_trace_options *opts,
-                           const size_t *rows, size_t count, float *radiosity, float *std_error)
-{
-    return lrr__tracer_rows(t, opts, rows, count, radiosity, std_error);
-}
-
-void lrr__trace_stop(lrr__tracer *t) { lrr__tracer_destroy(t); }
-
 lrr_context *lrr__trace_context(const lrr_scene *scene) { return scene->ctx; }
 
 lrr_status lrr_reference_path_trace(const lrr_scene *scene, const lrr_path_trace_options *opts,

@@ -3,6 +3,7 @@
 #ifndef LRR_REFERENCE_H
 #define LRR_REFERENCE_H
 
+#include "reference/rows.h"
 #include "scene/scene.h"
 
 /* The path tracer of lrr_reference_path_trace (path_trace.c) as an object, so that several
@@ -11,11 +12,7 @@
  * is not NULL. lrr__tracer_rows traces the subpatches rows[0..count) of the scene (its
  * order; rows NULL: all n) into radiosity and std_error (count×3; std_error may be NULL),
  * as lrr_reference_path_trace does with opts. */
-typedef struct lrr__tracer lrr__tracer;
 lrr_status lrr__tracer_create(const lrr_scene *scene, const float *emission, lrr__tracer **out);
-lrr_status lrr__tracer_rows(const lrr__tracer *t, const lrr_path_trace_options *opts,
-                            const size_t *rows, size_t count, float *radiosity,
-                            float *std_error);
-void lrr__tracer_destroy(lrr__tracer *t);
+/* lrr__tracer_rows and lrr__tracer_destroy: reference/rows.h (exported for liblrr_mpi). */
 
 #endif

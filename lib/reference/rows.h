@@ -17,16 +17,16 @@ LRR__PRIVATE_API lrr_status lrr__trace_rows(const lrr_scene *scene,
                                             const size_t *rows, size_t count,
                                             float *radiosity, float *std_error);
 /* One tracer for many lists (the BVH built once): the scene's emission, or with uniform 1
- * on every triangle (lrr_operator_verify's, for a scene that emits nothing). lrr__trace_list
- * traces rows[0..count) as lrr__trace_rows does. */
+ * on every triangle (lrr_operator_verify's, for a scene that emits nothing).
+ * lrr__tracer_rows traces rows[0..count) (NULL: all n) as lrr__trace_rows does. */
 typedef struct lrr__tracer lrr__tracer;
 LRR__PRIVATE_API lrr_status lrr__trace_start(const lrr_scene *scene, int uniform,
                                              lrr__tracer **out);
-LRR__PRIVATE_API lrr_status lrr__trace_list(const lrr__tracer *t,
-                                            const lrr_path_trace_options *opts,
-                                            const size_t *rows, size_t count,
-                                            float *radiosity, float *std_error);
-LRR__PRIVATE_API void lrr__trace_stop(lrr__tracer *t);
+LRR__PRIVATE_API lrr_status lrr__tracer_rows(const lrr__tracer *t,
+                                             const lrr_path_trace_options *opts,
+                                             const size_t *rows, size_t count,
+                                             float *radiosity, float *std_error);
+LRR__PRIVATE_API void lrr__tracer_destroy(lrr__tracer *t);
 /* The scene's context (errors are recorded there). */
 LRR__PRIVATE_API lrr_context *lrr__trace_context(const lrr_scene *scene);
 

@@ -11,7 +11,7 @@
 typedef struct lrr__tracer lrr__tracer;
 
 /* Traces the subpatches rows[0..count) (the scene's order) with o into radiosity and
- * std_error (count×3; std_error may be NULL), as lrr__trace_list does with `tracer`, the
+ * std_error (count×3; std_error may be NULL), as lrr__tracer_rows does with `tracer`, the
  * verify's own; uniform: the verify's emission is 1 on every triangle (the scene emits
  * nothing), else the scene's (lrr__trace_start's argument). */
 typedef lrr_status (*lrr__verify_trace_fn)(void *user, const lrr__tracer *tracer, int uniform,
