@@ -108,8 +108,12 @@ typedef struct lrr_mpi_build_info {
     size_t rows;             /* this rank's receivers (rows of F̄) */
     double rows_seconds;     /* this rank's hemicubes */
     double rows_seconds_min, rows_seconds_max; /* over the ranks: the balance */
-    double gather_seconds;   /* the blocks of F̄ to the root */
+    double gather_seconds;   /* the blocks of F̄ to the root (build_save: the row scales,
+                                back-face shares and weights' sums) */
     double seconds;          /* the whole call on this rank */
+    /* added with lrr_mpi_operator_build_save (info_size tells which fields a caller has) */
+    size_t fbar_bytes;       /* this rank's rows of F̄ held, in the file's storage */
+    double save_seconds;     /* build_save: G's assembly and inversion excluded, the file */
 } lrr_mpi_build_info;
 
 /* Collective over comm. lrr_operator_build across ranks: every rank passes the same scene
@@ -135,6 +139,31 @@ LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build(const lrr_scene *scene,
                                                         lrr_mpi_build_info *info,
                                                         size_t info_size)
     LRR_NONNULL(1, 5);
+
+/* Collective over comm. lrr_mpi_operator_build, then lrr_operator_set_storage(storage) and
+ * lrr_operator_save_fbar(path, fbar) on the root, without any rank holding more of F̄ than
+ * its own rows: each rank keeps the rows of its chunks (64 rows dealt round-robin) in
+ * `storage`; the Vᵀ weights and G_c's rows are summed where the rows are, in the serial
+ * order (a patch that spans chunks passes its partial row on), and the root inverts G_c;
+ * the root writes the file, F̄'s section pulled from the ranks one chunk at a time. The file
+ * is the serial one byte for byte but for its timings (INFO's build seconds, the
+ * selection's seconds). storage, fbar and path are the root's (path may be NULL
+ * elsewhere). opts->memory_budget is checked on every rank against what it holds: its
+ * share of F̄ (about n/P rows), M, the per-subpatch arrays and the build's buffers, so a
+ * scene whose F̄ exceeds one rank's budget can be built by more ranks. head (may be NULL)
+ * receives on the root the operator without F̄ (its rows of F̄ are not held: the calls
+ * that read F̄ refuse it, see lrr_operator_load_head), NULL elsewhere and on error. Errors
+ * as lrr_mpi_operator_build's, agreed; the file is not written (no file under path) when
+ * any rank fails. */
+LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build_save(const lrr_scene *scene,
+                                                             const lrr_build_options *opts,
+                                                             lrr_storage storage,
+                                                             lrr_fbar_format fbar,
+                                                             const char *path, MPI_Comm comm,
+                                                             int root, lrr_operator **head,
+                                                             lrr_mpi_build_info *info,
+                                                             size_t info_size)
+    LRR_NONNULL(1);
 
 /* Collective over comm. lrr_reference_path_trace across ranks: every rank passes the same
  * scene (subdivided alike) and options and traces the subpatches of its chunks (64 dealt

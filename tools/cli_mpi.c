@@ -37,6 +37,24 @@ lrr_status cli_mpi_build(cli_mpi *m, const lrr_scene *scene,
     return st;
 }
 
+lrr_status cli_mpi_build_save(cli_mpi *m, const lrr_scene *scene, const lrr_build_options *bo,
+                              lrr_storage storage, lrr_fbar_format fbar, const char *path,
+                              lrr_operator **head)
+{
+    lrr_mpi_build_info info;
+    lrr_status st = lrr_mpi_operator_build_save(scene, bo, storage, fbar, path, MPI_COMM_WORLD,
+                                                0, head, &info, sizeof info);
+    m->rows_seconds_min = info.rows_seconds_min;
+    m->rows_seconds_max = info.rows_seconds_max;
+    m->gather_seconds = info.gather_seconds;
+    m->save_seconds = info.save_seconds;
+    m->saved = 1;
+    unsigned long long mine = info.fbar_bytes, most = 0;
+    MPI_Reduce(&mine, &most, 1, MPI_UNSIGNED_LONG_LONG, MPI_MAX, 0, MPI_COMM_WORLD);
+    m->fbar_bytes_max = (size_t)most;
+    return st;
+}
+
 lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
                          const lrr_path_trace_options *o, float *b, float *se)
 {
@@ -77,6 +95,10 @@ void cli_mpi_print(const cli_mpi *m)
     printf("ranks: %d\n", m->ranks);
     printf("rank_hemicube_seconds: %.3f %.3f\n", m->rows_seconds_min, m->rows_seconds_max);
     printf("gather_seconds: %.3f\n", m->gather_seconds);
+    if (m->saved) { /* F̄ stayed on the ranks: the most one held, and the streamed save */
+        printf("rank_fbar_mb: %.3f\n", (double)m->fbar_bytes_max / (1024.0 * 1024.0));
+        printf("save_seconds: %.3f\n", m->save_seconds);
+    }
 }
 
 void cli_mpi_finalize(const cli_mpi *m)

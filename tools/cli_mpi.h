@@ -15,6 +15,9 @@ typedef struct cli_mpi {
     int rank, ranks;
     int inited;      /* MPI was initialised before (then not finalised here) */
     double rows_seconds_min, rows_seconds_max, gather_seconds; /* of the build */
+    int saved;             /* built by cli_mpi_build_save: */
+    double save_seconds;   /* its file's save */
+    size_t fbar_bytes_max; /* the most F̄ a rank held (rank 0's figure) */
 } cli_mpi;
 
 #ifdef LRR_MPI
@@ -24,6 +27,11 @@ int cli_mpi_init(cli_mpi *m, const char *prog);
  * lrr_operator_build: *op on rank 0 only. */
 lrr_status cli_mpi_build(cli_mpi *m, const lrr_scene *scene,
                                 const lrr_build_options *bo, lrr_operator **op);
+/* lrr_mpi_operator_build_save across MPI_COMM_WORLD (root 0; m->on only): F̄ stays on
+ * the ranks, rank 0 writes path and gets the operator without F̄ in *head. */
+lrr_status cli_mpi_build_save(cli_mpi *m, const lrr_scene *scene, const lrr_build_options *bo,
+                              lrr_storage storage, lrr_fbar_format fbar, const char *path,
+                              lrr_operator **head);
 /* lrr_mpi_reference_path_trace across MPI_COMM_WORLD (root 0) when m->on, else
  * lrr_reference_path_trace: b and se whole on rank 0. */
 lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
@@ -51,6 +59,15 @@ static inline lrr_status cli_mpi_build(cli_mpi *m, const lrr_scene *scene,
 {
     (void)m;
     return lrr_operator_build(scene, bo, op);
+}
+static inline lrr_status cli_mpi_build_save(cli_mpi *m, const lrr_scene *scene,
+                                            const lrr_build_options *bo, lrr_storage storage,
+                                            lrr_fbar_format fbar, const char *path,
+                                            lrr_operator **head)
+{
+    (void)m, (void)scene, (void)bo, (void)storage, (void)fbar, (void)path;
+    *head = NULL;
+    return LRR_ERR_UNSUPPORTED; /* never called: m->on is 0 without MPI */
 }
 static inline lrr_status cli_mpi_trace(const cli_mpi *m, const lrr_scene *scene,
                                        const lrr_path_trace_options *o, float *b, float *se)

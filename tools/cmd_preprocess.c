@@ -327,7 +327,12 @@ static int build_and_save(lrr_context *ctx, preprocess_args *a, const lrr_scene 
     bo.memory_budget = a->budget;
     if (a->quiet)
         bo.progress = NULL;
-    lrr_status s = cli_mpi_build(&a->mp, scene, &bo, op);
+    /* under mpirun without --verify, F̄ stays on the ranks and rank 0 writes the file as it
+     * streams in (*op without F̄); --verify needs the whole operator on rank 0 */
+    const int saved = a->mp.on && !a->verify;
+    lrr_status s = saved ? cli_mpi_build_save(&a->mp, scene, &bo, a->storage,
+                                              (lrr_fbar_format)a->fbar_file, a->output, op)
+                         : cli_mpi_build(&a->mp, scene, &bo, op);
     cli_progress_finish(&bar);
     if (a->quiet) { /* rank 0 reports the agreed error, naming the rank */
         if (s == LRR_OK && a->verify)
@@ -338,6 +343,11 @@ static int build_and_save(lrr_context *ctx, preprocess_args *a, const lrr_scene 
         rc = cli_lib_error(ctx, s);
         budget_hint(prog, a->budget, a->clusters);
         s = LRR_OK;
+    }
+    if (saved) {
+        if (s == LRR_OK && *op)
+            warn_condition(*op);
+        return s == LRR_OK ? rc : cli_lib_error(ctx, s);
     }
     if (s == LRR_OK && *op)
         s = lrr_operator_set_storage(*op, a->storage);

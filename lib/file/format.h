@@ -8,6 +8,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#include "file/stream.h"
 #include "operator/operator.h"
 
 #if defined(__BYTE_ORDER__) && defined(__ORDER_LITTLE_ENDIAN__) &&                            \
@@ -52,6 +53,7 @@ enum {
  * so the checksum runs over the pieces as over one buffer. */
 struct pieces {
     size_t (*next)(struct pieces *p, size_t *cursor, const void **data);
+    const lrr_status *status; /* NULL, or where a failure of next() is recorded */
 };
 
 /* One entry of the section table; data is the payload being saved (NULL when loading). */

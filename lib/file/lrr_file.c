@@ -329,6 +329,7 @@ static lrr_status write_file(lrr_context *ctx, const char *path, const unsigned 
     lrr__atomic_io io;
     lrr__context_atomic_io(ctx, &io);
     struct writer w = {{0}, 0};
+    lrr_status failed = LRR_OK;
     if (!lrr__atomic_open(&w.file, path, &io)) {
         w_bytes(&w, header, HEADER_SIZE);
         w_bytes(&w, table, tsize);
@@ -341,10 +342,15 @@ static lrr_status write_file(lrr_context *ctx, const char *path, const unsigned 
                 w_bytes(&w, data, got);
             if (!p)
                 w_bytes(&w, sec[s].data, (size_t)sec[s].size);
+            if (p && p->status && *p->status && !failed)
+                failed = *p->status;
         }
-        lrr__atomic_commit(&w.file);
+        if (failed) /* a stream's piece is missing: no file under path */
+            lrr__atomic_abort(&w.file);
+        else
+            lrr__atomic_commit(&w.file);
     }
-    lrr_status st = w.file.err ? lrr__atomic_error(ctx, &w.file) : LRR_OK;
+    lrr_status st = failed ? failed : w.file.err ? lrr__atomic_error(ctx, &w.file) : LRR_OK;
     lrr__atomic_free(&w.file);
     return st;
 }
@@ -372,6 +378,70 @@ static lrr_status choose_fbar(const lrr_operator *op, const char *path, lrr_fbar
     return LRR_OK;
 }
 
+/* F̄ from a stream (lrr__operator_save_stream): the strip counts first when strips, then
+ * the stream's pieces. */
+struct stream_out {
+    struct pieces base;
+    lrr__fbar_stream *src;
+    int strips;
+    unsigned char *counts; /* the section's counts (strips) */
+    size_t counts_bytes;
+};
+
+static size_t stream_next(struct pieces *p, size_t *cursor, const void **data)
+{
+    struct stream_out *so = (struct stream_out *)(void *)p;
+    if (so->src->status)
+        return 0;
+    if (!so->strips)
+        return so->src->next(so->src, 0, cursor, data);
+    if (*cursor == 0) {
+        *data = so->counts;
+        *cursor = 1;
+        return so->counts_bytes;
+    }
+    size_t inner = *cursor - 1, got = so->src->next(so->src, 1, &inner, data);
+    *cursor = inner + 1;
+    return got;
+}
+
+/* choose_fbar for a stream: strips from its counts as AUTO would choose them (*size their
+ * section's bytes). */
+static lrr_status choose_stream(const lrr_operator *op, const char *path, lrr_fbar_format format,
+                                lrr__fbar_stream *src, struct stream_out *so, uint64_t *size,
+                                int *strips)
+{
+    *so = (struct stream_out){{stream_next, &src->status}, src, 0, NULL, 0};
+    *strips = 0;
+    if (format == LRR_FBAR_DENSE || (format == LRR_FBAR_AUTO && op->k > UINT16_MAX))
+        return LRR_OK;
+    if (op->k > UINT16_MAX || !src->tile_strips)
+        return lrr__error(op->ctx, op->k > UINT16_MAX ? LRR_ERR_UNSUPPORTED : LRR_ERR_INVALID_ARG,
+                          "file %s: F̄ as strips: %s", path,
+                          op->k > UINT16_MAX ? "k exceeds the 16-bit column index"
+                                             : "the stream has no strip counts");
+    const size_t es = lrr__fbar_elem_bytes(op), tiles = (op->n + LRR__TILE - 1) / LRR__TILE;
+    size_t total = 0;
+    uint64_t bytes = strips_counts_bytes(op->n);
+    for (size_t t = 0; t < tiles; t++) {
+        total += src->tile_strips[t];
+        bytes += lrr__strips_tile_bytes(src->tile_strips[t], es);
+    }
+    if (format == LRR_FBAR_AUTO && !lrr__sparse_pays(op, total))
+        return LRR_OK;
+    so->counts_bytes = (size_t)strips_counts_bytes(op->n);
+    lrr_status st = lrr__calloc(op->ctx, &so->counts, so->counts_bytes, 1, "F̄ strip counts");
+    if (st)
+        return st;
+    for (size_t t = 0; t < tiles; t++) {
+        const uint16_t m = (uint16_t)src->tile_strips[t];
+        memcpy(so->counts + 2 * t, &m, 2);
+    }
+    *strips = so->strips = 1;
+    *size = bytes;
+    return LRR_OK;
+}
+
 /* The table's sections in id order (FBAR's place taken by FBAR_STRIPS in a strips file),
  * those this operator has; their count. */
 static int list_sections(const lrr_operator *op, int adaptive, struct section all[SEC_KNOWN],
@@ -393,8 +463,9 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
     return lrr_operator_save_fbar(op, path, LRR_FBAR_AUTO);
 }
 
-lrr_status lrr_operator_save_fbar(const lrr_operator *op, const char *path,
-                                  lrr_fbar_format fbar)
+/* lrr_operator_save_fbar, F̄ from op or (src not NULL) from src. */
+static lrr_status save(const lrr_operator *op, const char *path, lrr_fbar_format fbar,
+                       lrr__fbar_stream *src)
 {
     lrr_context *ctx = op->ctx;
     if (!LRR__FILE_LITTLE_ENDIAN)
@@ -406,7 +477,7 @@ lrr_status lrr_operator_save_fbar(const lrr_operator *op, const char *path,
     const lrr__geometry *g = &op->geom;
     const int half = op->storage != LRR_STORAGE_F32;
     if (!g->vert || !g->depth || !op->rho || !op->emission || !op->m ||
-        (half ? !op->fbar16 || !op->row_scale : !op->fbar) ||
+        (half && !op->row_scale) || (!src && (half ? !op->fbar16 : !op->fbar)) ||
         g->n != op->n || g->k != op->k || g->d != op->d || op->n == 0)
         return lrr__error(ctx, LRR_ERR_INVALID_ARG,
                           "file %s: operator is incomplete (no geometry or arrays)", path);
@@ -428,14 +499,16 @@ lrr_status lrr_operator_save_fbar(const lrr_operator *op, const char *path,
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "file %s: section sizes overflow 64 bits",
                           path);
     struct strips_out so = {0};
+    struct stream_out sto = {0};
     uint64_t strips_size = 0;
     int strips = 0;
-    lrr_status st = choose_fbar(op, path, fbar, &so, &strips_size, &strips);
+    lrr_status st = src ? choose_stream(op, path, fbar, src, &sto, &strips_size, &strips)
+                        : choose_fbar(op, path, fbar, &so, &strips_size, &strips);
     if (st)
         return st;
     unsigned char *geom = NULL, *patches = NULL;
     unsigned char info[INFO_SIZE] = {0}, verify[VERIFY_SIZE] = {0};
-    struct rows_out ro = {{rows_next}, op, NULL, op->k * lrr__fbar_elem_bytes(op)};
+    struct rows_out ro = {{rows_next, NULL}, op, NULL, op->k * lrr__fbar_elem_bytes(op)};
     if ((st = build_payloads(op, geom_size, adaptive, &geom, &patches, info)) ||
         (!strips && op->panels &&
          (st = lrr__calloc(ctx, &ro.blk, LRR__PANEL, ro.row_bytes, "a block of F̄ rows"))))
@@ -462,18 +535,35 @@ lrr_status lrr_operator_save_fbar(const lrr_operator *op, const char *path,
         {SEC_VERIFY, verify, VERIFY_SIZE, 0, 0, NULL},
     };
     if (strips)
-        all[SEC_FBAR - 1] = (struct section){SEC_FBAR_STRIPS, NULL, strips_size, 0, 0, &so.base};
+        all[SEC_FBAR - 1] = (struct section){SEC_FBAR_STRIPS, NULL, strips_size, 0, 0,
+                                             src ? &sto.base : &so.base};
+    else if (src)
+        all[SEC_FBAR - 1].pieces = &sto.base;
     struct section sec[SEC_KNOWN];
     const int count = list_sections(op, adaptive, all, sec);
     unsigned char table[SEC_KNOWN * ENTRY_SIZE + 8] = {0};
     unsigned char header[HEADER_SIZE] = {0};
     const size_t tsize =
         lay_out(op, file_version(op, adaptive, strips), sec, count, table, header);
-    st = write_file(ctx, path, header, table, tsize, sec, count);
+    st = src && src->status ? src->status /* its checksum pass failed */
+                            : write_file(ctx, path, header, table, tsize, sec, count);
 done:
     lrr__strips_out_free(&so);
+    lrr_aligned_free(sto.counts);
     lrr_aligned_free(ro.blk);
     lrr_aligned_free(geom);
     lrr_aligned_free(patches);
     return st;
+}
+
+lrr_status lrr_operator_save_fbar(const lrr_operator *op, const char *path,
+                                  lrr_fbar_format fbar)
+{
+    return save(op, path, fbar, NULL);
+}
+
+lrr_status lrr__operator_save_stream(const lrr_operator *op, const char *path,
+                                     lrr_fbar_format fbar, lrr__fbar_stream *src)
+{
+    return save(op, path, fbar, src);
 }

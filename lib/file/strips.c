@@ -68,11 +68,58 @@ static size_t strips_next(struct pieces *p, size_t *cursor, const void **data)
     return used;
 }
 
+/* Whether column q of the tile at block (rows × k elements of es bytes, row-major) has an
+ * entry whose bits are not all zero, as lrr__fbar_tile_nonzeros counts. */
+static int column_set(const unsigned char *block, size_t rows, size_t k, size_t es, size_t q)
+{
+    for (size_t r = 0; r < rows; r++) {
+        const unsigned char *e = block + (r * k + q) * es;
+        for (size_t b = 0; b < es; b++)
+            if (e[b])
+                return 1;
+    }
+    return 0;
+}
+
+size_t lrr__strips_encode(size_t k, size_t es, const void *rows, size_t nrows, size_t *counts,
+                          unsigned char *out)
+{
+    const unsigned char *f = rows;
+    size_t bytes = 0;
+    for (size_t t = 0; t * LRR__TILE < nrows; t++) {
+        const size_t r0 = t * LRR__TILE, tr = nrows - r0 < LRR__TILE ? nrows - r0 : LRR__TILE;
+        const unsigned char *tile = f + r0 * k * es;
+        size_t m = 0;
+        for (size_t q = 0; q < k; q++)
+            m += (size_t)column_set(tile, tr, k, es, q);
+        counts[t] = m;
+        const size_t tb = (size_t)tile_bytes(m, es);
+        if (out) { /* as put_tile writes it */
+            unsigned char *blk = out + bytes, *val = blk + 2 * pad4(m);
+            memset(blk, 0, tb);
+            size_t j = 0;
+            for (size_t q = 0; q < k; q++) {
+                if (!column_set(tile, tr, k, es, q))
+                    continue;
+                const uint16_t col = (uint16_t)q;
+                memcpy(blk + 2 * j, &col, 2);
+                for (size_t r = 0; r < tr; r++)
+                    memcpy(val + (j * LRR__TILE + r) * es, tile + (r * k + q) * es, es);
+                j++;
+            }
+        }
+        bytes += tb;
+    }
+    return bytes;
+}
+
+size_t lrr__strips_tile_bytes(size_t m, size_t es) { return (size_t)tile_bytes(m, es); }
+
 lrr_status lrr__strips_out_init(const lrr_operator *op, struct strips_out *so, uint64_t *size,
                                 int *sparse_pays)
 {
     const size_t es = lrr__fbar_elem_bytes(op);
-    *so = (struct strips_out){{strips_next}, op, (op->n + LRR__TILE - 1) / LRR__TILE, NULL,
+    *so = (struct strips_out){{strips_next, NULL}, op, (op->n + LRR__TILE - 1) / LRR__TILE, NULL,
                               NULL, 0};
     lrr_status st = lrr__calloc(op->ctx, &so->count, so->tiles, sizeof(size_t),
                                 "F̄ strip counts");

@@ -11,7 +11,6 @@
  * 240 s on the two ranks of the bunny room (--clusters 2000, R 128, one thread each). */
 #include "config.h"
 #include "mpi/mpi_internal.h"
-#include "operator/build.h"
 
 #include <limits.h>
 #include <stdlib.h>
@@ -36,27 +35,10 @@ typedef struct dist {
 
 static double now(void) { return MPI_Wtime(); }
 
-/* Every rank selected the same hierarchy: n, k and the fingerprint (offsets, subpatch
- * order, triangles) against the root's; all ranks compare the same table. */
+/* Every rank selected the same hierarchy (mpi_internal.h). */
 static lrr_status same_selection(dist *d)
 {
-    lrr__build_size(d->b, &d->n, &d->k);
-    uint64_t mine[3] = {d->n, d->k, lrr__build_fingerprint(d->b)}, theirs[3];
-    memcpy(theirs, mine, sizeof mine);
-    int rc = MPI_Bcast(theirs, 3, MPI_UINT64_T, d->root, d->comm);
-    if (rc != MPI_SUCCESS)
-        return lrr__mpi_failed(d->ctx, "MPI_Bcast (selection check)", rc);
-    lrr_status st = LRR_OK;
-    if (memcmp(mine, theirs, sizeof mine) != 0)
-        st = lrr__mpi_error(d->ctx, LRR_ERR_DIM,
-                            "lrr_mpi_operator_build: rank %d selected another operator than the "
-                            "root (rank %d): n = %llu, k = %llu against n = %llu, k = %llu%s; "
-                            "give every rank the same scene and options", d->rank, d->root,
-                            (unsigned long long)mine[0], (unsigned long long)mine[1],
-                            (unsigned long long)theirs[0], (unsigned long long)theirs[1],
-                            mine[0] == theirs[0] && mine[1] == theirs[1]
-                                ? " (other patches or triangles)" : "");
-    return lrr__mpi_spread(d->ctx, d->comm, st);
+    return lrr__mpi_same_selection(d->ctx, d->comm, d->rank, d->root, d->b, &d->n, &d->k);
 }
 
 /* This rank's receivers and buffers. */
@@ -180,4 +162,28 @@ lrr_status lrr_mpi_operator_build(const lrr_scene *scene, const lrr_build_option
     lrr__build_destroy(d.b);
     MPI_Comm_free(&d.comm);
     return st;
+}
+
+/* Every rank selected the same hierarchy: n, k and the fingerprint (offsets, subpatch
+ * order, triangles) against the root's; all ranks compare the same table. */
+lrr_status lrr__mpi_same_selection(lrr_context *ctx, MPI_Comm comm, int rank, int root,
+                                   lrr__build *b, size_t *n, size_t *k)
+{
+    lrr__build_size(b, n, k);
+    uint64_t mine[3] = {*n, *k, lrr__build_fingerprint(b)}, theirs[3];
+    memcpy(theirs, mine, sizeof mine);
+    int rc = MPI_Bcast(theirs, 3, MPI_UINT64_T, root, comm);
+    if (rc != MPI_SUCCESS)
+        return lrr__mpi_failed(ctx, "MPI_Bcast (selection check)", rc);
+    lrr_status st = LRR_OK;
+    if (memcmp(mine, theirs, sizeof mine) != 0)
+        st = lrr__mpi_error(ctx, LRR_ERR_DIM,
+                            "lrr_mpi_operator_build: rank %d selected another operator than the "
+                            "root (rank %d): n = %llu, k = %llu against n = %llu, k = %llu%s; "
+                            "give every rank the same scene and options", rank, root,
+                            (unsigned long long)mine[0], (unsigned long long)mine[1],
+                            (unsigned long long)theirs[0], (unsigned long long)theirs[1],
+                            mine[0] == theirs[0] && mine[1] == theirs[1]
+                                ? " (other patches or triangles)" : "");
+    return lrr__mpi_spread(ctx, comm, st);
 }

@@ -5,6 +5,7 @@
 #define LRR_MPI_INTERNAL_H
 
 #include "lrr_mpi.h"
+#include "operator/build.h"
 #include "solve/rows.h"
 
 /* Records a printf-style error on ctx (first error kept, callback called) and returns
@@ -44,5 +45,10 @@ int lrr__mpi_chunk_recv(MPI_Comm comm, size_t n, int r, int size, MPI_Datatype r
  * lrr__mpi_chunk_most entries). whole is the root's alone. An MPI error code. */
 int lrr__mpi_chunk_gather(MPI_Comm comm, int root, size_t n, const size_t *mine, size_t count,
                           const float *packed, float *whole, int *len, int *at, int tag);
+
+/* The distributed builds' check that every rank selected the root's hierarchy (n, k and
+ * lrr__build_fingerprint; build.c): *n and *k, LRR_ERR_DIM agreed when one differs. */
+lrr_status lrr__mpi_same_selection(lrr_context *ctx, MPI_Comm comm, int rank, int root,
+                                   lrr__build *b, size_t *n, size_t *k);
 
 #endif

@@ -128,17 +128,33 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
 lrr_status lrr__operator_budget_check(lrr_context *ctx, size_t n_tri, size_t n, size_t k,
                                       lrr_storage storage, const lrr_build_options *o)
 {
+    return lrr__operator_budget_check_rows(ctx, n_tri, n, n, k, storage, o);
+}
+
+lrr_status lrr__operator_budget_check_rows(lrr_context *ctx, size_t n_tri, size_t n,
+                                           size_t fbar_rows, size_t k, lrr_storage storage,
+                                           const lrr_build_options *o)
+{
     lrr__operator_bytes_t b;
     lrr_status st = lrr__operator_bytes(ctx, n_tri, n, k, storage, o, &b);
-    if (st || o->memory_budget == 0 || b.total <= o->memory_budget)
+    if (st)
         return st;
+    if (fbar_rows < n) { /* F̄'s other rows are held elsewhere: n·k already fitted */
+        const size_t held = b.fbar / n * fbar_rows;
+        b.total -= b.fbar - held;
+        b.fbar = held;
+    }
+    if (o->memory_budget == 0 || b.total <= o->memory_budget)
+        return LRR_OK;
     const double MiB = 1048576.0;
     return lrr__error(ctx, LRR_ERR_BUDGET,
                       "an operator of n = %zu subpatches and k = %zu patches needs %.1f MiB "
-                      "(F̄ %.1f MiB, M %.1f MiB, per-subpatch data %.1f MiB, build buffers "
+                      "(F̄ %.1f MiB%s, M %.1f MiB, per-subpatch data %.1f MiB, build buffers "
                       "%.1f MiB for %d threads), more than the memory budget of %.1f MiB%s",
-                      n, k, b.total / MiB, b.fbar / MiB, b.m / MiB, b.per_subpatch / MiB,
-                      b.working / MiB, b.threads, o->memory_budget / MiB,
+                      n, k, b.total / MiB, b.fbar / MiB,
+                      fbar_rows < n ? " for this rank's rows" : "", b.m / MiB,
+                      b.per_subpatch / MiB, b.working / MiB, b.threads,
+                      o->memory_budget / MiB,
                       o->hierarchy == LRR_HIERARCHY_CLUSTER
                           ? " (fewer clusters, adaptive_patches, shrink F̄ and M)"
                           : " (quadtree patches give k >= the triangle count; the cluster "

@@ -83,7 +83,7 @@ static lrr_status scene_materials(const lrr_scene *scene, lrr_operator *op)
  * or clusters (both over the scene's patches as subpatches) into *hg, *cluster saying
  * which; nothing for the scene's own (uniform, *hg left empty). */
 static lrr_status select_hierarchy(const lrr_scene *scene, const lrr_build_options *o,
-                                   lrr__geometry *hg, int *cluster)
+                                   size_t fbar_rows, lrr__geometry *hg, int *cluster)
 {
     lrr_context *ctx = scene->ctx;
     memset(hg, 0, sizeof *hg);
@@ -111,17 +111,19 @@ static lrr_status select_hierarchy(const lrr_scene *scene, const lrr_build_optio
     lrr_aligned_free(normal);
     /* the normal rule may have made more clusters than asked: check the budget anew */
     if (!st)
-        st = lrr__operator_budget_check(ctx, hg->n_tri, hg->n, hg->k, LRR_STORAGE_F32, o);
+        st = lrr__operator_budget_check_rows(ctx, hg->n_tri, hg->n, fbar_rows, hg->k,
+                                             LRR_STORAGE_F32, o);
     if (st)
         lrr__geometry_free(hg);
     return st;
 }
 
-/* The whole build's operator over b->g, with what the hemicubes do not give; b->g is then
- * the operator's copy (the selection's is freed). */
-static lrr_status new_whole(lrr__build *b)
+/* The whole build's operator over b->g (F̄ in floats unless !with_fbar: then none, in
+ * storage), with what the hemicubes do not give; b->g is then the operator's copy (the
+ * selection's is freed). */
+static lrr_status new_whole(lrr__build *b, int with_fbar, lrr_storage storage)
 {
-    lrr_status st = lrr__operator_new(b->ctx, b->g, LRR_STORAGE_F32, &b->op);
+    lrr_status st = lrr__operator_alloc(b->ctx, b->g, storage, with_fbar, &b->op);
     if (st)
         return st;
     lrr_operator *op = b->op;
@@ -142,8 +144,12 @@ static lrr_status new_whole(lrr__build *b)
     return lrr__calloc(b->ctx, &b->back, op->n, sizeof(double), "back-face shares");
 }
 
-lrr_status lrr__build_begin(const lrr_scene *scene, const lrr_build_options *opts, int whole,
-                            lrr__build **out)
+/* begin's kinds of build: rows only, whole (the operator with F̄), or the operator without
+ * F̄ in a storage (rows held apart: lrr__build_begin_rows). */
+enum { BUILD_ROWS, BUILD_WHOLE, BUILD_HEAD };
+
+static lrr_status begin(const lrr_scene *scene, const lrr_build_options *opts, int kind,
+                        lrr_storage storage, size_t fbar_rows, lrr__build **out)
 {
     *out = NULL;
     lrr_context *ctx = scene->ctx;
@@ -156,7 +162,8 @@ lrr_status lrr__build_begin(const lrr_scene *scene, const lrr_build_options *opt
     const lrr__geometry *sg = &scene->geom;
     size_t k_max = o.adaptive_patches ? (o.adaptive_patches < sg->n ? o.adaptive_patches : sg->n)
                                       : sg->k;
-    if ((st = lrr__operator_budget_check(ctx, sg->n_tri, sg->n, k_max, LRR_STORAGE_F32, &o)))
+    if ((st = lrr__operator_budget_check_rows(ctx, sg->n_tri, sg->n, fbar_rows, k_max,
+                                              LRR_STORAGE_F32, &o)))
         return st;
     lrr__build *b = lrr__zalloc(ctx, sizeof *b);
     if (!b)
@@ -165,11 +172,12 @@ lrr_status lrr__build_begin(const lrr_scene *scene, const lrr_build_options *opt
     b->scene = scene;
     b->o = o;
     b->t0 = lrr__now();
-    if (!(st = select_hierarchy(scene, &b->o, &b->own, &b->cluster))) {
+    if (!(st = select_hierarchy(scene, &b->o, fbar_rows, &b->own, &b->cluster))) {
         b->selection = lrr__now() - b->t0;
         b->g = o.adaptive_patches ? &b->own : &scene->geom;
-        if (whole)
-            st = new_whole(b);
+        if (kind != BUILD_ROWS)
+            st = new_whole(b, kind == BUILD_WHOLE, kind == BUILD_WHOLE ? LRR_STORAGE_F32
+                                                                       : storage);
         else /* the method is checked as a whole build checks it */
             st = lrr__formfactor_method(ctx, b->g, &b->o, &(int){0});
     }
@@ -179,6 +187,23 @@ lrr_status lrr__build_begin(const lrr_scene *scene, const lrr_build_options *opt
     }
     *out = b;
     return LRR_OK;
+}
+
+lrr_status lrr__build_begin(const lrr_scene *scene, const lrr_build_options *opts, int whole,
+                            lrr__build **out)
+{
+    return begin(scene, opts, whole ? BUILD_WHOLE : BUILD_ROWS, LRR_STORAGE_F32,
+                 scene->geom.n, out);
+}
+
+lrr_status lrr__build_begin_rows(const lrr_scene *scene, const lrr_build_options *opts,
+                                 lrr_storage storage, size_t fbar_rows, lrr__build **out)
+{
+    *out = NULL;
+    if (!lrr_storage_name(storage))
+        return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG, "unknown storage %d", (int)storage);
+    return begin(scene, opts, BUILD_HEAD, storage,
+                 fbar_rows < scene->geom.n ? fbar_rows : scene->geom.n, out);
 }
 
 void lrr__build_destroy(lrr__build *b)
@@ -266,4 +291,88 @@ lrr_status lrr_operator_build(const lrr_scene *scene, const lrr_build_options *o
         st = lrr__build_finish(b, lrr__now() - t1, out);
     lrr__build_destroy(b);
     return st;
+}
+
+/* ------------------------------------------------------------ rows held apart */
+lrr_operator *lrr__build_operator(lrr__build *b) { return b->op; }
+
+float *lrr__build_row_scales(lrr__build *b) { return b->op ? b->op->row_scale : NULL; }
+
+/* Row i of F̄ as held apart (row in op's storage) decoded into scratch, as
+ * lrr_operator_fbar_row decodes it; floats are read in place. */
+static const float *decoded(const lrr_operator *op, size_t i, const void *row, float *scratch)
+{
+    if (op->storage == LRR_STORAGE_F32)
+        return row;
+    const uint16_t *h = row;
+    const float s = op->row_scale[i];
+    for (size_t q = 0; q < op->k; q++)
+        scratch[q] = s * (op->storage == LRR_STORAGE_F16 ? lrr__f16_to_f32(h[q])
+                                                         : lrr__bf16_to_f32(h[q]));
+    return scratch;
+}
+
+void lrr__build_encode(lrr__build *b, const size_t *rows, size_t count, float *block,
+                       float *scratch)
+{
+    lrr_operator *op = b->op;
+    const size_t k = op->k;
+    if (op->storage == LRR_STORAGE_F32)
+        return;
+    /* row j's codes go to element j·k of block as uint16_t, before row j's floats: every
+     * row is read whole (into scratch) before its codes overwrite anything unread */
+    unsigned char *bytes = (unsigned char *)block;
+    for (size_t j = 0; j < count; j++) {
+        memcpy(scratch, bytes + j * k * sizeof(float), k * sizeof(float));
+        uint16_t *codes = (uint16_t *)(void *)(scratch + k);
+        op->row_scale[rows[j]] = lrr__fbar_encode_row(op->storage, scratch, k, codes);
+        memcpy(bytes + j * k * sizeof(uint16_t), codes, k * sizeof(uint16_t));
+    }
+}
+
+int lrr__build_visibility(const lrr__build *b)
+{
+    return b->op && b->op->weighting == LRR__WEIGHTS_VISIBILITY;
+}
+
+void lrr__build_row_sums(lrr__build *b, const size_t *rows, size_t count, const void *block,
+                         float *scratch, double *ar)
+{
+    const lrr_operator *op = b->op;
+    const size_t rb = op->k * lrr__fbar_elem_bytes(op);
+    for (size_t j = 0; j < count; j++)
+        ar[j] = lrr__visibility_row_sum(
+            op, rows[j], decoded(op, rows[j], (const unsigned char *)block + j * rb, scratch));
+}
+
+void lrr__build_set_weights(lrr__build *b, const double *ar)
+{
+    lrr__visibility_normalise(b->op, 0, b->op->k, ar);
+}
+
+void lrr__build_g_add(lrr__build *b, int c, size_t i, const void *row, float *scratch,
+                      double *gp)
+{
+    const lrr_operator *op = b->op;
+    if (op->weight[i] == 0 || op->rho[3 * i + c] == 0)
+        return; /* reflects nothing: no row to decode */
+    lrr__smw_g_add(op, c, i, decoded(op, i, row, scratch), gp);
+}
+
+lrr_status lrr__build_invert(lrr__build *b, int c, double *G)
+{
+    return lrr__smw_invert(b->op, c, G);
+}
+
+lrr_status lrr__build_finish_rows(lrr__build *b, double formfactor_seconds, double smw_seconds,
+                                  lrr_operator **out)
+{
+    lrr_operator *op = b->op;
+    op->formfactor_seconds = formfactor_seconds;
+    op->smw_seconds = smw_seconds;
+    back_face_summary(op, b->back);
+    op->build_seconds = lrr__now() - b->t0;
+    b->op = NULL;
+    *out = op;
+    return LRR_OK;
 }

@@ -46,4 +46,45 @@ LRR__PRIVATE_API lrr_status lrr__build_rows(lrr__build *b, const size_t *rows, s
 LRR__PRIVATE_API lrr_status lrr__build_finish(lrr__build *b, double formfactor_seconds,
                                               lrr_operator **out);
 
+/* ---- A build whose rows of F̄ stay on the ranks that computed them (liblrr_mpi's
+ * lrr_mpi_operator_build_save, lib/mpi/build_save.c): every rank begins with the operator
+ * without F̄ (storage `storage`, its 16-bit row scales allocated; the budget counts
+ * fbar_rows of F̄'s rows), computes its rows (lrr__build_rows, not placed), codes them
+ * (lrr__build_encode), gives their sums for the Vᵀ weights and adds them into G's rows;
+ * one rank inverts each G and finishes. The same arithmetic in the same order as
+ * lrr_operator_build followed by lrr_operator_set_storage, so F̄, the weights, G and M are
+ * theirs bit for bit. */
+LRR__PRIVATE_API lrr_status lrr__build_begin_rows(const lrr_scene *scene,
+                                                  const lrr_build_options *opts,
+                                                  lrr_storage storage, size_t fbar_rows,
+                                                  lrr__build **out);
+/* The build's operator (no F̄): n, k, offsets, storage through lrr.h's getters. */
+LRR__PRIVATE_API lrr_operator *lrr__build_operator(lrr__build *b);
+/* Its n row scales (16-bit storage; NULL for floats): a rank's own are written by
+ * lrr__build_encode, the others' may be received there. */
+LRR__PRIVATE_API float *lrr__build_row_scales(lrr__build *b);
+/* Receivers rows[0..count−1]'s rows (block, count×k floats) coded in place in the
+ * operator's storage (row j at element j·k of the block's uint16_t), their row scales set;
+ * nothing for floats. scratch: 2k floats. */
+LRR__PRIVATE_API void lrr__build_encode(lrr__build *b, const size_t *rows, size_t count,
+                                        float *block, float *scratch);
+/* Whether the patches' Vᵀ weights follow F̄'s row sums (clusters): then ar[j] = A_i R_i of
+ * receiver i = rows[j] from its coded row in block, and lrr__build_set_weights sets every
+ * weight from all n sums (ar in the operator's order). scratch: k floats. */
+LRR__PRIVATE_API int lrr__build_visibility(const lrr__build *b);
+LRR__PRIVATE_API void lrr__build_row_sums(lrr__build *b, const size_t *rows, size_t count,
+                                          const void *block, float *scratch, double *ar);
+LRR__PRIVATE_API void lrr__build_set_weights(lrr__build *b, const double *ar);
+/* G_c's row p gathers receiver i's coded row (i in patch p; rows first[p] .. first[p+1]−1
+ * in order, starting from zeros, then gp[p] += 1): gp −= w_i rho_ic F̄_i. scratch: k
+ * floats. */
+LRR__PRIVATE_API void lrr__build_g_add(lrr__build *b, int c, size_t i, const void *row,
+                                       float *scratch, double *gp);
+/* M_c = G⁻¹ and its condition from the assembled G (k×k doubles, overwritten). */
+LRR__PRIVATE_API lrr_status lrr__build_invert(lrr__build *b, int c, double *G);
+/* The operator (no F̄) with its timings and the leak indicator from the n back-face
+ * shares at lrr__build_back; *out takes it. */
+LRR__PRIVATE_API lrr_status lrr__build_finish_rows(lrr__build *b, double formfactor_seconds,
+                                                   double smw_seconds, lrr_operator **out);
+
 #endif

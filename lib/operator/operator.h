@@ -56,6 +56,11 @@ lrr_status lrr__visibility_weights(lrr_operator *op);
  * block loaded alone needs (lrr__operator_load_rows). */
 lrr_status lrr__visibility_weights_rows(lrr_operator *op, size_t p0, size_t p1,
                                         const void *fbar);
+/* The two steps of the weights, for rows held apart (liblrr_mpi's build): row i's A_i R_i
+ * from its decoded row; then patches [p0, p1)'s weights from ar (indexed from first[p0]),
+ * area weights where a patch sees nothing. */
+double lrr__visibility_row_sum(const lrr_operator *op, size_t i, const float *row);
+void lrr__visibility_normalise(lrr_operator *op, size_t p0, size_t p1, const double *ar);
 
 /* file/load_rows.c: a block of whole patches' rows of a saved operator, without the rest of
  * F̄. pick (called once, after the geometry, M and the row scales are read; op has no F̄)
@@ -87,6 +92,9 @@ uint16_t lrr__f32_to_f16(float f);
 /* The power of two s with max_abs/s in [2^14, 2^15) (1 when max_abs is 0): the row scale of
  * 16-bit F̄ and of M − I in binary16, which keeps a row's small entries normal numbers. */
 float lrr__f16_scale(float max_abs);
+/* Row `row` (k floats) coded in 16-bit `storage` into out, as lrr_operator_set_storage codes
+ * F̄; its row scale (1 for bfloat16). */
+float lrr__fbar_encode_row(lrr_storage storage, const float *row, size_t k, uint16_t *out);
 float lrr__f16_to_f32(uint16_t h);
 uint16_t lrr__f32_to_bf16(float f);
 float lrr__bf16_to_f32(uint16_t b);
@@ -206,9 +214,19 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
  * exceeds o->memory_budget (0: no limit). */
 lrr_status lrr__operator_budget_check(lrr_context *ctx, size_t n_tri, size_t n, size_t k,
                                       lrr_storage storage, const lrr_build_options *o);
+/* The same for a build that holds only fbar_rows of F̄'s n rows (liblrr_mpi's rank). */
+lrr_status lrr__operator_budget_check_rows(lrr_context *ctx, size_t n_tri, size_t n,
+                                           size_t fbar_rows, size_t k, lrr_storage storage,
+                                           const lrr_build_options *o);
 
 /* smw.c: recomputes M_c = (I − Vᵀ diag(rho_c) F̄)⁻¹ and cond from F̄ (in any storage) and
  * rho, in double precision (LAPACKE). */
 lrr_status lrr__smw_factor(lrr_operator *op);
+/* G's row p gathers row i of F̄ (fi, decoded) for channel c: gp −= w_i rho_ic fi, in the
+ * order lrr__smw_factor adds a patch's rows (rows first[p] .. first[p+1]−1, then gp[p] += 1),
+ * so that G assembled elsewhere (liblrr_mpi's ranks) is the same bit for bit. */
+void lrr__smw_g_add(const lrr_operator *op, int c, size_t i, const float *fi, double *gp);
+/* M_c = G⁻¹ and cond[c] from an assembled G (k×k doubles, row-major; overwritten). */
+lrr_status lrr__smw_invert(lrr_operator *op, int c, double *G);
 
 #endif

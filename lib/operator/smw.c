@@ -18,6 +18,95 @@
 #include <omp.h>
 #include <stdlib.h>
 
+void lrr__smw_g_add(const lrr_operator *op, int c, size_t i, const float *fi, double *gp)
+{
+    double r = (double)op->weight[i] * op->rho[3 * i + c];
+    if (r == 0)
+        return; /* black subpatches reflect nothing */
+    for (size_t q = 0; q < op->k; q++)
+        gp[q] -= r * fi[q];
+}
+
+/* M_c = G⁻¹ (G row-major k×k, overwritten) and cond[c], with the caller's LAPACK arrays. */
+static lrr_status invert(lrr_operator *op, int c, double *G, lapack_int *ipiv, double *work,
+                         lapack_int *iwork)
+{
+    const size_t k = op->k, kk = k * k;
+    double anorm = LAPACKE_dlange_work(LAPACK_ROW_MAJOR, '1', (lapack_int)k, (lapack_int)k, G,
+                                       (lapack_int)k, work);
+    lapack_int info = LAPACKE_dgetrf(LAPACK_ROW_MAJOR, (lapack_int)k, (lapack_int)k, G,
+                                     (lapack_int)k, ipiv);
+    if (info > 0)
+        return lrr__error(op->ctx, LRR_ERR_SINGULAR,
+                          "channel %d: G = I - Vᵀ diag(rho) F̄ is singular (U[%d][%d] = 0)", c,
+                          (int)info, (int)info);
+    double rcond = 0;
+    if (info == 0)
+        info = LAPACKE_dgecon_work(LAPACK_ROW_MAJOR, '1', (lapack_int)k, G, (lapack_int)k,
+                                   anorm, &rcond, work, iwork);
+    if (info == 0)
+        info = LAPACKE_dgetri(LAPACK_ROW_MAJOR, (lapack_int)k, G, (lapack_int)k, ipiv);
+    if (info != 0)
+        return lrr__error(op->ctx, info < 0 ? LRR_ERR_INVALID_ARG : LRR_ERR_SINGULAR,
+                          "channel %d: LAPACK failed (info = %d)", c, (int)info);
+    op->cond[c] = rcond > 0 ? 1.0 / rcond : INFINITY;
+    float *mc = op->m + (size_t)c * kk;
+    for (size_t j = 0; j < kk; j++) {
+        if (!isfinite(G[j]))
+            return lrr__error(op->ctx, LRR_ERR_SINGULAR,
+                              "channel %d: M has a non-finite entry at (%zu, %zu)", c, j / k,
+                              j % k);
+        mc[j] = (float)G[j];
+    }
+    return LRR_OK;
+}
+
+static void free_lapack(lapack_int *ipiv, double *work, lapack_int *iwork)
+{
+    lrr_aligned_free(ipiv);
+    lrr_aligned_free(work);
+    lrr_aligned_free(iwork);
+}
+
+/* The pivots and work arrays of invert; freed by free_lapack. */
+static lrr_status alloc_lapack(lrr_operator *op, lapack_int **ipiv, double **work,
+                               lapack_int **iwork)
+{
+    const size_t k = op->k;
+    *ipiv = NULL;
+    *work = NULL;
+    *iwork = NULL;
+    /* dlange's and dgecon's work arrays are ours, aligned: the LAPACKE wrappers would
+     * malloc them wherever the heap has room, and OpenBLAS's kernels sum in an order that
+     * follows alignment, so the condition estimates of two processes (the serial build and
+     * the distributed one's root) differed in their last bits (bunny room, k = 2000) */
+    lrr_status st;
+    if ((st = lrr__calloc(op->ctx, ipiv, k, sizeof(lapack_int), "pivots")) ||
+        (st = lrr__calloc(op->ctx, work, 4 * k, sizeof(double), "dgecon's work")) ||
+        (st = lrr__calloc(op->ctx, iwork, k, sizeof(lapack_int), "dgecon's work"))) {
+        free_lapack(*ipiv, *work, *iwork);
+        *ipiv = *iwork = NULL;
+        *work = NULL;
+    }
+    return st;
+}
+
+
+lrr_status lrr__smw_invert(lrr_operator *op, int c, double *G)
+{
+    if (op->k > (size_t)INT32_MAX)
+        return lrr__error(op->ctx, LRR_ERR_OVERFLOW, "k = %zu exceeds LAPACK's int range",
+                          op->k);
+    lapack_int *ipiv, *iwork;
+    double *work;
+    lrr_status st = alloc_lapack(op, &ipiv, &work, &iwork);
+    if (!st)
+        st = invert(op, c, G, ipiv, work, iwork);
+    op->m_epoch++;
+    free_lapack(ipiv, work, iwork);
+    return st;
+}
+
 lrr_status lrr__smw_factor(lrr_operator *op)
 {
     const size_t k = op->k, *first = op->geom.first;
@@ -31,16 +120,8 @@ lrr_status lrr__smw_factor(lrr_operator *op)
         return st;
     if ((st = lrr__calloc(op->ctx, &G, kk, sizeof(double), "G (k×k doubles)")))
         return st;
-    /* dlange's and dgecon's work arrays are ours, aligned: the LAPACKE wrappers would
-     * malloc them wherever the heap has room, and OpenBLAS's kernels sum in an order that
-     * follows alignment, so the condition estimates of two processes (the serial build and
-     * the distributed one's root) differed in their last bits (bunny room, k = 2000) */
-    if ((st = lrr__calloc(op->ctx, &ipiv, k, sizeof(lapack_int), "pivots")) ||
-        (st = lrr__calloc(op->ctx, &work, 4 * k, sizeof(double), "dgecon's work")) ||
-        (st = lrr__calloc(op->ctx, &iwork, k, sizeof(lapack_int), "dgecon's work"))) {
+    if ((st = alloc_lapack(op, &ipiv, &work, &iwork))) {
         lrr_aligned_free(G);
-        lrr_aligned_free(ipiv);
-        lrr_aligned_free(work);
         return st;
     }
     /* with 16-bit storage or panels, rows are decoded into one scratch row per thread */
@@ -51,12 +132,10 @@ lrr_status lrr__smw_factor(lrr_operator *op)
         (st = lrr__calloc(op->ctx, &rowbuf, (size_t)threads, k * sizeof(float),
                           "decoded F̄ rows"))) {
         lrr_aligned_free(G);
-        lrr_aligned_free(ipiv);
-        lrr_aligned_free(work);
-        lrr_aligned_free(iwork);
+        free_lapack(ipiv, work, iwork);
         return st;
     }
-    for (int c = 0; c < 3; c++) {
+    for (int c = 0; c < 3 && !st; c++) {
         /* G_pq = δ_pq - Σ_{i∈p} rho_ic F̄_iq: rows of G are independent segmented sums */
         #pragma omp parallel for schedule(static) num_threads(threads)
         for (size_t p = 0; p < k; p++) {
@@ -65,57 +144,19 @@ lrr_status lrr__smw_factor(lrr_operator *op)
             for (size_t q = 0; q < k; q++)
                 gp[q] = 0;
             for (size_t i = first[p]; i < first[p + 1]; i++) {
-                double r = (double)op->weight[i] * op->rho[3 * i + c];
-                if (r == 0)
-                    continue; /* black subpatches reflect nothing */
-                const float *fi = rows ? op->fbar + i * k : scratch;
+                if (op->weight[i] == 0 || op->rho[3 * i + c] == 0)
+                    continue; /* reflects nothing: no row to decode */
                 if (!rows)
                     lrr_operator_fbar_row(op, i, scratch);
-                for (size_t q = 0; q < k; q++)
-                    gp[q] -= r * fi[q];
+                lrr__smw_g_add(op, c, i, rows ? op->fbar + i * k : scratch, gp);
             }
             gp[p] += 1;
         }
-        double anorm = LAPACKE_dlange_work(LAPACK_ROW_MAJOR, '1', (lapack_int)k, (lapack_int)k,
-                                           G, (lapack_int)k, work);
-        lapack_int info = LAPACKE_dgetrf(LAPACK_ROW_MAJOR, (lapack_int)k, (lapack_int)k, G,
-                                         (lapack_int)k, ipiv);
-        if (info > 0) {
-            st = lrr__error(op->ctx, LRR_ERR_SINGULAR,
-                            "channel %d: G = I - Vᵀ diag(rho) F̄ is singular (U[%d][%d] = 0)", c,
-                            (int)info, (int)info);
-            break;
-        }
-        double rcond = 0;
-        if (info == 0)
-            info = LAPACKE_dgecon_work(LAPACK_ROW_MAJOR, '1', (lapack_int)k, G, (lapack_int)k,
-                                       anorm, &rcond, work, iwork);
-        if (info == 0)
-            info = LAPACKE_dgetri(LAPACK_ROW_MAJOR, (lapack_int)k, G, (lapack_int)k, ipiv);
-        if (info != 0) {
-            st = lrr__error(op->ctx, info < 0 ? LRR_ERR_INVALID_ARG : LRR_ERR_SINGULAR,
-                            "channel %d: LAPACK failed (info = %d)", c, (int)info);
-            break;
-        }
-        op->cond[c] = rcond > 0 ? 1.0 / rcond : INFINITY;
-        float *mc = op->m + (size_t)c * kk;
-        for (size_t j = 0; j < kk; j++) {
-            if (!isfinite(G[j])) {
-                st = lrr__error(op->ctx, LRR_ERR_SINGULAR,
-                                "channel %d: M has a non-finite entry at (%zu, %zu)", c, j / k,
-                                j % k);
-                break;
-            }
-            mc[j] = (float)G[j];
-        }
-        if (st)
-            break;
+        st = invert(op, c, G, ipiv, work, iwork);
     }
     op->m_epoch++; /* M was written (in part, after an error) */
     lrr_aligned_free(G);
-    lrr_aligned_free(ipiv);
-    lrr_aligned_free(work);
-    lrr_aligned_free(iwork);
+    free_lapack(ipiv, work, iwork);
     lrr_aligned_free(rowbuf);
     return st;
 }

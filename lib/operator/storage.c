@@ -143,6 +143,15 @@ static float f16_row_scale(const float *row, size_t k)
     return lrr__f16_scale(mx);
 }
 
+float lrr__fbar_encode_row(lrr_storage storage, const float *row, size_t k, uint16_t *out)
+{
+    float s = storage == LRR_STORAGE_F16 ? f16_row_scale(row, k) : 1.0f;
+    for (size_t q = 0; q < k; q++)
+        out[q] = storage == LRR_STORAGE_F16 ? lrr__f32_to_f16(row[q] / s)
+                                            : lrr__f32_to_bf16(row[q]);
+    return s;
+}
+
 void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
 {
     const size_t k = op->k;
@@ -197,14 +206,8 @@ lrr_status lrr__fbar_convert(lrr_operator *op, lrr_storage storage)
         }
         const float *src = tmp ? tmp : op->fbar;
         #pragma omp parallel for schedule(static)
-        for (size_t i = 0; i < n; i++) {
-            const float *row = src + i * k;
-            float s = storage == LRR_STORAGE_F16 ? f16_row_scale(row, k) : 1.0f;
-            scale[i] = s;
-            for (size_t q = 0; q < k; q++)
-                f16[i * k + q] = storage == LRR_STORAGE_F16 ? lrr__f32_to_f16(row[q] / s)
-                                                            : lrr__f32_to_bf16(row[q]);
-        }
+        for (size_t i = 0; i < n; i++)
+            scale[i] = lrr__fbar_encode_row(storage, src + i * k, k, f16 + i * k);
         lrr_aligned_free(tmp);
     }
     lrr_aligned_free(op->fbar);

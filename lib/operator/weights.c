@@ -38,6 +38,32 @@ static void fbar_row(const lrr_operator *op, const void *block, size_t row0, siz
     }
 }
 
+double lrr__visibility_row_sum(const lrr_operator *op, size_t i, const float *row)
+{
+    const size_t *first = op->geom.first;
+    double r = 0;
+    for (size_t q = 0; q < op->k; q++)
+        r += (double)row[q] * (double)(first[q + 1] - first[q]);
+    return (double)op->area[i] * r;
+}
+
+void lrr__visibility_normalise(lrr_operator *op, size_t p0, size_t p1, const double *ar)
+{
+    const size_t *first = op->geom.first, i0 = first[p0];
+    lrr__patch_weights(&op->geom, op->weight);
+    #pragma omp parallel for schedule(static)
+    for (size_t p = p0; p < p1; p++) {
+        double sum = 0;
+        for (size_t i = first[p]; i < first[p + 1]; i++)
+            sum += ar[i - i0];
+        if (!(sum > 0))
+            continue; /* the area weights written above */
+        const double dp = (double)(first[p + 1] - first[p]);
+        for (size_t i = first[p]; i < first[p + 1]; i++)
+            op->weight[i] = (float)(dp * ar[i - i0] / sum);
+    }
+}
+
 /* The weights of patches [p0, p1), from op's F̄ or a block of their rows. */
 static lrr_status weights(lrr_operator *op, size_t p0, size_t p1, const void *block)
 {
@@ -56,27 +82,13 @@ static lrr_status weights(lrr_operator *op, size_t p0, size_t p1, const void *bl
         lrr_aligned_free(ar);
         return st;
     }
-    lrr__patch_weights(&op->geom, op->weight);
     #pragma omp parallel for schedule(static) num_threads(threads)
     for (size_t i = i0; i < i0 + rows; i++) {
         float *row = buf + (size_t)omp_get_thread_num() * k;
         fbar_row(op, block, i0, i, row);
-        double r = 0;
-        for (size_t q = 0; q < k; q++)
-            r += (double)row[q] * (double)(first[q + 1] - first[q]);
-        ar[i - i0] = (double)op->area[i] * r;
+        ar[i - i0] = lrr__visibility_row_sum(op, i, row);
     }
-    #pragma omp parallel for schedule(static) num_threads(threads)
-    for (size_t p = p0; p < p1; p++) {
-        double sum = 0;
-        for (size_t i = first[p]; i < first[p + 1]; i++)
-            sum += ar[i - i0];
-        if (!(sum > 0))
-            continue; /* the area weights written above */
-        const double dp = (double)(first[p + 1] - first[p]);
-        for (size_t i = first[p]; i < first[p + 1]; i++)
-            op->weight[i] = (float)(dp * ar[i - i0] / sum);
-    }
+    lrr__visibility_normalise(op, p0, p1, ar);
     lrr_aligned_free(ar);
     lrr_aligned_free(buf);
     return LRR_OK;

@@ -4,7 +4,7 @@
 # serial one with 1 to 4 ranks (test_mpi_solve) and its fault cases (test_mpi_faults), then
 # `mpirun -np P lrr solve` against `lrr solve` (same CSV within 1e-6, same summary) and its
 # failures (rank 0 alone prints the error), `mpirun lrr render` against `lrr render`, the distributed build and path tracer
-# (test_mpi_build; `mpirun lrr preprocess [--verify]` and `mpirun lrr reference --method
+# (test_mpi_build, test_mpi_build_save; `mpirun lrr preprocess [--verify]` and `mpirun lrr reference --method
 # path-trace` against the serial commands), and a smoke run of lrr-bench mpi. Root may run them (--allow-run-as-root); more
 # ranks than cores (--oversubscribe) is the point on a 2-core machine.
 # Environment: LRR_MPIRUN, LRR_MPI_TESTS (the test programs' folder), LRR_BIN,
@@ -74,6 +74,12 @@ for np in 1 2 3 4; do
     grep -E '^FAIL|failed checks|(raster|clusters).*bit for bit' "$T/out"
     if [ "$rc" -eq 0 ]; then pass "test_mpi_build on $np ranks"
     else cat "$T/out" "$T/err"; fail "test_mpi_build on $np ranks: exit $rc"; fi
+done
+for np in 1 2 3 4; do
+    mpi "$np" "$DIR/test_mpi_build_save"
+    grep -E '^FAIL|failed checks|(timings|budget .* on|write failing.*every)' "$T/out"
+    if [ "$rc" -eq 0 ]; then pass "test_mpi_build_save on $np ranks"
+    else cat "$T/out" "$T/err"; fail "test_mpi_build_save on $np ranks: exit $rc"; fi
 done
 for np in 1 2 4; do
     mpi "$np" "$DIR/test_mpi_faults"
@@ -182,9 +188,11 @@ for opt in "--backend opencl" "--path sparse" "--fbar dense" "--m f32"; do
 done
 
 # mpirun lrr preprocess: the serial file but for its timings (test_mpi_build --same), for
-# the quadtree, for clusters (the selection replicated on every rank) and with --verify (its
-# path tracing across the ranks: the same figures, stored in the file)
-for args in "--patches 54 --levels 1" "--clusters 12" "--patches 54 --levels 1 --verify 16"; do
+# the quadtree, for clusters (the selection replicated on every rank), in binary16 as strips
+# (F̄ stays on the ranks: lrr_mpi_operator_build_save) and with --verify (the operator
+# gathered on rank 0, its path tracing across the ranks: the same figures, in the file)
+for args in "--patches 54 --levels 1" "--clusters 12" "--clusters 40 --storage f16 --fbar sparse" \
+    "--patches 54 --levels 1 --verify 16"; do
     # shellcheck disable=SC2086 # args are options
     "$LRR" preprocess cornell $args --hemicube 16 --seed 3 -o "$T/pre-serial.lrr" \
         >"$T/pre-serial.out" 2>"$T/err" || { cat "$T/err"; fail "lrr preprocess $args"; }

@@ -1,0 +1,38 @@
+/* lrr_mpi_operator_build_save's state (build_save.c) and its file's save (stream.c). */
+#ifndef LRR_MPI_BUILD_SAVE_H
+#define LRR_MPI_BUILD_SAVE_H
+
+#include "mpi/mpi_internal.h"
+
+typedef struct bs_dist {
+    lrr_context *ctx;
+    MPI_Comm comm;          /* a duplicate, MPI_ERRORS_RETURN */
+    int rank, size, root;
+    lrr__build *b;
+    lrr_operator *head;     /* the root's operator without F̄, once finished */
+    size_t n, k, es;        /* es: bytes of an F̄ element in the file's storage */
+    const size_t *first;    /* patch offsets (k + 1) */
+    size_t *rows, count;    /* this rank's receivers, ascending */
+    size_t chunks_mine;     /* its chunks */
+    float *block;           /* their rows of F̄, count×k, coded in place (es bytes each) */
+    double *back;           /* their back-face shares */
+    float *scratch;         /* 2k floats */
+    int *len, *at;          /* the root's chunk tables (lrr__mpi_chunk_most entries) */
+    /* G's chain (build_save.c): finished rows (ends×k), partial rows to send (one a chunk),
+     * the one being continued, the sends, patch indices, each chunk's first finished
+     * slot; the root's G (k×k) */
+    size_t ends, *slot0;
+    double *done, *sendbuf, *partial, *G;
+    MPI_Request *req;
+    int *idx;
+    lrr_mpi_build_info info;
+} bs_dist;
+
+/* Chunks of F̄'s rows: their number, and chunk c's rows [*a, *b). */
+size_t lrr__bs_chunks(const bs_dist *d);
+void lrr__bs_chunk(const bs_dist *d, size_t c, size_t *a, size_t *b);
+/* The file: the root saves d->head with F̄ pulled from the ranks' blocks, as fbar chooses
+ * (strips from the counts every rank gives); agreed. */
+lrr_status lrr__bs_save(bs_dist *d, lrr_fbar_format fbar, const char *path);
+
+#endif

@@ -1,0 +1,294 @@
+/* The distributed build that writes its file without gathering F̄
+ * (lrr_mpi_operator_build_save) against the serial lrr_operator_build,
+ * lrr_operator_set_storage and lrr_operator_save_fbar, on 1 to 4 ranks (tests/mpi/mpi.sh):
+ *   the files equal byte for byte but for the timings, for the uniform quadtree (floats,
+ *   dense), clusters (patches that span the ranks' chunks: G's partial rows passed on, the
+ *   Vᵀ weights from every rank's row sums) in binary16 and bfloat16, as rows and as strips,
+ *   and two patches on more ranks than patches; the root's operator without F̄ has the
+ *   serial M and condition bit for bit; the ranks' rows of F̄ add up to F̄;
+ *   the memory budget per rank: a budget below what the serial build needs but above one
+ *   rank's share of F̄ fails serially (LRR_ERR_BUDGET) and succeeds on two ranks or more;
+ * and its faults, every rank returning the same error in seconds and no file left: a root
+ * without a path, a directory that does not exist, the root's file size limited so that the
+ * write fails within F̄'s section (the other ranks' chunks of the pass are drained), and
+ * every allocation of the last rank failing in turn. */
+#include <dirent.h>
+#include <errno.h>
+#include <signal.h>
+#include <sys/resource.h>
+
+#include "mpi_file.h"
+#include "mpi_test.h"
+#include "solve/rows.h" /* lrr__rows_fail_after: the allocation-failure hook */
+
+#define FAULT_SECONDS 10.0
+
+typedef struct kind {
+    const char *name, *scene;
+    size_t K;
+    unsigned levels;
+    int cluster;
+    lrr_storage storage;
+    lrr_fbar_format fbar;
+} kind;
+
+static const kind KINDS[] = {
+    {"uniform, f32", "cornell", 54, 1, 0, LRR_STORAGE_F32, LRR_FBAR_AUTO},
+    {"clusters, f16", "cornell", 12, 0, 1, LRR_STORAGE_F16, LRR_FBAR_AUTO},
+    {"clusters, bf16 as strips", "rooms", 12, 0, 1, LRR_STORAGE_BF16, LRR_FBAR_SPARSE},
+    {"uniform, f16 dense", "rooms", 24, 1, 0, LRR_STORAGE_F16, LRR_FBAR_DENSE},
+    {"two patches", "pair", 2, 1, 0, LRR_STORAGE_F32, LRR_FBAR_AUTO},
+};
+
+static lrr_build_options options(const kind *kd)
+{
+    lrr_build_options bo = lrr_build_options_defaults();
+    bo.hemicube_resolution = 16;
+    bo.seed = 5;
+    bo.threads = 1;
+    if (kd->cluster) {
+        bo.adaptive_patches = kd->K;
+        bo.hierarchy = LRR_HIERARCHY_CLUSTER;
+    }
+    return bo;
+}
+
+static lrr_status scene_for(lrr_context *ctx, const kind *kd, lrr_scene **sc)
+{
+    lrr_subdivision sd = lrr_subdivision_defaults();
+    /* clusters group about 600 subpatches (the scene's patches, levels 0): clusters of
+     * about 50 rows, most of them across a chunk's end */
+    sd.target_patches = kd->cluster ? 600 : kd->K;
+    sd.levels = kd->levels;
+    lrr_status st = mt_scene(ctx, kd->scene, sc);
+    return st ? st : lrr_scene_subdivide(*sc, &sd);
+}
+
+/* The serial file of kd at ps (the root's). */
+static int serial_file(const lrr_scene *sc, const kind *kd, const char *ps, lrr_operator **s)
+{
+    lrr_build_options bo = options(kd);
+    return lrr_operator_build(sc, &bo, s) == LRR_OK &&
+           lrr_operator_set_storage(*s, kd->storage) == LRR_OK &&
+           lrr_operator_save_fbar(*s, ps, kd->fbar) == LRR_OK;
+}
+
+/* Whether no file of this run (its pid in the name) is left in the scratch directory. */
+static int no_file_left(const char *path)
+{
+    char dir[512];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/'), *base = slash ? slash + 1 : dir;
+    char stem[512];
+    snprintf(stem, sizeof stem, "%s", base);
+    if (slash)
+        *slash = '\0';
+    DIR *d = opendir(slash ? dir : ".");
+    int left = 0;
+    for (struct dirent *e; d && (e = readdir(d));)
+        left += strncmp(e->d_name, stem, strlen(stem)) == 0;
+    if (d)
+        closedir(d);
+    return d ? left == 0 : errno == ENOENT; /* no directory: nothing in it */
+}
+
+static void equality(const kind *kd, int root)
+{
+    char what[160], pd[512], ps[512];
+    snprintf(what, sizeof what, "%s, root %d", kd->name, root);
+    mt_path(pd, sizeof pd, "save-d");
+    mt_path(ps, sizeof ps, "save-s");
+    lrr_context *ctx = NULL;
+    lrr_scene *sc = NULL;
+    lrr_operator *head = NULL, *s = NULL;
+    lrr_build_options bo = options(kd);
+    int ok = lrr_context_create(&ctx) == LRR_OK && scene_for(ctx, kd, &sc) == LRR_OK;
+    lrr_mpi_build_info info;
+    memset(&info, 0, sizeof info);
+    lrr_status st = ok ? lrr_mpi_operator_build_save(sc, &bo, kd->storage, kd->fbar,
+                                                     mt_rank == root ? pd : NULL,
+                                                     MPI_COMM_WORLD, root, &head, &info,
+                                                     sizeof info)
+                       : LRR_ERR_INVALID_ARG;
+    mt_check(st == LRR_OK && (mt_rank == root) == (head != NULL),
+             "%s: the file written, the operator without F̄ on the root alone (%s)", what,
+             lrr_strerror(st));
+    unsigned long long mine = info.fbar_bytes, sum = 0;
+    MPI_Allreduce(&mine, &sum, 1, MPI_UNSIGNED_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    if (mt_rank == root && head) {
+        ok = serial_file(sc, kd, ps, &s);
+        mt_check(ok, "%s: the serial build and file", what);
+        lrr_operator_info ih, is;
+        lrr_operator_get_info(head, &ih, sizeof ih);
+        if (ok)
+            lrr_operator_get_info(s, &is, sizeof is);
+        const size_t es = kd->storage == LRR_STORAGE_F32 ? 4 : 2;
+        mt_check(ok && sum == is.n * is.k * es && lrr_operator_fbar(head) == NULL,
+                 "%s: the ranks held %llu bytes of F̄ (n×k×%zu), the root's operator none",
+                 what, sum, es);
+        mt_check(ok && same_files(pd, ps), "%s: the file the serial one but for its timings",
+                 what);
+        mt_check(ok && memcmp(lrr_operator_m(head), lrr_operator_m(s),
+                              3 * is.k * is.k * sizeof(float)) == 0 &&
+                     memcmp(ih.condition, is.condition, sizeof is.condition) == 0 &&
+                     ih.back_face_share == is.back_face_share,
+                 "%s: the root's M, condition estimates and back-face share bit for bit", what);
+        remove(pd);
+        remove(ps);
+    }
+    lrr_operator_destroy(head);
+    lrr_operator_destroy(s);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
+/* The serial build's need in bytes and F̄'s part, from its budget error. */
+static int serial_need(lrr_context *ctx, const lrr_scene *sc, const kind *kd, double *need,
+                       double *fbar)
+{
+    lrr_build_options bo = options(kd);
+    bo.memory_budget = 1;
+    lrr_operator *op = NULL;
+    char msg[512];
+    lrr_status st = lrr_operator_build(sc, &bo, &op);
+    lrr_operator_destroy(op);
+    lrr_context_last_error(ctx, msg, sizeof msg);
+    const char *at = strstr(msg, "needs ");
+    return st == LRR_ERR_BUDGET && at && sscanf(at, "needs %lf MiB (F̄ %lf MiB", need, fbar) == 2;
+}
+
+/* A budget the serial build exceeds by 40 % of F̄: two ranks hold half of F̄ each. */
+static void budget(void)
+{
+    const kind kd = {"budget", "cornell", 216, 2, 0, LRR_STORAGE_F32, LRR_FBAR_AUTO};
+    char path[512];
+    mt_path(path, sizeof path, "save-budget");
+    lrr_context *ctx = NULL;
+    lrr_scene *sc = NULL;
+    double need = 0, fbar = 0;
+    int ok = lrr_context_create(&ctx) == LRR_OK && scene_for(ctx, &kd, &sc) == LRR_OK &&
+             serial_need(ctx, sc, &kd, &need, &fbar) && fbar > 0.5 * need;
+    mt_check(ok, "budget: the serial need %.1f MiB, F̄ %.1f MiB of it", need, fbar);
+    if (!ok)
+        return;
+    lrr_build_options bo = options(&kd);
+    bo.memory_budget = (size_t)((need - 0.4 * fbar) * 1048576.0);
+    lrr_operator *op = NULL;
+    lrr_status serial = lrr_operator_build(sc, &bo, &op);
+    lrr_operator_destroy(op);
+    mt_check(serial == LRR_ERR_BUDGET, "budget %.1f MiB: the serial build refuses (%s)",
+             bo.memory_budget / 1048576.0, lrr_strerror(serial));
+    lrr_status st = lrr_mpi_operator_build_save(sc, &bo, LRR_STORAGE_F32, LRR_FBAR_AUTO, path,
+                                                MPI_COMM_WORLD, 0, NULL, NULL, 0);
+    lrr_status want = mt_size >= 2 ? LRR_OK : LRR_ERR_BUDGET;
+    mt_check(st == want, "budget %.1f MiB on %d rank(s): %s (want %s)",
+             bo.memory_budget / 1048576.0, mt_size, lrr_strerror(st), lrr_strerror(want));
+    if (mt_rank == 0)
+        remove(path);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
+/* One faulty build_save: every rank's status want within FAULT_SECONDS, the message with
+ * needle, no file (nor temporary file) left. */
+static void fault(const char *what, lrr_context *ctx, lrr_scene *sc, const char *path,
+                  lrr_status want, const char *needle)
+{
+    const kind *kd = &KINDS[1];
+    lrr_build_options bo = options(kd);
+    lrr_operator *head = (lrr_operator *)1;
+    double t0 = MPI_Wtime();
+    lrr_status st = lrr_mpi_operator_build_save(sc, &bo, kd->storage, kd->fbar, path,
+                                                MPI_COMM_WORLD, 0, &head, NULL, 0);
+    double t = MPI_Wtime() - t0, slowest;
+    int mine = (int)st, lo, hi;
+    MPI_Allreduce(&mine, &lo, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    MPI_Allreduce(&mine, &hi, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    MPI_Allreduce(&t, &slowest, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    char msg[512];
+    lrr_context_last_error(ctx, msg, sizeof msg);
+    mt_check(lo == (int)want && hi == (int)want && head == NULL && slowest < FAULT_SECONDS &&
+                 (!path || mt_rank != 0 || no_file_left(path)),
+             "%s: every rank returns %s within %.3f s, no operator, no file", what,
+             lrr_strerror(want), slowest);
+    mt_check(strstr(msg, needle) != NULL, "%s: rank %d's message: \"%s\"", what, mt_rank, msg);
+}
+
+static void faults(void)
+{
+    const int last = mt_size - 1;
+    lrr_context *ctx = NULL;
+    lrr_scene *sc = NULL;
+    char path[512], nodir[600];
+    mt_path(path, sizeof path, "save-fault");
+    snprintf(nodir, sizeof nodir, "%s.missing/op.lrr", path);
+    if (lrr_context_create(&ctx) != LRR_OK || scene_for(ctx, &KINDS[1], &sc) != LRR_OK) {
+        mt_check(0, "faults: the test scene");
+        return;
+    }
+    fault("no path on the root", ctx, sc, NULL, LRR_ERR_INVALID_ARG, "path is NULL");
+    fault("a missing directory", ctx, sc, nodir, LRR_ERR_IO, "op.lrr");
+    /* the root's files limited to 4 KiB past the start of F̄'s section (from the serial
+     * file): the write fails within it (SIGXFSZ ignored: write() returns EFBIG) */
+    struct rlimit old, small;
+    getrlimit(RLIMIT_FSIZE, &old);
+    small = old;
+    if (mt_rank == 0) {
+        lrr_operator *s = NULL;
+        size_t len = 0, off[16], size[16];
+        unsigned id[16];
+        unsigned char *f = serial_file(sc, &KINDS[1], path, &s) ? slurp(path, &len) : NULL;
+        int count = f ? sections(f, len, id, off, size) : 0;
+        for (int j = 0; j < count; j++)
+            if (id[j] == 4 || id[j] == 11) /* FBAR, FBAR_STRIPS */
+                small.rlim_cur = (rlim_t)off[j] + 4096;
+        mt_check(small.rlim_cur + 4096 < len, "faults: F̄ of the serial file ends past %zu",
+                 (size_t)small.rlim_cur + 4096);
+        free(f);
+        lrr_operator_destroy(s);
+        remove(path);
+        signal(SIGXFSZ, SIG_IGN);
+        setrlimit(RLIMIT_FSIZE, &small);
+    }
+    fault("the root's write failing within F̄", ctx, sc, path, LRR_ERR_IO, "");
+    if (mt_rank == 0)
+        setrlimit(RLIMIT_FSIZE, &old);
+    /* every allocation counted on the last rank's context failing in turn */
+    int failing = 0, done = 0;
+    for (unsigned long n = 1; !done && n < 400; n++) {
+        if (mt_rank == last)
+            lrr__rows_fail_after(ctx, n);
+        lrr_build_options bo = options(&KINDS[1]);
+        lrr_status st = lrr_mpi_operator_build_save(sc, &bo, KINDS[1].storage, KINDS[1].fbar,
+                                                    path, MPI_COMM_WORLD, 0, NULL, NULL, 0);
+        if (mt_rank == last)
+            lrr__rows_fail_after(ctx, 0);
+        int mine = (int)st, lo, hi;
+        MPI_Allreduce(&mine, &lo, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        MPI_Allreduce(&mine, &hi, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        done = lo == LRR_OK && hi == LRR_OK;
+        if (!done && !(lo == hi && lo == (int)LRR_ERR_NOMEM &&
+                       (mt_rank != 0 || no_file_left(path)))) {
+            mt_check(0, "allocation %lu failing on rank %d: statuses %d..%d", n, last, lo, hi);
+            failing = -1;
+            break;
+        }
+        failing += !done;
+    }
+    mt_check(failing > 0 && done, "each of the %d allocations of build_save failing on rank %d "
+             "ends every rank with LRR_ERR_NOMEM and no file, then it succeeds", failing, last);
+    if (mt_rank == 0)
+        remove(path);
+    lrr_scene_destroy(sc);
+    lrr_context_destroy(ctx);
+}
+
+int main(int argc, char **argv)
+{
+    mt_init(&argc, &argv);
+    for (size_t c = 0; c < sizeof KINDS / sizeof *KINDS; c++)
+        equality(&KINDS[c], c % 2 ? mt_size - 1 : 0);
+    budget();
+    faults();
+    return mt_finish();
+}
