@@ -17,12 +17,13 @@ trap 'rm -rf "$tmp"' EXIT
 # function names after LRR_API (declarations may wrap after the name's parenthesis)
 sed -n 's/^LRR_API[^(]*[^a-z0-9_]\(lrr_[a-z0-9_]*\)(.*/\1/p' "$top/include/lrr.h" | sort -u > "$tmp/header"
 # the public names (lrr_x); the private ones (lrr__x, node LRR_PRIVATE_N, for liblrr_mpi)
-# are checked apart below, against the LRR__PRIVATE_API declarations of the private headers (lib/*/rows.h, build.h)
+# are checked apart below, against the LRR__PRIVATE_API declarations of the private headers (lib/*/rows.h, build.h, file/stream.h)
 sed -n '/global:/,/local:/s/^[[:space:]]*\(lrr_[a-z0-9_]*\);.*/\1/p' "$top/lib/liblrr.map" | sort -u > "$tmp/all"
 grep -v '^lrr__' "$tmp/all" > "$tmp/map"
 grep '^lrr__' "$tmp/all" > "$tmp/private_map"
 sed -n 's/^LRR__PRIVATE_API[^(]*[^a-z0-9_]\(lrr__[a-z0-9_]*\)(.*/\1/p' "$top/lib/solve/rows.h" \
-    "$top/lib/operator/build.h" "$top/lib/reference/rows.h" "$top/lib/verify/rows.h" |
+    "$top/lib/operator/build.h" "$top/lib/reference/rows.h" "$top/lib/verify/rows.h" \
+    "$top/lib/file/stream.h" |
     sort -u > "$tmp/private_header"
 nm -D --defined-only "$so" | awk '{print $3}' | sed 's/@.*//' | grep -v '^LRR_' | sort -u > "$tmp/all_so"
 grep -v '^lrr__' "$tmp/all_so" > "$tmp/so"

@@ -20,7 +20,7 @@ allowed() {
         light) echo "core scene operator light" ;;
         probe) echo "core scene operator light probe" ;;
         output) echo "core scene operator output" ;;
-        mpi) echo "solve operator reference verify mpi" ;;
+        mpi) echo "solve operator reference verify file mpi" ;;
         *) echo "" ;;
     esac
 }

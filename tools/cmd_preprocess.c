@@ -78,10 +78,13 @@ static const char preprocess_help[] =
     "why); smaller scenes get --patches 216 --levels 2.\n"
     "Under mpirun (lrr built with MPI: 'lrr --version' lists mpi), every rank opens SCENE\n"
     "and computes its share of the hemicubes (chunks of 64 receivers dealt round-robin,\n"
-    "OMP_NUM_THREADS threads each); rank 0 gathers them, factorises, writes FILE.lrr (the\n"
-    "serial file but for its timings) and prints, adding ranks, rank_hemicube_seconds\n"
-    "(the fastest and the slowest rank's) and gather_seconds. --verify's path tracing is\n"
-    "dealt across the ranks too (the same figures). --backend opencl is serial.\n";
+    "OMP_NUM_THREADS threads each) and keeps those rows of F̄; the ranks sum G's rows,\n"
+    "rank 0 factorises and writes FILE.lrr as the rows stream in (the serial file but for\n"
+    "its timings) and prints, adding ranks, rank_hemicube_seconds (the fastest and the\n"
+    "slowest rank's), gather_seconds, rank_fbar_mb (the most F̄ a rank held) and\n"
+    "save_seconds. --memory-budget is then per rank, with its share of F̄. --verify\n"
+    "gathers the operator on rank 0 instead, and deals its path tracing across the ranks\n"
+    "(the same figures). --backend opencl is serial.\n";
 
 typedef struct preprocess_args {
     const char *scene, *output;

@@ -228,8 +228,7 @@ static int gather_g(bs_dist *d, double *G)
     const size_t k = d->k;
     int rc = MPI_SUCCESS;
     if (d->rank != d->root)
-        return d->ends ? MPI_Send(d->done, (int)(d->ends * k), MPI_DOUBLE, d->root, TAG_GROWS,
-                                  d->comm)
+        return d->ends ? MPI_Send(d->done, (int)d->ends, d->grow, d->root, TAG_GROWS, d->comm)
                        : MPI_SUCCESS;
     memset(G, 0, k * k * sizeof(double));
     for (size_t p = 0; p < k; p++)
@@ -244,16 +243,13 @@ static int gather_g(bs_dist *d, double *G)
         }
         if (m == 0)
             continue;
-        MPI_Datatype row, rows;
-        if ((rc = MPI_Type_contiguous((int)k, MPI_DOUBLE, &row)) != MPI_SUCCESS)
-            break;
-        if ((rc = MPI_Type_create_indexed_block((int)m, 1, d->idx, row, &rows)) ==
+        MPI_Datatype rows;
+        if ((rc = MPI_Type_create_indexed_block((int)m, 1, d->idx, d->grow, &rows)) ==
             MPI_SUCCESS) {
             if ((rc = MPI_Type_commit(&rows)) == MPI_SUCCESS)
                 rc = MPI_Recv(G, 1, rows, r, TAG_GROWS, d->comm, MPI_STATUS_IGNORE);
             MPI_Type_free(&rows);
         }
-        MPI_Type_free(&row);
     }
     return rc;
 }
@@ -279,8 +275,12 @@ static lrr_status g_buffers(bs_dist *d)
     d->idx = malloc(k * sizeof(int));
     if (d->rank == d->root && k <= SIZE_MAX / sizeof(double) / k)
         d->G = lrr_aligned_alloc(k * k * sizeof(double));
-    const int ok = d->slot0 && d->done && d->sendbuf && d->partial && d->req && d->idx &&
-                   (d->rank != d->root || d->G);
+    int ok = d->slot0 && d->done && d->sendbuf && d->partial && d->req && d->idx &&
+             (d->rank != d->root || d->G);
+    if (ok && MPI_Type_contiguous((int)k, MPI_DOUBLE, &d->grow) == MPI_SUCCESS)
+        ok = MPI_Type_commit(&d->grow) == MPI_SUCCESS;
+    else
+        ok = 0;
     return lrr__mpi_spread(d->ctx, d->comm,
                            ok ? LRR_OK
                               : lrr__mpi_error(d->ctx, LRR_ERR_NOMEM, "lrr_mpi_operator_build_"
@@ -307,7 +307,7 @@ static lrr_status factorise(bs_dist *d)
 /* This rank's receivers and their buffers. */
 static lrr_status split(bs_dist *d)
 {
-    if (d->n > INT_MAX || d->k > INT_MAX / 2)
+    if (d->n > INT_MAX || d->k > INT_MAX / (4 * LRR__MPI_CHUNK + 64)) /* a chunk's bytes */
         return lrr__mpi_error(d->ctx, LRR_ERR_OVERFLOW, "lrr_mpi_operator_build_save: n = %zu "
                               "or k = %zu exceeds MPI's int counts", d->n, d->k);
     const size_t rows = lrr__mpi_chunk_rows(d->n, d->rank, d->size, NULL), k = d->k;
@@ -403,6 +403,7 @@ lrr_status lrr_mpi_operator_build_save(const lrr_scene *scene, const lrr_build_o
         *head = NULL;
     bs_dist d;
     memset(&d, 0, sizeof d);
+    d.grow = MPI_DATATYPE_NULL;
     d.ctx = lrr__build_scene_context(scene);
     d.root = root;
     lrr_status st = lrr__mpi_open(d.ctx, comm, root, "lrr_mpi_operator_build_save", &d.comm,
@@ -438,6 +439,8 @@ lrr_status lrr_mpi_operator_build_save(const lrr_scene *scene, const lrr_build_o
     free(d.partial);
     free(d.req);
     free(d.idx);
+    if (d.grow != MPI_DATATYPE_NULL)
+        MPI_Type_free(&d.grow);
     lrr__build_destroy(d.b);
     MPI_Comm_free(&d.comm);
     return st;

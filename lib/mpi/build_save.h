@@ -25,6 +25,7 @@ typedef struct bs_dist {
     double *done, *sendbuf, *partial, *G;
     MPI_Request *req;
     int *idx;
+    MPI_Datatype grow;      /* one row of G (k doubles) */
     lrr_mpi_build_info info;
 } bs_dist;
 
