@@ -376,6 +376,24 @@ LRR_API LRR_NODISCARD lrr_status lrr_operator_save(const lrr_operator *op, const
  * LRR_ERR_CORRUPT / LRR_ERR_VERSION. */
 LRR_API LRR_NODISCARD lrr_status lrr_operator_load(lrr_context *ctx, const char *path,
                                                    lrr_operator **out) LRR_NONNULL(1, 2, 3);
+/* lrr_operator_load without F̄, for a process that solves elsewhere (docs/MPI.md: rank 0
+ * of `lrr solve` under mpirun, whose ranks each load their own rows of F̄): everything but
+ * the n×k entries of F̄, which is what drawing, exporting, direct light and the radiosity's
+ * summaries read (geometry, hierarchy, rho, emission, areas, M, the row scales of 16-bit
+ * F̄, lrr_operator_info's figures and the error bar). Every section but F̄ is read and
+ * checked as lrr_operator_load checks it, with the same errors; F̄'s table entry (FBAR or
+ * FBAR_STRIPS) is checked too (inside the file, its size against n and k), but its bytes and
+ * checksum are not read: a damaged F̄ loads here and fails lrr_operator_load. Vᵀ's weights
+ * are the area weights (w_j = d_p A_j / A_p) even where the file's clusters use weights from
+ * F̄'s row sums (lrr_operator_build's): nothing public reads them without F̄. On such an
+ * operator lrr_operator_fbar returns NULL, lrr_operator_fbar_row writes zeros,
+ * lrr_operator_info counts no F̄ in its bytes (layout ROWS), and every call that reads or
+ * rewrites F̄ (lrr_solver_create, lrr_operator_save and _save_fbar, _set_storage,
+ * _set_layout, _set_reflectance, _verify) returns LRR_ERR_INVALID_ARG saying why. Thread
+ * safety: any thread. */
+LRR_API LRR_NODISCARD lrr_status lrr_operator_load_head(lrr_context *ctx, const char *path,
+                                                        lrr_operator **out)
+    LRR_NONNULL(1, 2, 3);
 
 /* New reflectances (n×3, each in [0,1)): recomputes M_c from the stored F̄; no new form
  * factors. Thread safety: one thread per object, and no solver may run meanwhile. */
@@ -421,7 +439,8 @@ typedef enum lrr_layout {
 LRR_API LRR_NODISCARD lrr_status lrr_operator_set_layout(lrr_operator *op, lrr_layout layout)
     LRR_NONNULL(1);
 
-/* Row i of F̄ (k floats), decoded from whatever storage and layout the operator uses. */
+/* Row i of F̄ (k floats), decoded from whatever storage and layout the operator uses; k
+ * zeros for an operator of lrr_operator_load_head, which holds no F̄. */
 LRR_API void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
     LRR_NONNULL(1, 3);
 
@@ -436,7 +455,8 @@ typedef struct lrr_operator_info {
     unsigned hemicube_resolution;
     uint64_t seed;
     int no_rotation;        /* built without the random rotation */
-    size_t bytes;           /* memory held by F̄, M_c and per-subpatch data */
+    size_t bytes;           /* memory held by F̄ (none after lrr_operator_load_head), M_c
+                               and per-subpatch data */
     int formfactor_method;  /* what the build used: LRR_FORMFACTOR_RASTER or _RAYCAST
                                (0 after lrr_operator_load: .lrr files do not record it) */
     /* Light-leak indicator: the mean over receivers (subpatches) of the share of each
@@ -476,7 +496,7 @@ LRR_API void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *in
 
 /* Read-only views valid for the operator's life: F̄ (n×k row-major, ld = k; NULL unless the
  * storage is LRR_STORAGE_F32 and the layout LRR_LAYOUT_ROWS: use lrr_operator_set_layout or
- * lrr_operator_fbar_row then), M (3 k×k row-major matrices,
+ * lrr_operator_fbar_row then; NULL too after lrr_operator_load_head), M (3 k×k row-major matrices,
  * channel-major), rho/emission/centre/normal (n×3), area (n). */
 LRR_API const float *lrr_operator_fbar(const lrr_operator *op) LRR_NONNULL(1);
 LRR_API const float *lrr_operator_m(const lrr_operator *op) LRR_NONNULL(1);

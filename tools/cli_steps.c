@@ -150,6 +150,12 @@ int load_operator(lrr_context *ctx, const char *path, lrr_operator **op)
     return s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, s);
 }
 
+int load_operator_head(lrr_context *ctx, const char *path, lrr_operator **op)
+{
+    lrr_status s = lrr_operator_load_head(ctx, path, op);
+    return s == LRR_OK ? CLI_EXIT_OK : cli_lib_error(ctx, s);
+}
+
 int scaled_emission(const lrr_operator *op, double scale, float **out)
 {
     lrr_operator_info oi;

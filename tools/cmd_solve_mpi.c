@@ -1,10 +1,10 @@
 /* lrr solve and lrr render across MPI ranks (tools/solve_mpi.h; lrr_mpi.h, docs/MPI.md): rank 0
- * loads the operator as the serial lrr solve does (for the emission, the probe and lights, the
- * printout and the CSV), every rank holds its block of rows in an lrr_mpi_solver, rank 0
+ * loads the operator without F̄ (lrr_operator_load_head: the emission, the probe and
+ * lights, the printout, the CSV and the drawing read none of it, and the whole F̄ is what
+ * would not fit one rank), every rank holds its block of rows in an lrr_mpi_solver, rank 0
  * scatters E, the frames run on every rank, and B is gathered back to rank 0, which prints
  * the serial command's summary and writes the same CSV, or draws (lrr render: the args'
- * finish callback). The distributed frame always
- * takes the full path on the CPU. */
+ * finish callback). The distributed frame always takes the full path on the CPU. */
 #ifdef LRR_MPI
 #include <mpi.h>
 #include <stdio.h>
@@ -37,11 +37,12 @@ static int check_options(const solve_mpi_args *a, int rank)
     return bad ? CLI_EXIT_USAGE : CLI_EXIT_OK;
 }
 
-/* Rank 0: the operator, the emission (scaled, with the probe and lights) and B's buffer. */
+/* Rank 0: the operator without F̄, the emission (scaled, with the probe and lights) and B's
+ * buffer. */
 static int root_prepare(lrr_context *ctx, const solve_mpi_args *a, lrr_operator **op,
                         float **e, float **b, double *direct_s)
 {
-    int rc = load_operator(ctx, a->file, op);
+    int rc = load_operator_head(ctx, a->file, op);
     if (rc == CLI_EXIT_OK)
         rc = scaled_emission(*op, a->scale, e);
     if (rc == CLI_EXIT_OK && (a->pa->path || a->pa->lights))

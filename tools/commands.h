@@ -330,6 +330,8 @@ void print_operator_info(const lrr_operator *op);
 int check_writable_dir(const char *path);
 
 int load_operator(lrr_context *ctx, const char *path, lrr_operator **op);
+/* The operator without F̄ (lrr_operator_load_head): for a process that does not solve. */
+int load_operator_head(lrr_context *ctx, const char *path, lrr_operator **op);
 /* E = S × (stored emission); fails if scaling makes a value overflow to infinity. */
 int scaled_emission(const lrr_operator *op, double scale, float **out);
 /* e (n×3, the scaled stored emission) += the direct light of the probe and of the --light

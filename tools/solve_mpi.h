@@ -14,8 +14,8 @@ typedef struct solve_mpi_args {
     int path, backend, fbar; /* lrr_path, lrr_backend, lrr_fbar_format as parsed */
     int m_given;             /* --m was given */
     /* lrr render (and any command that draws or writes what it solved): when set, rank 0
-     * calls it with the operator and the gathered B instead of printing the solve's summary
-     * and CSV; its return is rank 0's exit status */
+     * calls it with the operator (without F̄: lrr_operator_load_head) and the gathered B
+     * instead of printing the solve's summary and CSV; its return is rank 0's exit status */
     int (*finish)(lrr_context *ctx, const lrr_operator *op, const float *b, int ranks,
                   const void *arg);
     const void *finish_arg;

@@ -91,11 +91,12 @@ struct header {
     bool strips;     /* version 5: F̄ as FBAR_STRIPS, any hierarchy */
 };
 
-/* load.c, in the order a load calls them (lrr_operator_load; lrr__operator_load_rows in
- * load_rows.c): open path into r (closed by the caller when r->fd >= 0) and clear lh; the header, the
- * section table, the geometry and hierarchy, INFO, and an operator of it (F̄ allocated when
- * with_fbar; its rho and emission read and checked, its weighting set); the row scales
- * (16-bit F̄) and M, read and checked; INFO's fields into the operator. */
+/* load.c, in the order a load calls them (lrr_operator_load and lrr_operator_load_head;
+ * lrr__operator_load_rows in load_rows.c): open path into r (closed by the caller when
+ * r->fd >= 0) and clear lh; the header, the section table, the geometry and hierarchy, INFO,
+ * and an operator of it (F̄ allocated when with_fbar; its rho and emission read and checked,
+ * its weighting set); the row scales (16-bit F̄) and M, read and checked; INFO's fields into
+ * the operator. */
 struct load_head {
     struct header hd;
     struct section sec[SEC_KNOWN]; /* indexed by id − 1 */

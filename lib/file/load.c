@@ -1,6 +1,7 @@
-/* Loading .lrr operator files: lrr_operator_load. The format is documented at the top of
- * lrr_file.c. Every size is checked against the real file size before anything is allocated,
- * so a corrupted header cannot make the load allocate (or read) more than the file holds. */
+/* Loading .lrr operator files: lrr_operator_load, and lrr_operator_load_head (everything but
+ * F̄). The format is documented at the top of lrr_file.c. Every size is checked against the
+ * real file size before anything is allocated, so a corrupted header cannot make the load
+ * allocate (or read) more than the file holds. */
 #include "config.h"
 #include "core/path.h"
 #include "file/format.h"
@@ -609,7 +610,10 @@ void lrr__load_info(const struct load_head *lh, lrr_operator *op)
     op->selection_seconds = lh->selection_seconds;
 }
 
-lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **out)
+/* lrr_operator_load with F̄ (read, checked, the visibility weights from it, panels), or
+ * lrr_operator_load_head without: the row scales read and checked alone, F̄'s section
+ * checked by the table only (read_layout), and the area weights left in place. */
+static lrr_status load(lrr_context *ctx, const char *path, int with_fbar, lrr_operator **out)
 {
     *out = NULL;
     struct reader r;
@@ -618,10 +622,13 @@ lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **
     lrr_status st = lrr__load_open(ctx, path, &r, &lh);
     if (st)
         return st;
-    if ((st = lrr__load_head(&r, &lh, 1, &op)) || (st = read_fbar(&r, &lh.hd, lh.sec, op)) ||
-        (st = lrr__load_m(&r, &lh, op)) ||
-        (st = lrr__visibility_weights(op)) || /* the weights M was factorised with */
-        (st = lrr__fbar_set_panels(op, 1))) /* the kernels read panels (no-op for strips) */
+    if ((st = lrr__load_head(&r, &lh, with_fbar, &op)) ||
+        (st = with_fbar ? read_fbar(&r, &lh.hd, lh.sec, op) : lrr__load_row_scales(&r, &lh, op)) ||
+        (st = lrr__load_m(&r, &lh, op)))
+        goto done;
+    if (with_fbar &&
+        ((st = lrr__visibility_weights(op)) || /* the weights M was factorised with */
+         (st = lrr__fbar_set_panels(op, 1)))) /* the kernels read panels (no-op for strips) */
         goto done;
     lrr__load_info(&lh, op);
     if (lh.sec[SEC_VERIFY - 1].id)
@@ -634,4 +641,14 @@ done:
     }
     *out = op;
     return LRR_OK;
+}
+
+lrr_status lrr_operator_load(lrr_context *ctx, const char *path, lrr_operator **out)
+{
+    return load(ctx, path, 1, out);
+}
+
+lrr_status lrr_operator_load_head(lrr_context *ctx, const char *path, lrr_operator **out)
+{
+    return load(ctx, path, 0, out);
 }

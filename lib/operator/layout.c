@@ -79,7 +79,8 @@ lrr_status lrr_operator_set_layout(lrr_operator *op, lrr_layout layout)
 {
     if (layout != LRR_LAYOUT_PANELS && layout != LRR_LAYOUT_ROWS)
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown layout %d", (int)layout);
-    return lrr__fbar_set_panels(op, layout == LRR_LAYOUT_PANELS);
+    lrr_status st = lrr__need_fbar(op, "lrr_operator_set_layout");
+    return st ? st : lrr__fbar_set_panels(op, layout == LRR_LAYOUT_PANELS);
 }
 
 const float *lrr_operator_fbar(const lrr_operator *op)

@@ -82,15 +82,25 @@ fail:
     return st;
 }
 
+lrr_status lrr__need_fbar(const lrr_operator *op, const char *what)
+{
+    if (lrr__fbar_data(op))
+        return LRR_OK;
+    return lrr__error(op->ctx, LRR_ERR_INVALID_ARG,
+                      "%s: the operator was loaded without F̄ (lrr_operator_load_head); load "
+                      "it with lrr_operator_load to solve, change or save it", what);
+}
+
 lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
 {
     if (!lrr_storage_name(storage))
         return lrr__error(op->ctx, LRR_ERR_INVALID_ARG, "unknown storage %d", (int)storage);
-    if (storage == op->storage)
-        return LRR_OK;
+    lrr_status st = lrr__need_fbar(op, "lrr_operator_set_storage");
+    if (st || storage == op->storage)
+        return st;
     memset(&op->verify, 0, sizeof op->verify); /* the error bar was for the other F̄ */
     const int panels = op->panels;
-    lrr_status st = lrr__fbar_convert(op, storage);
+    st = lrr__fbar_convert(op, storage);
     /* M must invert I − Vᵀ R F̄ for the F̄ the kernels now read */
     if (!st)
         st = lrr__smw_factor(op);
@@ -99,13 +109,16 @@ lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)
 
 lrr_status lrr_operator_set_reflectance(lrr_operator *op, const float *rho)
 {
+    lrr_status st = lrr__need_fbar(op, "lrr_operator_set_reflectance"); /* M needs F̄ */
+    if (st)
+        return st;
     for (size_t i = 0; i < 3 * op->n; i++)
         if (!(rho[i] >= 0.0f && rho[i] < 1.0f))
             return lrr__error(op->ctx, LRR_ERR_MATERIAL,
                               "reflectance of subpatch %zu, channel %zu = %g is outside [0,1)",
                               i / 3, i % 3, (double)rho[i]);
     float *old;
-    lrr_status st = lrr__calloc(op->ctx, &old, op->n, 3 * sizeof(float), "reflectance backup");
+    st = lrr__calloc(op->ctx, &old, op->n, 3 * sizeof(float), "reflectance backup");
     if (st)
         return st;
     memcpy(old, op->rho, op->n * 3 * sizeof(float));
@@ -161,7 +174,8 @@ void lrr_operator_get_info(const lrr_operator *op, lrr_operator_info *out, size_
     memcpy(info->worst_back_face_triangle, op->worst_tri, sizeof op->worst_tri);
     memcpy(info->worst_back_face_share, op->worst_share, sizeof op->worst_share);
     info->storage = op->storage;
-    info->bytes = op->n * op->k * (op->storage == LRR_STORAGE_F32 ? sizeof(float) : 2) +
+    /* what is held: no F̄ after lrr_operator_load_head (its row scales stay) */
+    info->bytes = (lrr__fbar_data(op) ? op->n * op->k * lrr__fbar_elem_bytes(op) : 0) +
                   (op->row_scale ? op->n * sizeof(float) : 0) +
                   3 * op->k * op->k * sizeof(float) + op->n * 14 * sizeof(float) +
                   (op->geom.origin ? 2 * op->n * sizeof(size_t) : 0);

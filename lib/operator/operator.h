@@ -86,6 +86,10 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
  * loaded alone, lrr__operator_load_rows). */
 lrr_status lrr__operator_alloc(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
                                int with_fbar, lrr_operator **out);
+/* LRR_OK when op holds F̄; else LRR_ERR_INVALID_ARG naming the public call `what`: op came
+ * from lrr_operator_load_head, which leaves F̄ (and the visibility weights derived from it)
+ * unread. Every public call that reads or rewrites F̄ asks this first. */
+lrr_status lrr__need_fbar(const lrr_operator *op, const char *what);
 
 /* Round-to-nearest-even conversions (storage.c). */
 uint16_t lrr__f32_to_f16(float f);

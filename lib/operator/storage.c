@@ -155,6 +155,10 @@ float lrr__fbar_encode_row(lrr_storage storage, const float *row, size_t k, uint
 void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
 {
     const size_t k = op->k;
+    if (!lrr__fbar_data(op)) { /* lrr_operator_load_head: no F̄ to decode (lrr.h) */
+        memset(out, 0, k * sizeof(float));
+        return;
+    }
     if (op->storage == LRR_STORAGE_F32) {
         lrr__fbar_copy_rows(op, i, i + 1, out);
         return;

@@ -181,8 +181,8 @@ lrr_status lrr_solver_create(const lrr_operator *op, lrr_backend backend, lrr_so
     *out = NULL;
     /* LRR_SIMD is checked for every backend: one set of names, refused alike everywhere */
     lrr__cpu_choice simd;
-    lrr_status st = lrr__cpu_choose(op->ctx, &simd);
-    if (st)
+    lrr_status st = lrr__need_fbar(op, "lrr_solver_create");
+    if (st || (st = lrr__cpu_choose(op->ctx, &simd)))
         return st;
     if (backend == LRR_BACKEND_OPENCL) {
         lrr__cl_solver *cl;

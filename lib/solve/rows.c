@@ -107,7 +107,9 @@ static lrr_status rows_make(const lrr_operator *op, size_t p0, size_t p1, void *
 
 lrr_status lrr__rows_create(const lrr_operator *op, size_t p0, size_t p1, lrr__rows **out)
 {
-    return rows_make(op, p0, p1, NULL, out);
+    *out = NULL;
+    lrr_status st = lrr__need_fbar(op, "a row block of F̄");
+    return st ? st : rows_make(op, p0, p1, NULL, out);
 }
 
 lrr_status lrr__rows_load(lrr_context *ctx, const char *path, lrr__rows_pick_fn pick,

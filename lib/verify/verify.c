@@ -424,7 +424,8 @@ lrr_status lrr__verify_with(lrr_operator *op, const lrr_scene *scene,
 {
     lrr_verify_options o;
     lrr_status st;
-    if ((st = read_options(op->ctx, opts, &o)) || (st = same_scene(op, scene)))
+    if ((st = lrr__need_fbar(op, "lrr_operator_verify")) ||
+        (st = read_options(op->ctx, opts, &o)) || (st = same_scene(op, scene)))
         return st;
     const double t0 = lrr__now();
     int uniform;

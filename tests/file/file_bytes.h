@@ -81,4 +81,24 @@ static inline void spit(const char *path, const void *data, size_t len)
     assert_int_equal(fclose(f), 0);
 }
 
+/* The table entry of section id in file bytes b (after the 64-byte header, 32 bytes each,
+ * as many as the header's count), NULL if absent. */
+static inline unsigned char *table_entry(unsigned char *b, uint32_t id)
+{
+    for (uint32_t i = 0; i < rd32(b + 20); i++)
+        if (rd32(b + 64 + i * 32) == id)
+            return b + 64 + i * 32;
+    return NULL;
+}
+
+/* The format version of the file at path. */
+static inline uint32_t file_version(const char *path)
+{
+    size_t len;
+    unsigned char *b = slurp(path, &len);
+    uint32_t v = rd32(b + 8);
+    free(b);
+    return v;
+}
+
 #endif

@@ -13,15 +13,6 @@ enum { HDR = 64, ENTRY = 32, FBAR = 4, INFO = 6, STRIPS = 11, TILE = 16 };
 
 static size_t pad4(size_t m) { return (m + 3) / 4 * 4; }
 
-/* The table entry of section id in file bytes b, NULL if absent. */
-static unsigned char *entry(unsigned char *b, uint32_t id)
-{
-    for (uint32_t i = 0; i < rd32(b + 20); i++)
-        if (rd32(b + HDR + i * ENTRY) == id)
-            return b + HDR + i * ENTRY;
-    return NULL;
-}
-
 /* Every checksum of b (len bytes) valid again after a deliberate edit. */
 static void fix_checksums(unsigned char *b, size_t len)
 {
@@ -102,15 +93,6 @@ static void assert_same_fbar(const lrr_operator *a, const lrr_operator *b)
     assert_memory_equal(a->weight, b->weight, a->n * sizeof(float));
 }
 
-static uint32_t file_version(const char *path)
-{
-    size_t len;
-    unsigned char *b = slurp(path, &len);
-    uint32_t v = rd32(b + 8);
-    free(b);
-    return v;
-}
-
 /* The solver's AUTO choice for op: the file's rule is the same. */
 static lrr_fbar_format solver_choice(const lrr_operator *op)
 {
@@ -156,7 +138,7 @@ static void test_roundtrip(void **state)
             assert_int_equal(file_version(pd), 1);
             size_t l1, l2;
             unsigned char *b1 = slurp(ps, &l1), *b2 = slurp(pd, &l2);
-            assert_true(rd64(entry(b1, STRIPS) + 16) * 2 < rd64(entry(b2, FBAR) + 16));
+            assert_true(rd64(table_entry(b1, STRIPS) + 16) * 2 < rd64(table_entry(b2, FBAR) + 16));
             free(b1);
             free(b2);
             lrr_operator *from_s, *from_d;
@@ -200,8 +182,8 @@ static void test_layout(void **state)
         size_t len;
         unsigned char *b = slurp(p, &len);
         assert_int_equal(rd32(b + 8), 5);
-        assert_null(entry(b, FBAR));
-        unsigned char *e = entry(b, STRIPS);
+        assert_null(table_entry(b, FBAR));
+        unsigned char *e = table_entry(b, STRIPS);
         assert_ptr_equal(e, b + HDR + 3 * ENTRY); /* in FBAR's place */
         const uint64_t off = rd64(e + 8), size = rd64(e + 16);
         assert_int_equal(off % 64, 0);
@@ -269,8 +251,8 @@ static void test_dense_and_forced(void **state)
     size_t la, ld;
     unsigned char *ba = slurp(pa, &la), *bd = slurp(pd, &ld);
     assert_int_equal(rd32(ba + 8), 1);
-    assert_non_null(entry(ba, FBAR));
-    assert_null(entry(ba, STRIPS));
+    assert_non_null(table_entry(ba, FBAR));
+    assert_null(table_entry(ba, STRIPS));
     assert_int_equal(la, ld);
     assert_memory_equal(ba, bd, la);
     assert_int_equal(file_version(ps), 5);
@@ -316,8 +298,8 @@ static void test_clusters(void **state)
     assert_int_equal(rd32(bs + 8), 5);
     assert_int_equal(rd32(bd + 8), 4);
     assert_int_equal(rd64(bs + 40), 0); /* d = 0 */
-    assert_int_equal(rd32(bs + rd64(entry(bs, INFO) + 8) + 36) & 4u, 4u);
-    assert_int_equal(rd32(bd + rd64(entry(bd, INFO) + 8) + 36) & 4u, 0u);
+    assert_int_equal(rd32(bs + rd64(table_entry(bs, INFO) + 8) + 36) & 4u, 4u);
+    assert_int_equal(rd32(bd + rd64(table_entry(bd, INFO) + 8) + 36) & 4u, 0u);
     for (int f = 0; f < 2; f++) {
         lrr_operator *back;
         LRR_CHECK(ctx, lrr_operator_load(ctx, f ? pd : ps, &back));
@@ -328,7 +310,8 @@ static void test_clusters(void **state)
         lrr_operator_destroy(back);
     }
     /* bit 2 cleared: area weights (version 3's), so other weights than M was made with */
-    wr32(bs + rd64(entry(bs, INFO) + 8) + 36, rd32(bs + rd64(entry(bs, INFO) + 8) + 36) & ~4u);
+    unsigned char *flags = bs + rd64(table_entry(bs, INFO) + 8) + 36;
+    wr32(flags, rd32(flags) & ~4u);
     fix_checksums(bs, ls);
     spit(ps, bs, ls);
     lrr_operator *area;
@@ -365,7 +348,7 @@ static void damage_open(damage_fx *d, lrr_storage storage)
     d->orig = slurp(d->path, &d->len);
     d->b = malloc(d->len);
     assert_non_null(d->b);
-    d->off = rd64(entry(d->orig, STRIPS) + 8);
+    d->off = rd64(table_entry(d->orig, STRIPS) + 8);
 }
 
 static unsigned char *count_at(damage_fx *d, size_t t) { return d->b + d->off + 2 * t; }
@@ -481,7 +464,7 @@ static void test_damage(void **state)
     /* sizes and kinds (the float file) */
     damage_open(&d, LRR_STORAGE_F32);
     memcpy(d.b, d.orig, d.len);
-    unsigned char *e = entry(d.b, STRIPS);
+    unsigned char *e = table_entry(d.b, STRIPS);
     wr64(e + 16, 8);
     expect(&d, 0, "section of 8 bytes", "FBAR_STRIPS has 8 bytes, less than its", NULL);
     const size_t cut = (size_t)d.off + 100;
@@ -493,7 +476,7 @@ static void test_damage(void **state)
     assert_non_null(strstr(msg, "truncated: section FBAR_STRIPS needs bytes"));
     wr64(d.b + 32, 70000);
     expect(&d, 0, "k above 65535", "version 5 with k = 70000", "16-bit");
-    unsigned char *info = d.b + rd64(entry(d.b, INFO) + 8);
+    unsigned char *info = d.b + rd64(table_entry(d.b, INFO) + 8);
     wr32(info + 36, rd32(info + 36) | 4u);
     expect(&d, 0, "INFO bit 2 without clusters", "section INFO: flag bit 2", NULL);
     wr32(d.b + 8, 1); /* version 1 has no strips (it skips them): FBAR is missing */

@@ -3,7 +3,8 @@
 # that a hang fails instead of blocking: the library's distributed solver against the
 # serial one with 1 to 4 ranks (test_mpi_solve) and its fault cases (test_mpi_faults), then
 # `mpirun -np P lrr solve` against `lrr solve` (same CSV within 1e-6, same summary) and its
-# failures (rank 0 alone prints the error), `mpirun lrr render` against `lrr render`, the distributed build and path tracer
+# failures (rank 0 alone prints the error), rank 0's peak memory (no whole F̄ there),
+# `mpirun lrr render` against `lrr render`, the distributed build and path tracer
 # (test_mpi_build, test_mpi_build_save; `mpirun lrr preprocess [--verify]` and `mpirun lrr reference --method
 # path-trace` against the serial commands), and a smoke run of lrr-bench mpi. Root may run them (--allow-run-as-root); more
 # ranks than cores (--oversubscribe) is the point on a 2-core machine.
@@ -163,6 +164,28 @@ if [ "$rc" -eq 1 ] && [ "$(grep -c "missing.lrr" "$T/err")" -eq 1 ] && [ ! -e "$
     pass "mpirun -np 2 lrr render of a missing file: exit 1, once: $(head -n 1 "$T/err")"
 else
     cat "$T/out" "$T/err"; fail "mpirun -np 2 lrr render of a missing file: exit $rc"
+fi
+
+# rank 0 holds the operator without F̄ (lrr_operator_load_head) beside its own rows: its peak
+# RSS stays within half of F̄'s dense bytes of rank 1's (a whole load there would add all of
+# F̄; Cornell at 1008 patches × 16: F̄ 65 MB, M 12 MB, rank 0 about 16 MB above rank 1, a
+# whole load 80 MB). Not under AddressSanitizer, whose shadow and quarantine are not the heap.
+if [ -z "${ASAN_OPTIONS:-}" ] && /usr/bin/time -f %M true >/dev/null 2>&1; then
+    BIG="$T/cornell-1008.lrr"
+    "$LRR" preprocess cornell --patches 1000 --levels 2 --hemicube 8 --seed 3 -o "$BIG" \
+        >/dev/null 2>"$T/err" || { cat "$T/err"; fail "lrr preprocess for the memory check"; }
+    # shellcheck disable=SC2016 # expanded by the ranks' sh
+    mpi 2 sh -c 'OMP_NUM_THREADS=1 exec /usr/bin/time -f "peak_kb_$OMPI_COMM_WORLD_RANK: %M" \
+        "$0" solve "$1" --repeat 1' "$LRR" "$BIG"
+    p0=$(sed -n 's/^peak_kb_0: //p' "$T/err")
+    p1=$(sed -n 's/^peak_kb_1: //p' "$T/err")
+    half_kb=$(($(value n) * $(value k) * 4 / 2048))
+    if [ "$rc" -eq 0 ] && [ -n "$p0" ] && [ -n "$p1" ] && [ "$p0" -lt $((p1 + half_kb)) ]; then
+        pass "mpirun -np 2 lrr solve: rank 0 peaks at $p0 KB, rank 1 at $p1 KB (F̄: $((2 * half_kb)) KB)"
+    else
+        cat "$T/out" "$T/err"
+        fail "mpirun -np 2 lrr solve: rank 0 peaks at '$p0' KB, rank 1 at '$p1' KB, F̄/2 $half_kb KB"
+    fi
 fi
 
 # failures: exit 1 (2 for usage) on every rank, one message, from rank 0, within LIMIT
