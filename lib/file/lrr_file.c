@@ -474,7 +474,7 @@ static lrr_status save(const lrr_operator *op, const char *path, lrr_fbar_format
     if (fbar != LRR_FBAR_AUTO && fbar != LRR_FBAR_DENSE && fbar != LRR_FBAR_SPARSE)
         return lrr__error(ctx, LRR_ERR_INVALID_ARG, "file %s: unknown F̄ format %d", path,
                           (int)fbar);
-    lrr_status need = lrr__need_fbar(op, "lrr_operator_save");
+    lrr_status need = src ? LRR_OK : lrr__need_fbar(op, "lrr_operator_save");
     if (need)
         return need;
     const lrr__geometry *g = &op->geom;

@@ -87,8 +87,9 @@ lrr_status lrr__need_fbar(const lrr_operator *op, const char *what)
     if (lrr__fbar_data(op))
         return LRR_OK;
     return lrr__error(op->ctx, LRR_ERR_INVALID_ARG,
-                      "%s: the operator was loaded without F̄ (lrr_operator_load_head); load "
-                      "it with lrr_operator_load to solve, change or save it", what);
+                      "%s: the operator holds no F̄ (loaded without it by lrr_operator_load_head, "
+                      "or the root's of lrr_mpi_operator_build_save); load it with "
+                      "lrr_operator_load to solve, change or save it", what);
 }
 
 lrr_status lrr_operator_set_storage(lrr_operator *op, lrr_storage storage)

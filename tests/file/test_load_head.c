@@ -157,7 +157,7 @@ static void expect_refused(lrr_context *ctx, lrr_status st, const char *call)
     char msg[512];
     lrr_status rec = lrr_context_last_error(ctx, msg, sizeof msg);
     if (st != LRR_ERR_INVALID_ARG || rec != st || !strstr(msg, call) ||
-        !strstr(msg, "loaded without F̄ (lrr_operator_load_head)"))
+        !strstr(msg, "holds no F̄ (loaded without it by lrr_operator_load_head"))
         fail_msg("%s gave %s, recorded %s: \"%s\"", call, lrr_strerror(st), lrr_strerror(rec),
                  msg);
 }
