@@ -13,7 +13,7 @@
  * the scene's emission and for a scene that emits nothing, and its faults. */
 #include "mpi_file.h"
 #include "mpi_test.h"
-#include "solve/rows.h" /* lrr__rows_fail_after: the allocation-failure hook */
+#include "mpi_faults.h"
 
 #define FAULT_SECONDS 10.0
 
@@ -161,6 +161,16 @@ static void fault(const char *what, lrr_context *ctx, lrr_scene *sc, int root, l
     mt_check(strstr(msg, needle) != NULL, "%s: rank %d's message: \"%s\"", what, mt_rank, msg);
 }
 
+/* One build of KINDS[0], for mt_allocation_faults (the operator dropped). */
+static lrr_status build_once(void *user)
+{
+    lrr_build_options bo = options(&KINDS[0]);
+    lrr_operator *op = NULL;
+    lrr_status st = lrr_mpi_operator_build(user, &bo, MPI_COMM_WORLD, 0, &op, NULL, 0);
+    lrr_operator_destroy(op);
+    return st;
+}
+
 static void faults(void)
 {
     const kind *kd = &KINDS[0];
@@ -182,29 +192,7 @@ static void faults(void)
     }
     /* every allocation counted on the last rank's context failing in turn, until the build
      * needs no more (the count is the same on every rank: it stops everywhere at once) */
-    int failing = 0, done = 0;
-    for (unsigned long n = 1; !done && n < 400; n++) {
-        if (mt_rank == last)
-            lrr__rows_fail_after(ctx, n);
-        lrr_build_options bo = options(kd);
-        lrr_operator *op = NULL;
-        lrr_status st = lrr_mpi_operator_build(sc, &bo, MPI_COMM_WORLD, 0, &op, NULL, 0);
-        if (mt_rank == last)
-            lrr__rows_fail_after(ctx, 0);
-        int mine = (int)st, lo, hi;
-        MPI_Allreduce(&mine, &lo, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-        MPI_Allreduce(&mine, &hi, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-        done = lo == LRR_OK && hi == LRR_OK;
-        if (!done && !(lo == hi && lo == (int)LRR_ERR_NOMEM && op == NULL)) {
-            mt_check(0, "allocation %lu failing on rank %d: statuses %d..%d", n, last, lo, hi);
-            failing = -1;
-            break;
-        }
-        failing += !done;
-        lrr_operator_destroy(op);
-    }
-    mt_check(failing > 0 && done, "each of the %d allocations of the build failing on rank %d "
-             "ends every rank with LRR_ERR_NOMEM, then the build succeeds", failing, last);
+    mt_allocation_faults(ctx, "build", build_once, NULL, sc);
     lrr_scene_destroy(sc);
     lrr_context_destroy(ctx);
 }
@@ -311,6 +299,18 @@ static void verify_equal(const kind *kd, int root)
 
 /* Its faults: root out of range, no operator on the root, too few samples, another scene
  * on the last rank, and each allocation counted on the last rank failing in turn. */
+/* One verify, for mt_allocation_faults. */
+struct verify_call {
+    lrr_operator *op;
+    lrr_scene *sc;
+    const lrr_verify_options *vo;
+};
+static lrr_status verify_once(void *user)
+{
+    struct verify_call *c = user;
+    return lrr_mpi_operator_verify(c->op, c->sc, c->vo, MPI_COMM_WORLD, 0);
+}
+
 static void verify_faults(void)
 {
     const kind *kd = &KINDS[0];
@@ -352,24 +352,8 @@ static void verify_faults(void)
                  lrr_strerror(cases[c].want), mt_rank, msg);
     }
     vo.samples = 4;
-    int failing = 0, done = 0;
-    for (unsigned long n = 1; !done && n < 400; n++) {
-        if (mt_rank == last)
-            lrr__rows_fail_after(ctx, n);
-        lrr_status st = lrr_mpi_operator_verify(op, sc, &vo, MPI_COMM_WORLD, 0);
-        if (mt_rank == last)
-            lrr__rows_fail_after(ctx, 0);
-        done = all_return(st, LRR_OK, 0);
-        if (!done && !all_return(st, LRR_ERR_NOMEM, 0)) {
-            mt_check(0, "verify, allocation %lu failing on rank %d: not LRR_ERR_NOMEM "
-                     "everywhere (%s here)", n, last, lrr_strerror(st));
-            failing = -1;
-            break;
-        }
-        failing += !done;
-    }
-    mt_check(failing > 0 && done, "verify: each of the %d allocations on rank %d failing ends "
-             "every rank with LRR_ERR_NOMEM, then the verify succeeds", failing, last);
+    struct verify_call call = {op, sc, &vo};
+    mt_allocation_faults(ctx, "verify", verify_once, NULL, &call);
     lrr_operator_destroy(op);
     lrr_scene_destroy(other);
     lrr_scene_destroy(sc);

@@ -19,7 +19,7 @@
 
 #include "mpi_file.h"
 #include "mpi_test.h"
-#include "solve/rows.h" /* lrr__rows_fail_after: the allocation-failure hook */
+#include "mpi_faults.h"
 
 #define FAULT_SECONDS 10.0
 
@@ -214,9 +214,31 @@ static void fault(const char *what, lrr_context *ctx, lrr_scene *sc, const char 
     mt_check(strstr(msg, needle) != NULL, "%s: rank %d's message: \"%s\"", what, mt_rank, msg);
 }
 
+/* One build_save of KINDS[1] to path, for mt_allocation_faults; the root leaves no file
+ * when it fails. */
+struct save_call {
+    lrr_scene *sc;
+    const char *path;
+};
+static lrr_status save_once(void *user)
+{
+    struct save_call *c = user;
+    lrr_build_options bo = options(&KINDS[1]);
+    return lrr_mpi_operator_build_save(c->sc, &bo, KINDS[1].storage, KINDS[1].fbar, c->path,
+                                       MPI_COMM_WORLD, 0, NULL, NULL, 0);
+}
+static int save_left_nothing(void *user, lrr_status st)
+{
+    const char *path = ((struct save_call *)user)->path;
+    if (mt_rank != 0)
+        return 1;
+    int clean = st == LRR_OK || no_file_left(path); /* a success wrote it */
+    remove(path);
+    return clean;
+}
+
 static void faults(void)
 {
-    const int last = mt_size - 1;
     lrr_context *ctx = NULL;
     lrr_scene *sc = NULL;
     char path[512], nodir[600];
@@ -254,29 +276,8 @@ static void faults(void)
     if (mt_rank == 0)
         setrlimit(RLIMIT_FSIZE, &old);
     /* every allocation counted on the last rank's context failing in turn */
-    int failing = 0, done = 0;
-    for (unsigned long n = 1; !done && n < 400; n++) {
-        if (mt_rank == last)
-            lrr__rows_fail_after(ctx, n);
-        lrr_build_options bo = options(&KINDS[1]);
-        lrr_status st = lrr_mpi_operator_build_save(sc, &bo, KINDS[1].storage, KINDS[1].fbar,
-                                                    path, MPI_COMM_WORLD, 0, NULL, NULL, 0);
-        if (mt_rank == last)
-            lrr__rows_fail_after(ctx, 0);
-        int mine = (int)st, lo, hi;
-        MPI_Allreduce(&mine, &lo, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
-        MPI_Allreduce(&mine, &hi, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-        done = lo == LRR_OK && hi == LRR_OK;
-        if (!done && !(lo == hi && lo == (int)LRR_ERR_NOMEM &&
-                       (mt_rank != 0 || no_file_left(path)))) {
-            mt_check(0, "allocation %lu failing on rank %d: statuses %d..%d", n, last, lo, hi);
-            failing = -1;
-            break;
-        }
-        failing += !done;
-    }
-    mt_check(failing > 0 && done, "each of the %d allocations of build_save failing on rank %d "
-             "ends every rank with LRR_ERR_NOMEM and no file, then it succeeds", failing, last);
+    struct save_call call = {sc, path};
+    mt_allocation_faults(ctx, "build_save", save_once, save_left_nothing, &call);
     if (mt_rank == 0)
         remove(path);
     lrr_scene_destroy(sc);
