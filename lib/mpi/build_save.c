@@ -358,8 +358,10 @@ static lrr_status steps(bs_dist *d, const lrr_scene *scene, const lrr_build_opti
     lrr_scene_info si;
     lrr_scene_get_info(scene, &si, sizeof si);
     size_t share = lrr__mpi_chunk_most(si.subpatches, d->size) * LRR__MPI_CHUNK;
-    lrr_status st = lrr__mpi_spread(d->ctx, d->comm,
-                                    lrr__build_begin_rows(scene, opts, storage, share, &d->b));
+    /* M is the root's alone */
+    lrr_status st = lrr__build_begin_rows(scene, opts, storage, share, d->rank == d->root,
+                                          &d->b);
+    st = lrr__mpi_spread(d->ctx, d->comm, st);
     if (st || (st = lrr__mpi_same_selection(d->ctx, d->comm, d->rank, d->root, d->b, &d->n,
                                             &d->k)))
         return st;

@@ -128,12 +128,12 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
 lrr_status lrr__operator_budget_check(lrr_context *ctx, size_t n_tri, size_t n, size_t k,
                                       lrr_storage storage, const lrr_build_options *o)
 {
-    return lrr__operator_budget_check_rows(ctx, n_tri, n, n, k, storage, o);
+    return lrr__operator_budget_check_rows(ctx, n_tri, n, n, k, storage, 1, o);
 }
 
 lrr_status lrr__operator_budget_check_rows(lrr_context *ctx, size_t n_tri, size_t n,
                                            size_t fbar_rows, size_t k, lrr_storage storage,
-                                           const lrr_build_options *o)
+                                           int with_m, const lrr_build_options *o)
 {
     lrr__operator_bytes_t b;
     lrr_status st = lrr__operator_bytes(ctx, n_tri, n, k, storage, o, &b);
@@ -143,6 +143,10 @@ lrr_status lrr__operator_budget_check_rows(lrr_context *ctx, size_t n_tri, size_
         const size_t held = b.fbar / n * fbar_rows;
         b.total -= b.fbar - held;
         b.fbar = held;
+    }
+    if (!with_m) { /* M is held elsewhere (the root's) */
+        b.total -= b.m;
+        b.m = 0;
     }
     if (o->memory_budget == 0 || b.total <= o->memory_budget)
         return LRR_OK;

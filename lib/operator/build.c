@@ -83,7 +83,8 @@ static lrr_status scene_materials(const lrr_scene *scene, lrr_operator *op)
  * or clusters (both over the scene's patches as subpatches) into *hg, *cluster saying
  * which; nothing for the scene's own (uniform, *hg left empty). */
 static lrr_status select_hierarchy(const lrr_scene *scene, const lrr_build_options *o,
-                                   size_t fbar_rows, lrr__geometry *hg, int *cluster)
+                                   size_t fbar_rows, int with_m, lrr__geometry *hg,
+                                   int *cluster)
 {
     lrr_context *ctx = scene->ctx;
     memset(hg, 0, sizeof *hg);
@@ -112,18 +113,18 @@ static lrr_status select_hierarchy(const lrr_scene *scene, const lrr_build_optio
     /* the normal rule may have made more clusters than asked: check the budget anew */
     if (!st)
         st = lrr__operator_budget_check_rows(ctx, hg->n_tri, hg->n, fbar_rows, hg->k,
-                                             LRR_STORAGE_F32, o);
+                                             LRR_STORAGE_F32, with_m, o);
     if (st)
         lrr__geometry_free(hg);
     return st;
 }
 
-/* The whole build's operator over b->g (F̄ in floats unless !with_fbar: then none, in
- * storage), with what the hemicubes do not give; b->g is then the operator's copy (the
- * selection's is freed). */
-static lrr_status new_whole(lrr__build *b, int with_fbar, lrr_storage storage)
+/* The whole build's operator over b->g (F̄ in floats, or none in storage; M unless parts
+ * has LRR__ALLOC_NO_M: lrr__operator_alloc), with what the hemicubes do not give; b->g is
+ * then the operator's copy (the selection's is freed). */
+static lrr_status new_whole(lrr__build *b, int parts, lrr_storage storage)
 {
-    lrr_status st = lrr__operator_alloc(b->ctx, b->g, storage, with_fbar, &b->op);
+    lrr_status st = lrr__operator_alloc(b->ctx, b->g, storage, parts, &b->op);
     if (st)
         return st;
     lrr_operator *op = b->op;
@@ -149,7 +150,7 @@ static lrr_status new_whole(lrr__build *b, int with_fbar, lrr_storage storage)
 enum { BUILD_ROWS, BUILD_WHOLE, BUILD_HEAD };
 
 static lrr_status begin(const lrr_scene *scene, const lrr_build_options *opts, int kind,
-                        lrr_storage storage, size_t fbar_rows, lrr__build **out)
+                        lrr_storage storage, size_t fbar_rows, int with_m, lrr__build **out)
 {
     *out = NULL;
     lrr_context *ctx = scene->ctx;
@@ -163,7 +164,7 @@ static lrr_status begin(const lrr_scene *scene, const lrr_build_options *opts, i
     size_t k_max = o.adaptive_patches ? (o.adaptive_patches < sg->n ? o.adaptive_patches : sg->n)
                                       : sg->k;
     if ((st = lrr__operator_budget_check_rows(ctx, sg->n_tri, sg->n, fbar_rows, k_max,
-                                              LRR_STORAGE_F32, &o)))
+                                              LRR_STORAGE_F32, with_m, &o)))
         return st;
     lrr__build *b = lrr__zalloc(ctx, sizeof *b);
     if (!b)
@@ -172,12 +173,13 @@ static lrr_status begin(const lrr_scene *scene, const lrr_build_options *opts, i
     b->scene = scene;
     b->o = o;
     b->t0 = lrr__now();
-    if (!(st = select_hierarchy(scene, &b->o, fbar_rows, &b->own, &b->cluster))) {
+    if (!(st = select_hierarchy(scene, &b->o, fbar_rows, with_m, &b->own, &b->cluster))) {
         b->selection = lrr__now() - b->t0;
         b->g = o.adaptive_patches ? &b->own : &scene->geom;
         if (kind != BUILD_ROWS)
-            st = new_whole(b, kind == BUILD_WHOLE, kind == BUILD_WHOLE ? LRR_STORAGE_F32
-                                                                       : storage);
+            st = new_whole(b, kind == BUILD_WHOLE ? LRR__ALLOC_FBAR
+                                                  : with_m ? 0 : LRR__ALLOC_NO_M,
+                           kind == BUILD_WHOLE ? LRR_STORAGE_F32 : storage);
         else /* the method is checked as a whole build checks it */
             st = lrr__formfactor_method(ctx, b->g, &b->o, &(int){0});
     }
@@ -193,17 +195,18 @@ lrr_status lrr__build_begin(const lrr_scene *scene, const lrr_build_options *opt
                             lrr__build **out)
 {
     return begin(scene, opts, whole ? BUILD_WHOLE : BUILD_ROWS, LRR_STORAGE_F32,
-                 scene->geom.n, out);
+                 scene->geom.n, 1, out);
 }
 
 lrr_status lrr__build_begin_rows(const lrr_scene *scene, const lrr_build_options *opts,
-                                 lrr_storage storage, size_t fbar_rows, lrr__build **out)
+                                 lrr_storage storage, size_t fbar_rows, int with_m,
+                                 lrr__build **out)
 {
     *out = NULL;
     if (!lrr_storage_name(storage))
         return lrr__error(scene->ctx, LRR_ERR_INVALID_ARG, "unknown storage %d", (int)storage);
     return begin(scene, opts, BUILD_HEAD, storage,
-                 fbar_rows < scene->geom.n ? fbar_rows : scene->geom.n, out);
+                 fbar_rows < scene->geom.n ? fbar_rows : scene->geom.n, with_m, out);
 }
 
 void lrr__build_destroy(lrr__build *b)

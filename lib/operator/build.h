@@ -48,8 +48,8 @@ LRR__PRIVATE_API lrr_status lrr__build_finish(lrr__build *b, double formfactor_s
 
 /* ---- A build whose rows of F̄ stay on the ranks that computed them (liblrr_mpi's
  * lrr_mpi_operator_build_save, lib/mpi/build_save.c): every rank begins with the operator
- * without F̄ (storage `storage`, its 16-bit row scales allocated; the budget counts
- * fbar_rows of F̄'s rows), computes its rows (lrr__build_rows, not placed), codes them
+ * without F̄ (storage `storage`, its 16-bit row scales allocated; without M unless with_m:
+ * the root's alone; the budget counts fbar_rows of F̄'s rows, and M with_m), computes its rows (lrr__build_rows, not placed), codes them
  * (lrr__build_encode), gives their sums for the Vᵀ weights and adds them into G's rows;
  * one rank inverts each G and finishes. The same arithmetic in the same order as
  * lrr_operator_build followed by lrr_operator_set_storage, so F̄, the weights, G and M are
@@ -57,7 +57,7 @@ LRR__PRIVATE_API lrr_status lrr__build_finish(lrr__build *b, double formfactor_s
 LRR__PRIVATE_API lrr_status lrr__build_begin_rows(const lrr_scene *scene,
                                                   const lrr_build_options *opts,
                                                   lrr_storage storage, size_t fbar_rows,
-                                                  lrr__build **out);
+                                                  int with_m, lrr__build **out);
 /* The build's operator (no F̄): n, k, offsets, storage through lrr.h's getters. */
 LRR__PRIVATE_API lrr_operator *lrr__build_operator(lrr__build *b);
 /* Its n row scales (16-bit storage; NULL for floats): a rank's own are written by

@@ -35,7 +35,7 @@ lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_stora
 }
 
 lrr_status lrr__operator_alloc(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
-                               int with_fbar, lrr_operator **out)
+                               int parts, lrr_operator **out)
 {
     *out = NULL;
     lrr_operator *op = lrr__zalloc(ctx, sizeof *op);
@@ -61,9 +61,11 @@ lrr_status lrr__operator_alloc(lrr_context *ctx, const lrr__geometry *g, lrr_sto
         (st = lrr__calloc(ctx, &op->weight, g->n, sizeof(float), "Vᵀ weights")) ||
         (st = lrr__calloc(ctx, &op->centre, g->n, 3 * sizeof(float), "subpatch centres")) ||
         (st = lrr__calloc(ctx, &op->normal, g->n, 3 * sizeof(float), "subpatch normals")) ||
-        (st = lrr__calloc(ctx, &op->m, kk, 3 * sizeof(float), "M (3×k×k floats)")))
+        (!(parts & LRR__ALLOC_NO_M) &&
+         (st = lrr__calloc(ctx, &op->m, kk, 3 * sizeof(float), "M (3×k×k floats)"))))
         goto fail;
     op->storage = storage;
+    const int with_fbar = parts & LRR__ALLOC_FBAR;
     if (storage == LRR_STORAGE_F32)
         st = with_fbar ? lrr__calloc(ctx, &op->fbar, g->n, g->k * sizeof(float),
                                      "F̄ (n×k floats)")

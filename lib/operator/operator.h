@@ -81,11 +81,13 @@ lrr_status lrr__operator_load_rows(lrr_context *ctx, const char *path, lrr__pick
  * area/centre/normal/weight are filled from the geometry. */
 lrr_status lrr__operator_new(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
                              lrr_operator **out);
-/* The same, without F̄ unless with_fbar (fbar and fbar16 NULL; 16-bit storage keeps its n
- * row scales): the rest of an operator whose rows of F̄ are held elsewhere (a row block
- * loaded alone, lrr__operator_load_rows). */
+/* The same, without F̄ unless parts has LRR__ALLOC_FBAR (fbar and fbar16 NULL; 16-bit
+ * storage keeps its n row scales): the rest of an operator whose rows of F̄ are held
+ * elsewhere (a row block loaded alone, lrr__operator_load_rows); with LRR__ALLOC_NO_M also
+ * without M (m NULL: a rank of liblrr_mpi's build_save other than the root). */
+enum { LRR__ALLOC_FBAR = 1, LRR__ALLOC_NO_M = 2 };
 lrr_status lrr__operator_alloc(lrr_context *ctx, const lrr__geometry *g, lrr_storage storage,
-                               int with_fbar, lrr_operator **out);
+                               int parts, lrr_operator **out);
 /* LRR_OK when op holds F̄; else LRR_ERR_INVALID_ARG naming the public call `what`: op came
  * from lrr_operator_load_head, which leaves F̄ (and the visibility weights derived from it)
  * unread. Every public call that reads or rewrites F̄ asks this first. */
@@ -218,10 +220,11 @@ lrr_status lrr__operator_bytes(lrr_context *ctx, size_t n_tri, size_t n, size_t 
  * exceeds o->memory_budget (0: no limit). */
 lrr_status lrr__operator_budget_check(lrr_context *ctx, size_t n_tri, size_t n, size_t k,
                                       lrr_storage storage, const lrr_build_options *o);
-/* The same for a build that holds only fbar_rows of F̄'s n rows (liblrr_mpi's rank). */
+/* The same for a build that holds only fbar_rows of F̄'s n rows, and M unless !with_m
+ * (liblrr_mpi's rank). */
 lrr_status lrr__operator_budget_check_rows(lrr_context *ctx, size_t n_tri, size_t n,
                                            size_t fbar_rows, size_t k, lrr_storage storage,
-                                           const lrr_build_options *o);
+                                           int with_m, const lrr_build_options *o);
 
 /* smw.c: recomputes M_c = (I − Vᵀ diag(rho_c) F̄)⁻¹ and cond from F̄ (in any storage) and
  * rho, in double precision (LAPACKE). */
