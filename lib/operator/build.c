@@ -307,11 +307,7 @@ static const float *decoded(const lrr_operator *op, size_t i, const void *row, f
 {
     if (op->storage == LRR_STORAGE_F32)
         return row;
-    const uint16_t *h = row;
-    const float s = op->row_scale[i];
-    for (size_t q = 0; q < op->k; q++)
-        scratch[q] = s * (op->storage == LRR_STORAGE_F16 ? lrr__f16_to_f32(h[q])
-                                                         : lrr__bf16_to_f32(h[q]));
+    lrr__fbar_decode_row(op->storage, op->row_scale[i], row, op->k, scratch);
     return scratch;
 }
 

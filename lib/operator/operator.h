@@ -101,6 +101,10 @@ float lrr__f16_scale(float max_abs);
 /* Row `row` (k floats) coded in 16-bit `storage` into out, as lrr_operator_set_storage codes
  * F̄; its row scale (1 for bfloat16). */
 float lrr__fbar_encode_row(lrr_storage storage, const float *row, size_t k, uint16_t *out);
+/* A row of 16-bit codes held row-major (k of them) decoded with its row scale, as
+ * lrr_operator_fbar_row decodes the operator's own. */
+void lrr__fbar_decode_row(lrr_storage storage, float scale, const uint16_t *codes, size_t k,
+                          float *out);
 float lrr__f16_to_f32(uint16_t h);
 uint16_t lrr__f32_to_bf16(float f);
 float lrr__bf16_to_f32(uint16_t b);

@@ -152,6 +152,14 @@ float lrr__fbar_encode_row(lrr_storage storage, const float *row, size_t k, uint
     return s;
 }
 
+void lrr__fbar_decode_row(lrr_storage storage, float scale, const uint16_t *codes, size_t k,
+                          float *out)
+{
+    for (size_t q = 0; q < k; q++)
+        out[q] = scale * (storage == LRR_STORAGE_F16 ? lrr__f16_to_f32(codes[q])
+                                                     : lrr__bf16_to_f32(codes[q]));
+}
+
 void lrr_operator_fbar_row(const lrr_operator *op, size_t i, float *out)
 {
     const size_t k = op->k;

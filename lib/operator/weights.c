@@ -30,11 +30,8 @@ static void fbar_row(const lrr_operator *op, const void *block, size_t row0, siz
     } else if (op->storage == LRR_STORAGE_F32) {
         memcpy(out, (const float *)block + (i - row0) * k, k * sizeof(float));
     } else {
-        const uint16_t *h = (const uint16_t *)block + (i - row0) * k;
-        const float s = op->row_scale[i];
-        for (size_t q = 0; q < k; q++)
-            out[q] = s * (op->storage == LRR_STORAGE_F16 ? lrr__f16_to_f32(h[q])
-                                                         : lrr__bf16_to_f32(h[q]));
+        lrr__fbar_decode_row(op->storage, op->row_scale[i],
+                             (const uint16_t *)block + (i - row0) * k, k, out);
     }
 }
 
