@@ -35,12 +35,6 @@ typedef struct dist {
 
 static double now(void) { return MPI_Wtime(); }
 
-/* Every rank selected the same hierarchy (mpi_internal.h). */
-static lrr_status same_selection(dist *d)
-{
-    return lrr__mpi_same_selection(d->ctx, d->comm, d->rank, d->root, d->b, &d->n, &d->k);
-}
-
 /* This rank's receivers and buffers. */
 static lrr_status split(dist *d)
 {
@@ -120,7 +114,8 @@ static lrr_status build_steps(dist *d, const lrr_scene *scene, const lrr_build_o
     const double t0 = now();
     lrr_status st = lrr__mpi_spread(d->ctx, d->comm,
                                     lrr__build_begin(scene, opts, d->rank == d->root, &d->b));
-    if (st || (st = same_selection(d)) ||
+    if (st || (st = lrr__mpi_same_selection(d->ctx, d->comm, d->rank, d->root, d->b, &d->n,
+                                                 &d->k)) ||
         (st = lrr__mpi_spread(d->ctx, d->comm, split(d))) || (st = rows_and_gather(d)))
         return st;
     /* the operator's form-factor time: the hemicubes across the ranks and the gather */

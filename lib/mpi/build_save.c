@@ -40,6 +40,12 @@ static double now(void) { return MPI_Wtime(); }
 /* ------------------------------------------------------------ chunks and patches */
 size_t lrr__bs_chunks(const bs_dist *d) { return (d->n + LRR__MPI_CHUNK - 1) / LRR__MPI_CHUNK; }
 
+size_t lrr__bs_rank_chunks(const bs_dist *d, int r)
+{
+    const size_t chunks = lrr__bs_chunks(d);
+    return chunks > (size_t)r ? (chunks - (size_t)r - 1) / (size_t)d->size + 1 : 0;
+}
+
 /* Chunk c's rows [*a, *b). */
 void lrr__bs_chunk(const bs_dist *d, size_t c, size_t *a, size_t *b)
 {
@@ -312,9 +318,7 @@ static lrr_status split(bs_dist *d)
                               "or k = %zu exceeds MPI's int counts", d->n, d->k);
     const size_t rows = lrr__mpi_chunk_rows(d->n, d->rank, d->size, NULL), k = d->k;
     d->count = d->info.rows = rows;
-    d->chunks_mine = 0;
-    for (size_t c = (size_t)d->rank; c < lrr__bs_chunks(d); c += (size_t)d->size)
-        d->chunks_mine++;
+    d->chunks_mine = lrr__bs_rank_chunks(d, d->rank);
     const size_t most = lrr__mpi_chunk_most(d->n, d->size);
     d->rows = calloc(rows ? rows : 1, sizeof *d->rows);
     d->back = calloc(rows ? rows : 1, sizeof(double));

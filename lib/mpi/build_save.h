@@ -29,8 +29,10 @@ typedef struct bs_dist {
     lrr_mpi_build_info info;
 } bs_dist;
 
-/* Chunks of F̄'s rows: their number, and chunk c's rows [*a, *b). */
+/* Chunks of F̄'s rows: their number, rank r's (chunks r, r + P, …), and chunk c's rows
+ * [*a, *b). */
 size_t lrr__bs_chunks(const bs_dist *d);
+size_t lrr__bs_rank_chunks(const bs_dist *d, int r);
 void lrr__bs_chunk(const bs_dist *d, size_t c, size_t *a, size_t *b);
 /* The file: the root saves d->head with F̄ pulled from the ranks' blocks, as fbar chooses
  * (strips from the counts every rank gives); agreed. */

@@ -157,9 +157,7 @@ static int gather_counts(bs_stream *bs)
         return MPI_ERR_NO_MEM;
     int rc = MPI_SUCCESS;
     for (int r = 0; r < d->size && rc == MPI_SUCCESS; r++) {
-        size_t m = 0;
-        for (size_t c = (size_t)r; c < lrr__bs_chunks(d); c += (size_t)d->size)
-            m++;
+        const size_t m = lrr__bs_rank_chunks(d, r);
         const size_t *from = r == d->root ? bs->mine : got;
         if (r != d->root && m)
             rc = MPI_Recv(got, (int)(m * TILES_PER_CHUNK), MPI_UINT64_T, r, TAG_COUNTS,
