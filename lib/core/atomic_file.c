@@ -121,6 +121,16 @@ int lrr__atomic_write(lrr__atomic_file *w, const void *p, size_t len)
     return 0;
 }
 
+int lrr__atomic_skip(lrr__atomic_file *w, size_t len)
+{
+    if (w->err || len == 0)
+        return w->err;
+    if (len > (size_t)INT64_MAX || fseeko(w->f, (off_t)len, SEEK_CUR) != 0)
+        return fail(w, len > (size_t)INT64_MAX ? EOVERFLOW : errno,
+                    "cannot seek in temporary file");
+    return 0;
+}
+
 int lrr__atomic_commit(lrr__atomic_file *w)
 {
     static const char *const wr = "cannot write temporary file";

@@ -43,6 +43,9 @@ typedef struct lrr__atomic_file {
 int lrr__atomic_open(lrr__atomic_file *w, const char *path, const lrr__atomic_io *io);
 /* Writes len bytes (one "write" step); the first error sticks and is returned. */
 int lrr__atomic_write(lrr__atomic_file *w, const void *p, size_t len);
+/* Moves on len bytes without writing them (a range other processes write: the file's size
+ * then covers it once they have). Returns 0 or the first error, as lrr__atomic_write. */
+int lrr__atomic_skip(lrr__atomic_file *w, size_t len);
 /* Ends the file: flush, fsync, close, rename onto path, sync the directory. Returns 0, or
  * the errno of the first failure (an earlier write's, or a stdio error on f: EIO) with
  * w->what set and the temporary file removed. Then lrr__atomic_free(w). */

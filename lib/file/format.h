@@ -53,7 +53,6 @@ enum {
  * so the checksum runs over the pieces as over one buffer. */
 struct pieces {
     size_t (*next)(struct pieces *p, size_t *cursor, const void **data);
-    const lrr_status *status; /* NULL, or where a failure of next() is recorded */
 };
 
 /* One entry of the section table; data is the payload being saved (NULL when loading). */
@@ -62,6 +61,8 @@ struct section {
     const void *data;
     uint64_t size, offset, checksum;
     struct pieces *pieces; /* saving: the payload comes from here instead of data */
+    uint64_t placed;       /* saving: its last bytes, written by others (stream.h); data
+                              then holds the size − placed before them */
 };
 
 /* The checksum of the format comment in lrr_file.c, over len bytes; and the same over
@@ -70,7 +71,7 @@ struct section {
  * lrr__checksum_end(h, len). */
 uint64_t lrr__file_checksum(const void *data, size_t len);
 uint64_t lrr__checksum_begin(uint64_t len);
-uint64_t lrr__checksum_run(uint64_t h, const void *data, size_t len);
+/* lrr__checksum_run: stream.h */
 uint64_t lrr__checksum_end(uint64_t h, uint64_t len);
 
 /* ------------------------------------------------------------ loading (load.c) */

@@ -249,7 +249,7 @@ static lrr_status find_sections(struct reader *r, struct header *hd,
     bool seen[SEC_KNOWN] = {false};
     for (uint32_t i = 0; i < hd->count; i++) {
         const unsigned char *e = table + i * ENTRY_SIZE;
-        struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24), NULL};
+        struct section s = {get32(e), NULL, get64(e + 16), get64(e + 8), get64(e + 24), NULL, 0};
         if (!wanted(hd, s.id))
             continue;
         if (seen[s.id - 1])

@@ -295,8 +295,9 @@ static size_t lay_out(const lrr_operator *op, uint32_t version, struct section *
     uint64_t pos = HEADER_SIZE + tsize;
     for (int s = 0; s < count; s++) {
         sec[s].offset = align_up(pos);
-        sec[s].checksum = sec[s].pieces ? pieces_checksum(sec[s].pieces, sec[s].size)
-                                        : lrr__file_checksum(sec[s].data, (size_t)sec[s].size);
+        sec[s].checksum = sec[s].placed ? 0 /* known once placed: write_file */
+                          : sec[s].pieces ? pieces_checksum(sec[s].pieces, sec[s].size)
+                                          : lrr__file_checksum(sec[s].data, (size_t)sec[s].size);
         pos = sec[s].offset + sec[s].size; /* below the in-memory sizes: cannot overflow */
         unsigned char *e = table + s * ENTRY_SIZE;
         put32(e, sec[s].id);
@@ -320,10 +321,29 @@ static size_t lay_out(const lrr_operator *op, uint32_t version, struct section *
     return tsize;
 }
 
-/* Writes header, table and sections to path. */
+/* Section s's placed bytes written by p into w's temporary file, after the bytes of data
+ * before them (strip counts), its checksum then put in the table (count entries). */
+static lrr_status place(lrr__fbar_placer *p, const char *tmp, struct section *sec, int s,
+                        int count, unsigned char *table)
+{
+    const uint64_t head = sec[s].size - sec[s].placed;
+    uint64_t h = lrr__checksum_begin(sec[s].size);
+    if (head)
+        h = checksum_run(h, sec[s].data, (size_t)head);
+    lrr_status st = p->place(p, tmp, sec[s].offset + head, sec[s].id == SEC_FBAR_STRIPS, &h);
+    if (st)
+        return st;
+    sec[s].checksum = lrr__checksum_end(h, sec[s].size);
+    put64(table + (size_t)s * ENTRY_SIZE + 24, sec[s].checksum);
+    put64(table + (size_t)count * ENTRY_SIZE,
+          lrr__file_checksum(table, (size_t)count * ENTRY_SIZE));
+    return LRR_OK;
+}
+
+/* Writes header, table and sections to path; a placed section (at most one) first, by p. */
 static lrr_status write_file(lrr_context *ctx, const char *path, const unsigned char *header,
-                             const unsigned char *table, size_t tsize,
-                             const struct section *sec, int count)
+                             unsigned char *table, size_t tsize, struct section *sec,
+                             int count, lrr__fbar_placer *p)
 {
     /* through the atomic writer (core/atomic_file.c), its steps seen by the fault hook */
     lrr__atomic_io io;
@@ -331,21 +351,24 @@ static lrr_status write_file(lrr_context *ctx, const char *path, const unsigned 
     struct writer w = {{0}, 0};
     lrr_status failed = LRR_OK;
     if (!lrr__atomic_open(&w.file, path, &io)) {
+        for (int s = 0; s < count && !failed; s++)
+            if (sec[s].placed)
+                failed = place(p, w.file.tmp, sec, s, count, table);
         w_bytes(&w, header, HEADER_SIZE);
         w_bytes(&w, table, tsize);
-        for (int s = 0; s < count; s++) {
+        for (int s = 0; s < count && !failed; s++) {
             w_pad_to(&w, sec[s].offset);
-            struct pieces *p = sec[s].pieces;
+            struct pieces *pc = sec[s].pieces;
             size_t cursor = 0, got;
             const void *data;
-            while (p && !w.file.err && (got = p->next(p, &cursor, &data)) != 0)
+            while (pc && !w.file.err && (got = pc->next(pc, &cursor, &data)) != 0)
                 w_bytes(&w, data, got);
-            if (!p)
-                w_bytes(&w, sec[s].data, (size_t)sec[s].size);
-            if (p && p->status && *p->status && !failed)
-                failed = *p->status;
+            if (!pc)
+                w_bytes(&w, sec[s].data, (size_t)(sec[s].size - sec[s].placed));
+            if (sec[s].placed && !lrr__atomic_skip(&w.file, sec[s].placed))
+                w.pos += sec[s].placed; /* the placer's bytes */
         }
-        if (failed) /* a stream's piece is missing: no file under path */
+        if (failed) /* F̄ was not placed: no file under path */
             lrr__atomic_abort(&w.file);
         else
             lrr__atomic_commit(&w.file);
@@ -378,40 +401,13 @@ static lrr_status choose_fbar(const lrr_operator *op, const char *path, lrr_fbar
     return LRR_OK;
 }
 
-/* F̄ from a stream (lrr__operator_save_stream): the strip counts first when strips, then
- * the stream's pieces. */
-struct stream_out {
-    struct pieces base;
-    lrr__fbar_stream *src;
-    int strips;
-    unsigned char *counts; /* the section's counts (strips) */
-    size_t counts_bytes;
-};
-
-static size_t stream_next(struct pieces *p, size_t *cursor, const void **data)
+/* choose_fbar for a placed F̄ (lrr__operator_save_placed): strips from the placer's counts
+ * as AUTO would choose them (*size their section's bytes, *counts the counts that open it,
+ * *counts_bytes of them; freed by the caller). */
+static lrr_status choose_placed(const lrr_operator *op, const char *path, lrr_fbar_format format,
+                                const lrr__fbar_placer *src, unsigned char **counts,
+                                size_t *counts_bytes, uint64_t *size, int *strips)
 {
-    struct stream_out *so = (struct stream_out *)(void *)p;
-    if (so->src->status)
-        return 0;
-    if (!so->strips)
-        return so->src->next(so->src, 0, cursor, data);
-    if (*cursor == 0) {
-        *data = so->counts;
-        *cursor = 1;
-        return so->counts_bytes;
-    }
-    size_t inner = *cursor - 1, got = so->src->next(so->src, 1, &inner, data);
-    *cursor = inner + 1;
-    return got;
-}
-
-/* choose_fbar for a stream: strips from its counts as AUTO would choose them (*size their
- * section's bytes). */
-static lrr_status choose_stream(const lrr_operator *op, const char *path, lrr_fbar_format format,
-                                lrr__fbar_stream *src, struct stream_out *so, uint64_t *size,
-                                int *strips)
-{
-    *so = (struct stream_out){{stream_next, &src->status}, src, 0, NULL, 0};
     *strips = 0;
     if (format == LRR_FBAR_DENSE || (format == LRR_FBAR_AUTO && op->k > UINT16_MAX))
         return LRR_OK;
@@ -419,7 +415,7 @@ static lrr_status choose_stream(const lrr_operator *op, const char *path, lrr_fb
         return lrr__error(op->ctx, op->k > UINT16_MAX ? LRR_ERR_UNSUPPORTED : LRR_ERR_INVALID_ARG,
                           "file %s: F̄ as strips: %s", path,
                           op->k > UINT16_MAX ? "k exceeds the 16-bit column index"
-                                             : "the stream has no strip counts");
+                                             : "the placer has no strip counts");
     const size_t es = lrr__fbar_elem_bytes(op), tiles = (op->n + LRR__TILE - 1) / LRR__TILE;
     size_t total = 0;
     uint64_t bytes = strips_counts_bytes(op->n);
@@ -429,15 +425,15 @@ static lrr_status choose_stream(const lrr_operator *op, const char *path, lrr_fb
     }
     if (format == LRR_FBAR_AUTO && !lrr__sparse_pays(op, total))
         return LRR_OK;
-    so->counts_bytes = (size_t)strips_counts_bytes(op->n);
-    lrr_status st = lrr__calloc(op->ctx, &so->counts, so->counts_bytes, 1, "F̄ strip counts");
+    *counts_bytes = (size_t)strips_counts_bytes(op->n);
+    lrr_status st = lrr__calloc(op->ctx, counts, *counts_bytes, 1, "F̄ strip counts");
     if (st)
         return st;
     for (size_t t = 0; t < tiles; t++) {
         const uint16_t m = (uint16_t)src->tile_strips[t];
-        memcpy(so->counts + 2 * t, &m, 2);
+        memcpy(*counts + 2 * t, &m, 2);
     }
-    *strips = so->strips = 1;
+    *strips = 1;
     *size = bytes;
     return LRR_OK;
 }
@@ -465,7 +461,7 @@ lrr_status lrr_operator_save(const lrr_operator *op, const char *path)
 
 /* lrr_operator_save_fbar, F̄ from op or (src not NULL) from src. */
 static lrr_status save(const lrr_operator *op, const char *path, lrr_fbar_format fbar,
-                       lrr__fbar_stream *src)
+                       lrr__fbar_placer *src)
 {
     lrr_context *ctx = op->ctx;
     if (!LRR__FILE_LITTLE_ENDIAN)
@@ -502,18 +498,20 @@ static lrr_status save(const lrr_operator *op, const char *path, lrr_fbar_format
         return lrr__error(ctx, LRR_ERR_OVERFLOW, "file %s: section sizes overflow 64 bits",
                           path);
     struct strips_out so = {0};
-    struct stream_out sto = {0};
+    unsigned char *counts = NULL; /* a placed F̄'s strip counts */
+    size_t counts_bytes = 0;
     uint64_t strips_size = 0;
     int strips = 0;
-    lrr_status st = src ? choose_stream(op, path, fbar, src, &sto, &strips_size, &strips)
+    lrr_status st = src ? choose_placed(op, path, fbar, src, &counts, &counts_bytes,
+                                        &strips_size, &strips)
                         : choose_fbar(op, path, fbar, &so, &strips_size, &strips);
     if (st)
         return st;
     unsigned char *geom = NULL, *patches = NULL;
     unsigned char info[INFO_SIZE] = {0}, verify[VERIFY_SIZE] = {0};
-    struct rows_out ro = {{rows_next, NULL}, op, NULL, op->k * lrr__fbar_elem_bytes(op)};
+    struct rows_out ro = {{rows_next}, op, NULL, op->k * lrr__fbar_elem_bytes(op)};
     if ((st = build_payloads(op, geom_size, adaptive, &geom, &patches, info)) ||
-        (!strips && op->panels &&
+        (!strips && op->panels && !src &&
          (st = lrr__calloc(ctx, &ro.blk, LRR__PANEL, ro.row_bytes, "a block of F̄ rows"))))
         goto done;
     if (strips && adaptive == 2 && op->weighting == LRR__WEIGHTS_VISIBILITY)
@@ -526,33 +524,34 @@ static lrr_status save(const lrr_operator *op, const char *path, lrr_fbar_format
     put32(verify + 40, op->verify.uniform ? 1u : 0u);
 
     struct section all[SEC_KNOWN] = {
-        {SEC_GEOMETRY, geom, geom_size, 0, 0, NULL},
-        {SEC_RHO, op->rho, rho_size, 0, 0, NULL},
-        {SEC_EMISSION, op->emission, rho_size, 0, 0, NULL},
-        {SEC_FBAR, lrr__fbar_data(op), fbar_size, 0, 0, op->panels ? &ro.base : NULL},
-        {SEC_M, op->m, m_size, 0, 0, NULL},
-        {SEC_INFO, info, INFO_SIZE, 0, 0, NULL},
-        {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0, NULL},
-        {SEC_PATCHES, patches, (uint64_t)op->k + PATCHES_PREFIX, 0, 0, NULL},
-        {SEC_CLUSTERS, patches, clusters_size, 0, 0, NULL},
-        {SEC_VERIFY, verify, VERIFY_SIZE, 0, 0, NULL},
+        {SEC_GEOMETRY, geom, geom_size, 0, 0, NULL, 0},
+        {SEC_RHO, op->rho, rho_size, 0, 0, NULL, 0},
+        {SEC_EMISSION, op->emission, rho_size, 0, 0, NULL, 0},
+        {SEC_FBAR, lrr__fbar_data(op), fbar_size, 0, 0, op->panels ? &ro.base : NULL, 0},
+        {SEC_M, op->m, m_size, 0, 0, NULL, 0},
+        {SEC_INFO, info, INFO_SIZE, 0, 0, NULL, 0},
+        {SEC_ROWSCALE, op->row_scale, (uint64_t)op->n * sizeof(float), 0, 0, NULL, 0},
+        {SEC_PATCHES, patches, (uint64_t)op->k + PATCHES_PREFIX, 0, 0, NULL, 0},
+        {SEC_CLUSTERS, patches, clusters_size, 0, 0, NULL, 0},
+        {SEC_VERIFY, verify, VERIFY_SIZE, 0, 0, NULL, 0},
     };
     if (strips)
-        all[SEC_FBAR - 1] = (struct section){SEC_FBAR_STRIPS, NULL, strips_size, 0, 0,
-                                             src ? &sto.base : &so.base};
-    else if (src)
-        all[SEC_FBAR - 1].pieces = &sto.base;
+        all[SEC_FBAR - 1] = (struct section){SEC_FBAR_STRIPS, counts, strips_size, 0, 0,
+                                             src ? NULL : &so.base, 0};
+    if (src) { /* all but the counts placed */
+        all[SEC_FBAR - 1].pieces = NULL;
+        all[SEC_FBAR - 1].placed = all[SEC_FBAR - 1].size - counts_bytes;
+    }
     struct section sec[SEC_KNOWN];
     const int count = list_sections(op, adaptive, all, sec);
     unsigned char table[SEC_KNOWN * ENTRY_SIZE + 8] = {0};
     unsigned char header[HEADER_SIZE] = {0};
     const size_t tsize =
         lay_out(op, file_version(op, adaptive, strips), sec, count, table, header);
-    st = src && src->status ? src->status /* its checksum pass failed */
-                            : write_file(ctx, path, header, table, tsize, sec, count);
+    st = write_file(ctx, path, header, table, tsize, sec, count, src);
 done:
     lrr__strips_out_free(&so);
-    lrr_aligned_free(sto.counts);
+    lrr_aligned_free(counts);
     lrr_aligned_free(ro.blk);
     lrr_aligned_free(geom);
     lrr_aligned_free(patches);
@@ -565,8 +564,8 @@ lrr_status lrr_operator_save_fbar(const lrr_operator *op, const char *path,
     return save(op, path, fbar, NULL);
 }
 
-lrr_status lrr__operator_save_stream(const lrr_operator *op, const char *path,
-                                     lrr_fbar_format fbar, lrr__fbar_stream *src)
+lrr_status lrr__operator_save_placed(const lrr_operator *op, const char *path,
+                                     lrr_fbar_format fbar, lrr__fbar_placer *src)
 {
     return save(op, path, fbar, src);
 }

@@ -119,7 +119,7 @@ lrr_status lrr__strips_out_init(const lrr_operator *op, struct strips_out *so, u
                                 int *sparse_pays)
 {
     const size_t es = lrr__fbar_elem_bytes(op);
-    *so = (struct strips_out){{strips_next, NULL}, op, (op->n + LRR__TILE - 1) / LRR__TILE, NULL,
+    *so = (struct strips_out){{strips_next}, op, (op->n + LRR__TILE - 1) / LRR__TILE, NULL,
                               NULL, 0};
     lrr_status st = lrr__calloc(op->ctx, &so->count, so->tiles, sizeof(size_t),
                                 "F̄ strip counts");

@@ -16,10 +16,9 @@
  *                                    (phase 2 below), so the sums are the serial ones;
  *                                    finished rows go to the root, which inverts G_c;
  *   the file                         the root writes it through lrr_operator_save_fbar's
- *                                    writer, pulling F̄'s section (rows or strips) chunk
- *                                    by chunk from the ranks, twice: once for the
- *                                    section's checksum (sequential over the bytes), once
- *                                    to write (stream.c). */
+ *                                    writer, every rank its chunks of F̄'s section (rows
+ *                                    or strips) with MPI-IO, the section's checksum passed
+ *                                    from chunk to chunk in order (write.c). */
 #include "config.h"
 #include "mpi/mpi_internal.h"
 

@@ -1,4 +1,4 @@
-/* lrr_mpi_operator_build_save's state (build_save.c) and its file's save (stream.c). */
+/* lrr_mpi_operator_build_save's state (build_save.c) and its file's save (write.c). */
 #ifndef LRR_MPI_BUILD_SAVE_H
 #define LRR_MPI_BUILD_SAVE_H
 
@@ -34,8 +34,8 @@ typedef struct bs_dist {
 size_t lrr__bs_chunks(const bs_dist *d);
 size_t lrr__bs_rank_chunks(const bs_dist *d, int r);
 void lrr__bs_chunk(const bs_dist *d, size_t c, size_t *a, size_t *b);
-/* The file: the root saves d->head with F̄ pulled from the ranks' blocks, as fbar chooses
- * (strips from the counts every rank gives); agreed. */
+/* The file: the root saves d->head, every rank writing its blocks of F̄ into it (MPI-IO),
+ * as fbar chooses (strips from the counts every rank gives); agreed. */
 lrr_status lrr__bs_save(bs_dist *d, lrr_fbar_format fbar, const char *path);
 
 #endif

@@ -250,11 +250,13 @@ static void faults(void)
     }
     fault("no path on the root", ctx, sc, NULL, LRR_ERR_INVALID_ARG, "path is NULL");
     fault("a missing directory", ctx, sc, nodir, LRR_ERR_IO, "op.lrr");
-    /* the root's files limited to 4 KiB past the start of F̄'s section (from the serial
-     * file): the write fails within it (SIGXFSZ ignored: write() returns EFBIG) */
+    /* a rank's files limited to 4 KiB past the start of F̄'s section (from the serial file):
+     * its writes of its chunks (MPI-IO) fail within it (SIGXFSZ ignored: write() returns
+     * EFBIG), the root's and then the last rank's, whose chunks lie past the limit too */
     struct rlimit old, small;
     getrlimit(RLIMIT_FSIZE, &old);
     small = old;
+    unsigned long long limit = 0;
     if (mt_rank == 0) {
         lrr_operator *s = NULL;
         size_t len = 0, off[16], size[16];
@@ -263,18 +265,30 @@ static void faults(void)
         int count = f ? sections(f, len, id, off, size) : 0;
         for (int j = 0; j < count; j++)
             if (id[j] == 4 || id[j] == 11) /* FBAR, FBAR_STRIPS */
-                small.rlim_cur = (rlim_t)off[j] + 4096;
-        mt_check(small.rlim_cur + 4096 < len, "faults: F̄ of the serial file ends past %zu",
-                 (size_t)small.rlim_cur + 4096);
+                limit = (unsigned long long)off[j] + 4096;
+        mt_check(limit + 4096 < len, "faults: F̄ of the serial file ends past %llu",
+                 limit + 4096);
         free(f);
         lrr_operator_destroy(s);
         remove(path);
-        signal(SIGXFSZ, SIG_IGN);
-        setrlimit(RLIMIT_FSIZE, &small);
     }
-    fault("the root's write failing within F̄", ctx, sc, path, LRR_ERR_IO, "");
-    if (mt_rank == 0)
-        setrlimit(RLIMIT_FSIZE, &old);
+    MPI_Bcast(&limit, 1, MPI_UNSIGNED_LONG_LONG, 0, MPI_COMM_WORLD);
+    small.rlim_cur = (rlim_t)limit;
+    signal(SIGXFSZ, SIG_IGN);
+    for (int r = 0; r < mt_size; r += mt_size > 1 ? mt_size - 1 : 1) {
+        char what[64], needle[64];
+        snprintf(what, sizeof what, "rank %d's writes failing within F̄", r);
+        /* the agreed message is the failing rank's, named on the others when not rank 0's */
+        if (r == 0 || mt_rank == r)
+            snprintf(needle, sizeof needle, ": cannot write F̄'s rows");
+        else
+            snprintf(needle, sizeof needle, "rank %d: file ", r);
+        if (mt_rank == r)
+            setrlimit(RLIMIT_FSIZE, &small);
+        fault(what, ctx, sc, path, LRR_ERR_IO, needle);
+        if (mt_rank == r)
+            setrlimit(RLIMIT_FSIZE, &old);
+    }
     /* every allocation counted on the last rank's context failing in turn */
     struct save_call call = {sc, path};
     mt_allocation_faults(ctx, "build_save", save_once, save_left_nothing, &call);
