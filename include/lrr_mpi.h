@@ -145,7 +145,8 @@ LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build(const lrr_scene *scene,
  * its own rows: each rank keeps the rows of its chunks (64 rows dealt round-robin) in
  * `storage`; the Vᵀ weights and G_c's rows are summed where the rows are, in the serial
  * order (a patch that spans chunks passes its partial row on), and the root inverts G_c;
- * the root writes the file, F̄'s section pulled from the ranks one chunk at a time. The file
+ * the root writes the file, each rank its chunks of F̄'s section (MPI-IO: every rank must
+ * see the root's file system). The file
  * is the serial one byte for byte but for its timings (INFO's build seconds, the
  * selection's seconds). storage, fbar and path are the root's (path may be NULL
  * elsewhere). opts->memory_budget is checked on every rank against what it holds: its

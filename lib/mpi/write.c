@@ -268,7 +268,8 @@ static lrr_status prepare(bs_writer *bs, int counted)
         if (d->rank == d->root)
             bs->tiles = calloc(tiles + TILES_PER_CHUNK, sizeof(size_t));
     }
-    const int ok = bs->buf && bs->at && (!counted || (bs->mine && (d->rank != d->root || bs->tiles)));
+    const int ok = bs->buf && bs->at &&
+                   (!counted || (bs->mine && (d->rank != d->root || bs->tiles)));
     lrr_status st = lrr__mpi_spread(d->ctx, d->comm,
                                     ok ? LRR_OK
                                        : lrr__mpi_error(d->ctx, LRR_ERR_NOMEM, "lrr_mpi_"
