@@ -160,7 +160,7 @@ LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build(const lrr_scene *scene,
  * the root then holding no k×k G_c: M and the condition numbers are then the serial ones to
  * rounding, not byte for byte. The environment variable LRR_MPI_FACTOR, read on the root at
  * the call, chooses: replicated; scalapack (LRR_ERR_UNSUPPORTED when built without it); auto
- * or unset, ScaLAPACK when k >= 4096 on 2 ranks or more. Another value is
+ * or unset, ScaLAPACK when k >= 2048 on 2 ranks or more. Another value is
  * LRR_ERR_INVALID_ARG naming it. LRR_MPI_SCALAPACK_NB (1 to 4096, default 64) sets
  * ScaLAPACK's block size. */
 LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build_save(const lrr_scene *scene,

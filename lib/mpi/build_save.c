@@ -292,8 +292,12 @@ static lrr_status g_buffers(bs_dist *d)
 }
 
 /* Where the replicated inversion (the root's LAPACK) gives way to ScaLAPACK's when
- * LRR_MPI_FACTOR is auto: k = 4096 (docs/MPI.md "The factorisation"). */
-#define SCALAPACK_FROM_K 4096
+ * LRR_MPI_FACTOR is auto (docs/MPI.md "The factorisation"). smw_seconds of `mpirun -np 2 lrr
+ * preprocess cornell --patches K --levels 0 --hemicube 16`, OMP_NUM_THREADS=1, replicated
+ * against ScaLAPACK: k 1032 0.29 / 0.21 s, k 1992 1.60 / 0.98 s, k 4128 15.9 / 7.2 s. Below
+ * 2048 the gain is a fraction of a second, and the replicated file is the serial one byte for
+ * byte. */
+#define SCALAPACK_FROM_K 2048
 #define SCALAPACK_NB 64
 
 /* The root's LRR_MPI_FACTOR (and LRR_MPI_SCALAPACK_NB, the block size: small in the tests
