@@ -26,7 +26,7 @@
 #define TAG_M 16
 
 struct bs_grid {
-    int handle, ctxt;           /* BLACS system handle and grid; -1 when none */
+    int handle, ctxt, gridded;  /* BLACS system handle (-1: none) and grid (when gridded) */
     int pr, pc, myrow, mycol, nb, k;
     int mloc, nloc, lld;        /* the local block: lld × nloc, column-major */
     int desc[9];
@@ -59,6 +59,7 @@ static lrr_status grid_open(bs_dist *d, bs_grid *g)
     g->handle = Csys2blacs_handle(d->comm);
     g->ctxt = g->handle;
     Cblacs_gridinit(&g->ctxt, "Row", g->pr, g->pc);
+    g->gridded = 1; /* a context's number may equal a handle's: they are apart */
     int pr, pc;
     Cblacs_gridinfo(g->ctxt, &pr, &pc, &g->myrow, &g->mycol);
     if (pr != g->pr || pc != g->pc || g->myrow < 0)
@@ -244,7 +245,7 @@ void lrr__bs_grid_close(bs_dist *d)
         free(g->rtype);
         free(g->mtype);
     }
-    if (g->ctxt >= 0 && g->ctxt != g->handle)
+    if (g->gridded)
         Cblacs_gridexit(g->ctxt);
     if (g->handle >= 0)
         Cfree_blacs_system_handle(g->handle);
