@@ -6,10 +6,11 @@
  * finished row, on the rank whose chunk ends the patch) is A's column p. A is dealt
  * block-cyclically (nb×nb blocks) over a pr×pc grid, pr ≤ pc as square as P allows; one
  * MPI_Alltoallw moves every finished row into the local blocks with derived types on both
- * sides (nothing packed: a rank holds its finished rows and its local block, no more). Inverting A
- * gives A⁻¹ = (G⁻¹)ᵀ = M_cᵀ, i.e. M_c row-major; G's 1-norm condition (the serial dgecon '1')
- * is A's infinity-norm one (pdlange 'I', see inverse()). Each rank converts its block to float in
- * place and sends it to the root, whose types place it in M_c. */
+ * sides (nothing packed: a rank holds its finished rows and its local block, no more).
+ * Inverting A gives A⁻¹ = (G⁻¹)ᵀ = M_cᵀ, i.e. M_c row-major; G's 1-norm condition (the
+ * serial dgecon '1') is A's infinity-norm one (pdlange 'I', see inverse()). Each rank
+ * converts its block to float in place and sends it to the root, whose types place it in
+ * M_c. */
 #include "config.h"
 #include "mpi/mpi_internal.h"
 

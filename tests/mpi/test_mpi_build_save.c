@@ -11,9 +11,10 @@
  *   the memory budget per rank: a budget below what the serial build needs but above one
  *   rank's share of F̄ fails serially (LRR_ERR_BUDGET) and succeeds on two ranks or more;
  * and its faults, every rank returning the same error in seconds and no file left: a root
- * without a path, an unknown LRR_MPI_FACTOR (scalapack without ScaLAPACK), a directory that does not exist, the root's file size limited so that the
- * write fails within F̄'s section (the other ranks' chunks of the pass are drained), and
- * every allocation of the last rank failing in turn. */
+ * without a path, an unknown LRR_MPI_FACTOR (and scalapack when built without it), a
+ * directory that does not exist, the root's file size limited so that the write fails
+ * within F̄'s section (the other ranks' chunks of the pass are drained), and every
+ * allocation of the last rank failing in turn. */
 #include <dirent.h>
 #include <errno.h>
 #include <signal.h>
