@@ -155,7 +155,15 @@ LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build(const lrr_scene *scene,
  * receives on the root the operator without F̄ (its rows of F̄ are not held: the calls
  * that read F̄ refuse it, see lrr_operator_load_head), NULL elsewhere and on error. Errors
  * as lrr_mpi_operator_build's, agreed; the file is not written (no file under path) when
- * any rank fails. */
+ * any rank fails.
+ * The inversion of G_c (docs/MPI.md "The factorisation"): replicated (the root's LAPACK, as
+ * above) or, when built with ScaLAPACK (lrr --version lists scalapack), across the ranks,
+ * the root then holding no k×k G_c: M and the condition numbers are then the serial ones to
+ * rounding, not byte for byte. The environment variable LRR_MPI_FACTOR, read on the root at
+ * the call, chooses: replicated; scalapack (LRR_ERR_UNSUPPORTED when built without it); auto
+ * or unset, ScaLAPACK when k >= 2048 on 2 ranks or more. Another value is
+ * LRR_ERR_INVALID_ARG naming it. LRR_MPI_SCALAPACK_NB (1 to 4096, default 64) sets
+ * ScaLAPACK's block size. */
 LRR_API LRR_NODISCARD lrr_status lrr_mpi_operator_build_save(const lrr_scene *scene,
                                                              const lrr_build_options *opts,
                                                              lrr_storage storage,

@@ -79,6 +79,9 @@ static int print_version(void)
 #endif
 #ifdef LRR_MPI
     fputs(" mpi", stdout); /* liblrr_mpi: mpirun -np P lrr solve */
+#ifdef LRR_SCALAPACK
+    fputs(" scalapack", stdout); /* liblrr_mpi inverts large G across the ranks */
+#endif
 #endif
     putchar('\n');
     return CLI_EXIT_OK;

@@ -4,6 +4,8 @@
 
 #include "mpi/mpi_internal.h"
 
+typedef struct bs_grid bs_grid; /* invert.c's ScaLAPACK grid */
+
 typedef struct bs_dist {
     lrr_context *ctx;
     MPI_Comm comm;          /* a duplicate, MPI_ERRORS_RETURN */
@@ -26,6 +28,8 @@ typedef struct bs_dist {
     MPI_Request *req;
     int *idx;
     MPI_Datatype grow;      /* one row of G (k doubles) */
+    int dist;               /* G inverted with ScaLAPACK (invert.c): the root has no G */
+    bs_grid *grid;
     lrr_mpi_build_info info;
 } bs_dist;
 
@@ -34,6 +38,16 @@ typedef struct bs_dist {
 size_t lrr__bs_chunks(const bs_dist *d);
 size_t lrr__bs_rank_chunks(const bs_dist *d, int r);
 void lrr__bs_chunk(const bs_dist *d, size_t c, size_t *a, size_t *b);
+/* Patches whose last row lies in rank r's chunks, ascending, into ends (may be NULL);
+ * their count. G's finished rows on rank r are theirs, in this order. */
+size_t lrr__bs_ending_patches(const bs_dist *d, int r, int *ends);
+/* G_c inverted across the ranks (invert.c, HAVE_SCALAPACK; LRR_ERR_UNSUPPORTED without):
+ * open makes the grid (nb×nb blocks) and its exchange for every channel, invert takes
+ * G_c's finished rows (d->done) and leaves M_c and its condition in the root's operator;
+ * close frees the grid (d->grid may be NULL). Collective, agreed. */
+lrr_status lrr__bs_grid_open(bs_dist *d, int nb);
+lrr_status lrr__bs_invert(bs_dist *d, int c);
+void lrr__bs_grid_close(bs_dist *d);
 /* The file: the root saves d->head, every rank writing its blocks of F̄ into it (MPI-IO),
  * as fbar chooses (strips from the counts every rank gives); agreed. */
 lrr_status lrr__bs_save(bs_dist *d, lrr_fbar_format fbar, const char *path);

@@ -363,6 +363,17 @@ lrr_status lrr__build_invert(lrr__build *b, int c, double *G)
     return lrr__smw_invert(b->op, c, G);
 }
 
+float *lrr__build_m(lrr__build *b, int c)
+{
+    return b->op->m ? b->op->m + (size_t)c * b->op->k * b->op->k : NULL;
+}
+
+void lrr__build_set_cond(lrr__build *b, int c, double cond)
+{
+    b->op->cond[c] = cond;
+    b->op->m_epoch++; /* solvers' copies of M are stale (operator.h) */
+}
+
 lrr_status lrr__build_finish_rows(lrr__build *b, double formfactor_seconds, double smw_seconds,
                                   lrr_operator **out)
 {

@@ -82,6 +82,11 @@ LRR__PRIVATE_API void lrr__build_g_add(lrr__build *b, int c, size_t i, const voi
                                        float *scratch, double *gp);
 /* M_c = G⁻¹ and its condition from the assembled G (k×k doubles, overwritten). */
 LRR__PRIVATE_API lrr_status lrr__build_invert(lrr__build *b, int c, double *G);
+/* M_c's k×k floats (row-major) in the operator, for an inversion done elsewhere (liblrr_mpi's
+ * ScaLAPACK one, lib/mpi/invert.c); NULL when the build has no M. Then its condition
+ * estimate (INFINITY when rcond was 0), which also marks M as written. */
+LRR__PRIVATE_API float *lrr__build_m(lrr__build *b, int c);
+LRR__PRIVATE_API void lrr__build_set_cond(lrr__build *b, int c, double cond);
 /* The operator (no F̄) with its timings and the leak indicator from the n back-face
  * shares at lrr__build_back; *out takes it. */
 LRR__PRIVATE_API lrr_status lrr__build_finish_rows(lrr__build *b, double formfactor_seconds,

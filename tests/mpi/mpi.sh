@@ -82,6 +82,18 @@ for np in 1 2 3 4; do
     if [ "$rc" -eq 0 ]; then pass "test_mpi_build_save on $np ranks"
     else cat "$T/out" "$T/err"; fail "test_mpi_build_save on $np ranks: exit $rc"; fi
 done
+# G inverted with ScaLAPACK (LRR_MPI_FACTOR; blocks of 3 so that they cycle over the grid):
+# the file the serial one but for M and its condition estimates, those within rounding
+if "$LRR" --version 2>/dev/null | grep -q ' scalapack'; then
+    for np in 1 2 3 4; do
+        LRR_MPI_FACTOR=scalapack LRR_MPI_SCALAPACK_NB=3 mpi "$np" "$DIR/test_mpi_build_save"
+        grep -E '^FAIL|failed checks|ScaLAPACK: the root' "$T/out"
+        if [ "$rc" -eq 0 ]; then pass "test_mpi_build_save with ScaLAPACK on $np ranks"
+        else cat "$T/out" "$T/err"; fail "test_mpi_build_save with ScaLAPACK on $np ranks: exit $rc"; fi
+    done
+else
+    echo "SKIP: test_mpi_build_save with ScaLAPACK (built without it)"
+fi
 for np in 1 2 4; do
     mpi "$np" "$DIR/test_mpi_faults"
     grep -E "message names the cause|^# " "$T/out"

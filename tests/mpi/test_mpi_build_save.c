@@ -6,12 +6,15 @@
  *   Vᵀ weights from every rank's row sums) in binary16 and bfloat16, as rows and as strips,
  *   and two patches on more ranks than patches; the root's operator without F̄ has the
  *   serial M and condition bit for bit; the ranks' rows of F̄ add up to F̄;
+ *   with LRR_MPI_FACTOR=scalapack (mpi.sh, small blocks), the same but for M and the
+ *   condition numbers, within rounding, and a solve of the file against the serial one;
  *   the memory budget per rank: a budget below what the serial build needs but above one
  *   rank's share of F̄ fails serially (LRR_ERR_BUDGET) and succeeds on two ranks or more;
  * and its faults, every rank returning the same error in seconds and no file left: a root
- * without a path, a directory that does not exist, the root's file size limited so that the
- * write fails within F̄'s section (the other ranks' chunks of the pass are drained), and
- * every allocation of the last rank failing in turn. */
+ * without a path, an unknown LRR_MPI_FACTOR (and scalapack when built without it), a
+ * directory that does not exist, the root's file size limited so that the write fails
+ * within F̄'s section (the other ranks' chunks of the pass are drained), and every
+ * allocation of the last rank failing in turn. */
 #include <dirent.h>
 #include <errno.h>
 #include <signal.h>
@@ -92,6 +95,67 @@ static int no_file_left(const char *path)
     return d ? left == 0 : errno == ENOENT; /* no directory: nothing in it */
 }
 
+/* Whether G is inverted with ScaLAPACK (tests/mpi/mpi.sh sets LRR_MPI_FACTOR=scalapack and
+ * small blocks): then M and the condition numbers are the serial ones to rounding only. */
+static int scalapack(void)
+{
+    const char *v = getenv("LRR_MPI_FACTOR");
+    return v && strcmp(v, "scalapack") == 0;
+}
+
+/* max |a − b| / max |b| over m floats of M. */
+static double m_rel(size_t m, const float *a, const float *b)
+{
+    return a && b ? mt_max_rel(m, a, b) : 1;
+}
+
+/* M is stored in float: each entry rounds to 2⁻²⁴ relative (6e-8), and the two inversions
+ * differ in double by about cond·ε (cond < 100 here: 2e-14), so 1e-5 of max |M| is loose (they
+ * agree bit for bit in practice). The condition: ScaLAPACK's is exact (lib/mpi/invert.c), the
+ * serial dgecon's an estimate, equal to it for these matrices to rounding (1e-6). B of a
+ * loaded file's solve against the serial operator's within 1e-6 (as test_mpi_build). */
+static void near_serial(const char *what, const lrr_operator *head, const lrr_operator *s,
+                        const char *pd)
+{
+    lrr_operator_info ih, is, il;
+    lrr_operator_get_info(head, &ih, sizeof ih);
+    lrr_operator_get_info(s, &is, sizeof is);
+    const size_t kk3 = 3 * is.k * is.k, n3 = 3 * is.n;
+    double rm = m_rel(kk3, lrr_operator_m(head), lrr_operator_m(s)), rc = 0;
+    for (int c = 0; c < 3; c++)
+        rc = fmax(rc, fabs(ih.condition[c] - is.condition[c]) / is.condition[c]);
+    mt_check(rm <= 1e-5 && rc <= 1e-6 && ih.back_face_share == is.back_face_share,
+             "%s: ScaLAPACK: the root's M within %.3g of max |M|, conditions within %.3g",
+             what, rm, rc);
+    lrr_context *ctx = NULL;
+    lrr_operator *l = NULL;
+    lrr_solver *sl = NULL, *ss = NULL;
+    float *e = calloc(n3, sizeof(float)), *bl = calloc(n3, sizeof(float)),
+          *bs = calloc(n3, sizeof(float));
+    int ok = e && bl && bs && lrr_context_create(&ctx) == LRR_OK &&
+             lrr_operator_load(ctx, pd, &l) == LRR_OK;
+    if (ok)
+        lrr_operator_get_info(l, &il, sizeof il);
+    double rl = ok ? m_rel(kk3, lrr_operator_m(l), lrr_operator_m(s)) : 1;
+    ok = ok && lrr_solver_create(l, LRR_BACKEND_CPU, &sl) == LRR_OK &&
+         lrr_solver_create(s, LRR_BACKEND_CPU, &ss) == LRR_OK;
+    for (size_t j = 0; ok && j < n3; j++)
+        e[j] = (float)((j * 7919) % 101) / 100.0f;
+    ok = ok && lrr_solve(sl, e, bl) == LRR_OK && lrr_solve(ss, e, bs) == LRR_OK;
+    double rb = ok ? mt_max_rel(n3, bl, bs) : 1;
+    mt_check(ok && rl <= 1e-5 && rb <= 1e-6 &&
+                 memcmp(il.condition, ih.condition, sizeof il.condition) == 0,
+             "%s: ScaLAPACK: the file's M within %.3g, its conditions the root's, B of its "
+             "solve within %.3g of the serial one", what, rl, rb);
+    lrr_solver_destroy(sl);
+    lrr_solver_destroy(ss);
+    lrr_operator_destroy(l);
+    lrr_context_destroy(ctx);
+    free(e);
+    free(bl);
+    free(bs);
+}
+
 static void equality(const kind *kd, int root)
 {
     char what[160], pd[512], ps[512];
@@ -126,13 +190,21 @@ static void equality(const kind *kd, int root)
         mt_check(ok && sum == is.n * is.k * es && lrr_operator_fbar(head) == NULL,
                  "%s: the ranks held %llu bytes of F̄ (n×k×%zu), the root's operator none",
                  what, sum, es);
-        mt_check(ok && same_files(pd, ps), "%s: the file the serial one but for its timings",
-                 what);
-        mt_check(ok && memcmp(lrr_operator_m(head), lrr_operator_m(s),
-                              3 * is.k * is.k * sizeof(float)) == 0 &&
-                     memcmp(ih.condition, is.condition, sizeof is.condition) == 0 &&
-                     ih.back_face_share == is.back_face_share,
-                 "%s: the root's M, condition estimates and back-face share bit for bit", what);
+        if (scalapack()) {
+            mt_check(ok && same_files_but(pd, ps, 1u << 5 | 1u << 6),
+                     "%s: ScaLAPACK: the file the serial one but for M and INFO", what);
+            if (ok)
+                near_serial(what, head, s, pd);
+        } else {
+            mt_check(ok && same_files(pd, ps), "%s: the file the serial one but for its "
+                     "timings", what);
+            mt_check(ok && memcmp(lrr_operator_m(head), lrr_operator_m(s),
+                                  3 * is.k * is.k * sizeof(float)) == 0 &&
+                         memcmp(ih.condition, is.condition, sizeof is.condition) == 0 &&
+                         ih.back_face_share == is.back_face_share,
+                     "%s: the root's M, condition estimates and back-face share bit for bit",
+                     what);
+        }
         remove(pd);
         remove(ps);
     }
@@ -249,6 +321,20 @@ static void faults(void)
         return;
     }
     fault("no path on the root", ctx, sc, NULL, LRR_ERR_INVALID_ARG, "path is NULL");
+    /* the root's LRR_MPI_FACTOR decides for every rank */
+    char *was = getenv("LRR_MPI_FACTOR") ? strdup(getenv("LRR_MPI_FACTOR")) : NULL;
+    setenv("LRR_MPI_FACTOR", "lapack", 1);
+    fault("LRR_MPI_FACTOR=lapack", ctx, sc, path, LRR_ERR_INVALID_ARG, "LRR_MPI_FACTOR=lapack");
+#ifndef LRR_SCALAPACK
+    setenv("LRR_MPI_FACTOR", "scalapack", 1);
+    fault("LRR_MPI_FACTOR=scalapack without ScaLAPACK", ctx, sc, path, LRR_ERR_UNSUPPORTED,
+          "built without ScaLAPACK");
+#endif
+    if (was)
+        setenv("LRR_MPI_FACTOR", was, 1);
+    else
+        unsetenv("LRR_MPI_FACTOR");
+    free(was);
     fault("a missing directory", ctx, sc, nodir, LRR_ERR_IO, "op.lrr");
     /* a rank's files limited to 4 KiB past the start of F̄'s section (from the serial file):
      * its writes of its chunks (MPI-IO) fail within it (SIGXFSZ ignored: write() returns
