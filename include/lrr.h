@@ -1127,7 +1127,20 @@ LRR_API LRR_NODISCARD lrr_status lrr_lighting_direct(lrr_lighting *lighting,
                                                      const lrr_light_source *lights,
                                                      size_t count, float *emission)
     LRR_NONNULL(1, 4);
-/* Shadow rays cast by the last lrr_lighting_direct (unchanged lights cast none). */
+/* lrr_lighting_direct at the receivers [row0, row0 + rows) alone, for a process that holds
+ * those rows of the operator (lrr_mpi_solver_rows): emission (rows×3) is those rows of
+ * lrr_lighting_direct's, bit for bit, and only their shadow rays are cast. The cache of
+ * unchanged lights holds one range: a call on another range (or lrr_lighting_direct)
+ * traces every light again. Errors as lrr_lighting_direct's, and LRR_ERR_INVALID_ARG when
+ * the range exceeds n or emission is NULL with rows > 0; LRR_ERR_UNSUPPORTED with a
+ * tolerance set (lrr_lighting_set_tolerance > 0 chooses its receivers over the whole
+ * scene). rows 0 does nothing. */
+LRR_API LRR_NODISCARD lrr_status lrr_lighting_direct_rows(lrr_lighting *lighting,
+                                                          const lrr_light_source *lights,
+                                                          size_t count, size_t row0,
+                                                          size_t rows, float *emission)
+    LRR_NONNULL(1);
+/* Shadow rays cast by the last lrr_lighting_direct or _rows (unchanged lights cast none). */
 LRR_API uint64_t lrr_lighting_rays(const lrr_lighting *lighting) LRR_NONNULL(1);
 /* The shadow rays' error budget (docs/METHOD.md "Lights"). 0, the default: every receiver
  * a light reaches gets its shadow rays. tolerance > 0: a point or spot light traces the

@@ -34,6 +34,7 @@ struct lrr_lighting {
     lrr__budget_receivers rcv; /* the receivers as the budget reads them */
     int avx2;                 /* the budget's keys with AVX2 (lib/core/cpu.h) */
     uint64_t rays;            /* shadow rays of the last call */
+    size_t r0, r1;            /* the receivers [r0, r1) the cache holds */
 };
 
 lrr_status lrr_lighting_create(const lrr_operator *op, lrr_lighting **out)
@@ -166,11 +167,14 @@ static void trace(lrr_lighting *lt, const lrr__source *s, size_t l)
     lt->scalar[l] = 0;
     float *H = lt->H + l * op->n * 3;
     unsigned char *vis = lt->vis + l * op->n;
-    const size_t blocks = (op->n + BLOCK - 1) / BLOCK;
+    /* the whole call's blocks, clipped to [r0, r1): a receiver's rays and sums are its own,
+     * so a range gets the whole call's rows bit for bit */
+    const size_t b0 = lt->r0 / BLOCK, b1 = (lt->r1 + BLOCK - 1) / BLOCK;
     uint64_t rays = 0;
     #pragma omp parallel for schedule(dynamic, 1) reduction(+ : rays)
-    for (size_t blk = 0; blk < blocks; blk++) {
-        const size_t i0 = blk * BLOCK, i1 = i0 + BLOCK < op->n ? i0 + BLOCK : op->n;
+    for (size_t blk = b0; blk < b1; blk++) {
+        const size_t i0 = blk * BLOCK > lt->r0 ? blk * BLOCK : lt->r0;
+        const size_t i1 = blk * BLOCK + BLOCK < lt->r1 ? blk * BLOCK + BLOCK : lt->r1;
         double acc[BLOCK] = {0};
         lrr__shadow_batch b;
         lrr__shadow_init(&b, lt->bvh.scene, acc);
@@ -382,34 +386,37 @@ static int scale_block(const float *rho, const float *sum, size_t m, float *emis
     return any != 0;
 }
 
-/* E = rho ∘ Σ_l H_l, summed in light order (float, as lrr_probe_direct_light), in blocks
- * whose sums stay in the cache, so that each light's slot is read as one stream; 1 where
- * an entry overflows. */
+/* E = rho ∘ Σ_l H_l over the receivers [r0, r1) into emission (their rows), summed in
+ * light order (float, as lrr_probe_direct_light), in blocks whose sums stay in the cache,
+ * so that each light's slot is read as one stream; 1 where an entry overflows. */
 static int sum_lights(const lrr_lighting *lt, const lrr__source *src, size_t count,
                       float *emission)
 {
     const lrr_operator *op = lt->op;
-    const size_t n3 = op->n * 3, blocks = (n3 + SUM_BLOCK - 1) / SUM_BLOCK;
+    const size_t e0 = 3 * lt->r0, n3 = 3 * lt->r1 - e0;
+    const size_t blocks = (n3 + SUM_BLOCK - 1) / SUM_BLOCK;
     int overflow = 0;
     #pragma omp parallel for schedule(static) reduction(| : overflow)
     for (size_t b = 0; b < blocks; b++) {
-        const size_t j0 = b * SUM_BLOCK, m = j0 + SUM_BLOCK < n3 ? SUM_BLOCK : n3 - j0;
+        const size_t j = b * SUM_BLOCK, m = j + SUM_BLOCK < n3 ? SUM_BLOCK : n3 - j;
         float sum[SUM_BLOCK];
-        for (size_t j = 0; j < m; j++)
-            sum[j] = 0.0f;
+        for (size_t i = 0; i < m; i++)
+            sum[i] = 0.0f;
         for (size_t l = 0; l < count; l++)
-            add_light(lt, &src[l], l, j0, m, sum);
-        overflow |= scale_block(op->rho + j0, sum, m, emission + j0);
+            add_light(lt, &src[l], l, e0 + j, m, sum);
+        overflow |= scale_block(op->rho + e0 + j, sum, m, emission + j);
     }
     return overflow;
 }
 
-lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights, size_t count,
-                               float *emission)
+/* The lights traced at the receivers [r0, r1) (those unchanged since the last call on the
+ * same range kept) and their E into emission, (r1 − r0)×3. */
+static lrr_status direct(lrr_lighting *lt, const lrr_light_source *lights, size_t count,
+                         size_t r0, size_t r1, float *emission, const char *fn)
 {
     if (count > 0 && !lights)
-        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG,
-                          "lrr_lighting_direct: lights is NULL with count %zu", count);
+        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG, "%s: lights is NULL with count %zu",
+                          fn, count);
     lrr__source *src = NULL;
     lrr_status st = LRR_OK;
     if (count && (st = lrr__calloc(lt->ctx, &src, count, sizeof *src, "checked lights")))
@@ -420,13 +427,18 @@ lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights,
         lrr_aligned_free(src);
         return st;
     }
+    if (r0 != lt->r0 || r1 != lt->r1) { /* the cache holds other receivers */
+        lt->count = 0;
+        lt->r0 = r0;
+        lt->r1 = r1;
+    }
     lt->rays = 0;
     size_t group[LRR__BUDGET_GROUP], m = 0;
     for (size_t l = 0; l < count; l++) {
         if (l < lt->count && memcmp(&lt->light[l], &lights[l], sizeof *lights) == 0)
             continue; /* unchanged: its irradiance is still in the cache */
         if (lt->tol > 0 && (src[l].kind == LRR_LIGHT_POINT || src[l].kind == LRR_LIGHT_SPOT)) {
-            group[m++] = l;
+            group[m++] = l; /* over the whole scene (lrr_lighting_direct alone) */
             if (m == LRR__BUDGET_GROUP) {
                 trace_group(lt, src, group, m);
                 m = 0;
@@ -446,9 +458,33 @@ lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights,
     int overflow = sum_lights(lt, src, count, emission);
     lrr_aligned_free(src);
     if (overflow) {
-        memset(emission, 0, 3 * lt->op->n * sizeof(float));
-        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG,
-                          "lrr_lighting_direct: the direct light overflows a float");
+        memset(emission, 0, 3 * (r1 - r0) * sizeof(float));
+        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG, "%s: the direct light overflows a "
+                          "float", fn);
     }
     return LRR_OK;
+}
+
+lrr_status lrr_lighting_direct(lrr_lighting *lt, const lrr_light_source *lights, size_t count,
+                               float *emission)
+{
+    return direct(lt, lights, count, 0, lt->op->n, emission, "lrr_lighting_direct");
+}
+
+lrr_status lrr_lighting_direct_rows(lrr_lighting *lt, const lrr_light_source *lights,
+                                    size_t count, size_t row0, size_t rows, float *emission)
+{
+    static const char fn[] = "lrr_lighting_direct_rows";
+    const size_t n = lt->op->n;
+    if (row0 > n || rows > n - row0)
+        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG, "%s: rows [%zu, %zu + %zu) exceed the "
+                          "operator's %zu subpatches", fn, row0, row0, rows, n);
+    if (rows > 0 && !emission)
+        return lrr__error(lt->ctx, LRR_ERR_INVALID_ARG, "%s: emission is NULL for %zu rows", fn,
+                          rows);
+    if (lt->tol > 0)
+        return lrr__error(lt->ctx, LRR_ERR_UNSUPPORTED, "%s: the shadow rays' error budget "
+                          "(lrr_lighting_set_tolerance %g) chooses its receivers over the "
+                          "whole scene; set it to 0 for a range of rows", fn, lt->tol);
+    return rows ? direct(lt, lights, count, row0, row0 + rows, emission, fn) : LRR_OK;
 }

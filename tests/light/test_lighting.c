@@ -1,7 +1,7 @@
 /* Moving lights (lib/light/): the inverse-square and cosine laws, the spot cone, a hard
  * shadow's footprint, an area light against the closed-form point-to-rectangle form
- * factor, a point light in a furnace (energy balance), the cache of unchanged lights and
- * bad lights. */
+ * factor, a point light in a furnace (energy balance), the cache of unchanged lights, a
+ * range of receivers against the whole call, and bad lights. */
 #include "testutil.h"
 
 /* Direct light in floats (a cosine, a distance, a product: 5 roundings, k = 2), the same
@@ -337,6 +337,73 @@ static void test_clustered_operator(void **state)
     lrr_context_destroy(ctx);
 }
 
+/* A range of receivers (lrr_lighting_direct_rows) gets the whole call's rows bit for bit
+ * for every kind of light, shadows included, and casts only its own rays; the cache holds
+ * one range; bad ranges and a tolerance are refused. */
+static void test_rows(void **state)
+{
+    (void)state;
+    lrr_context *ctx = tu_context();
+    lrr_operator *op = floor_op(ctx, 2, 1200, 1);
+    const size_t n = op_n(op);
+    assert_true(n > 300);
+    lrr_light_source L[4] = {point_at(0.1, 1.5, 0.2, 1.0f), point_at(-0.5, 2, 0.3, 0.5f),
+                             {0}, {0}};
+    L[1].kind = LRR_LIGHT_SPOT;
+    L[1].direction[1] = -1;
+    L[1].cone_angle = 0.6f;
+    L[1].cone_softness = 0.2f;
+    L[2].kind = LRR_LIGHT_AREA;
+    L[2].position[1] = 1.8f;
+    L[2].u[0] = 0.4f;
+    L[2].v[2] = -0.4f; /* u × v points down, at the floor */
+    L[2].rgb[0] = L[2].rgb[1] = L[2].rgb[2] = 2.0f;
+    L[2].samples = 9;
+    L[3].kind = LRR_LIGHT_SUN;
+    L[3].direction[0] = 0.3f;
+    L[3].direction[1] = 1;
+    L[3].rgb[0] = L[3].rgb[1] = L[3].rgb[2] = 0.7f;
+    float *whole = malloc(3 * n * sizeof(float)), *part = malloc(3 * n * sizeof(float));
+    lrr_lighting *lt, *lr;
+    LRR_CHECK(ctx, lrr_lighting_create(op, &lt));
+    LRR_CHECK(ctx, lrr_lighting_create(op, &lr));
+    LRR_CHECK(ctx, lrr_lighting_direct(lt, L, 4, whole));
+    const uint64_t all_rays = lrr_lighting_rays(lt);
+    const size_t range[][2] = {{0, n}, {0, 1}, {n - 1, 1}, {37, n / 3}, {64, 64}, {n / 2, n - n / 2}};
+    for (size_t r = 0; r < sizeof range / sizeof *range; r++) {
+        const size_t row0 = range[r][0], rows = range[r][1];
+        LRR_CHECK(ctx, lrr_lighting_direct_rows(lr, L, 4, row0, rows, part));
+        assert_memory_equal(part, whole + 3 * row0, 3 * rows * sizeof(float));
+        const uint64_t rays = lrr_lighting_rays(lr);
+        assert_true(rays <= all_rays && (rays > 0 || rows < 64)); /* one may face away */
+        if (rows == n)
+            assert_int_equal(rays, all_rays);
+        LRR_CHECK(ctx, lrr_lighting_direct_rows(lr, L, 4, row0, rows, part));
+        assert_int_equal(lrr_lighting_rays(lr), 0); /* the same range: all cached */
+        assert_memory_equal(part, whole + 3 * row0, 3 * rows * sizeof(float));
+    }
+    /* the two halves' rays add up to the whole call's */
+    LRR_CHECK(ctx, lrr_lighting_direct_rows(lr, L, 4, 0, n / 2, part));
+    uint64_t halves = lrr_lighting_rays(lr);
+    LRR_CHECK(ctx, lrr_lighting_direct_rows(lr, L, 4, n / 2, n - n / 2, part + 3 * (n / 2)));
+    halves += lrr_lighting_rays(lr);
+    assert_int_equal(halves, all_rays);
+    assert_memory_equal(part, whole, 3 * n * sizeof(float));
+    /* refused: past n, NULL emission, a tolerance; rows 0 does nothing */
+    assert_int_equal(lrr_lighting_direct_rows(lr, L, 4, n, 1, part), LRR_ERR_INVALID_ARG);
+    assert_int_equal(lrr_lighting_direct_rows(lr, L, 4, 1, n, part), LRR_ERR_INVALID_ARG);
+    assert_int_equal(lrr_lighting_direct_rows(lr, L, 4, 0, 1, NULL), LRR_ERR_INVALID_ARG);
+    LRR_CHECK(ctx, lrr_lighting_direct_rows(lr, L, 4, n, 0, NULL));
+    LRR_CHECK(ctx, lrr_lighting_set_tolerance(lr, 0.05));
+    assert_int_equal(lrr_lighting_direct_rows(lr, L, 4, 0, n, part), LRR_ERR_UNSUPPORTED);
+    lrr_lighting_destroy(lt);
+    lrr_lighting_destroy(lr);
+    free(whole);
+    free(part);
+    lrr_operator_destroy(op);
+    lrr_context_destroy(ctx);
+}
+
 static void expect_bad(lrr_context *ctx, lrr_lighting *lt, lrr_light_source l, float *E,
                        const char *what)
 {
@@ -409,6 +476,7 @@ int main(void)
         cmocka_unit_test(test_point_in_furnace),
         cmocka_unit_test(test_cache),
         cmocka_unit_test(test_clustered_operator),
+        cmocka_unit_test(test_rows),
         cmocka_unit_test(test_bad_lights),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

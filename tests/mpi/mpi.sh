@@ -141,10 +141,37 @@ mpi 3 "$LRR" solve "$OP" --repeat 2 --light "$LIGHT" --csv "$T/mpi-light.csv"
 max=$(sed -n 's/^max_rel: //p' "$T/cmp")
 if [ "$rc" -eq 0 ] && [ "$(value lights)" = 1 ] &&
     awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
-    pass "mpirun -np 3 lrr solve --light: rank 0's emission scattered, max_rel $max <= 1e-6"
+    pass "mpirun -np 3 lrr solve --light: each rank's rows of the direct light (lrr_lighting_direct_rows), max_rel $max <= 1e-6"
 else
     cat "$T/out" "$T/err" "$T/cmp"; fail "mpirun -np 3 lrr solve --light: exit $rc, max_rel '$max'"
 fi
+# a probe (its direct light scattered from rank 0) and two lights (each rank its rows), with
+# and without the scene's emission: E = emission + (probe + lights) in the serial order, so
+# one rank writes the serial CSV byte for byte (its frame is the serial one) and two within
+# the distributed frame's rounding
+PROBE="$top/data/probes/courtyard.hdr"
+AREA='area pos=278,500,279 u=100,0,0 v=0,0,-100 samples=4 rgb=40,30,20'
+for extra in "" --no-scene-emission; do
+    "$LRR" solve "$OP" --probe "$PROBE" --light "$LIGHT" --light "$AREA" $extra \
+        --csv "$T/serial-pl.csv" >/dev/null 2>"$T/err" || { cat "$T/err"; fail "serial lrr solve --probe --light"; }
+    mpi 1 "$LRR" solve "$OP" --probe "$PROBE" --light "$LIGHT" --light "$AREA" $extra \
+        --csv "$T/mpi-pl.csv"
+    if [ "$rc" -eq 0 ] && cmp -s "$T/mpi-pl.csv" "$T/serial-pl.csv"; then
+        pass "mpirun -np 1 lrr solve --probe --light --light $extra: the serial CSV byte for byte"
+    else
+        cat "$T/out" "$T/err"; fail "mpirun -np 1 lrr solve --probe --light $extra: exit $rc or another CSV"
+    fi
+    mpi 2 "$LRR" solve "$OP" --probe "$PROBE" --light "$LIGHT" --light "$AREA" $extra \
+        --csv "$T/mpi-pl.csv"
+    "$LRR" compare "$T/mpi-pl.csv" "$T/serial-pl.csv" >"$T/cmp" 2>&1
+    max=$(sed -n 's/^max_rel: //p' "$T/cmp")
+    if [ "$rc" -eq 0 ] && [ "$(value lights)" = 2 ] &&
+        awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+        pass "mpirun -np 2 lrr solve --probe --light --light $extra: max_rel $max <= 1e-6"
+    else
+        cat "$T/out" "$T/err" "$T/cmp"; fail "mpirun -np 2 lrr solve --probe --light $extra: exit $rc, max_rel '$max'"
+    fi
+done
 
 # mpirun lrr render: the distributed solve, then rank 0 draws; the radiosity it drew (--csv)
 # within 1e-6 of the serial render's, and the picture of the asked size (PNG: IHDR's width
