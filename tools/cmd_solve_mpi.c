@@ -132,7 +132,7 @@ static void print_mpi_solve(const solve_mpi_args *a, const lrr_operator *op, con
 /* This rank's rows of E with the --light sources (lrr_lighting_direct_rows) from its own
  * operator without F̄ (rank 0's is op): e_rows = emission + (probe + lights) as the serial
  * command sums them (add_probe_light), the probe's rows from rank 0 (p, NULL without a
- * probe). *seconds: the slowest rank's lights. Agreed; *bad the first subpatch whose E
+ * probe). *seconds: the slowest rank's lighting plan and rays. Agreed; *bad the first subpatch whose E
  * overflows (n when none: then rank 0 reports it as the serial command does). */
 static lrr_status rank_lights(lrr_context *ctx, lrr_mpi_solver *s, const solve_mpi_args *a,
                               const lrr_operator *op, const float *p, float *e_rows,
@@ -144,7 +144,6 @@ static lrr_status rank_lights(lrr_context *ctx, lrr_mpi_solver *s, const solve_m
     lrr_lighting *lt = NULL;
     float *d = rows ? cli_alloc_rgb(rows) : NULL, *l = rows ? cli_alloc_rgb(rows) : NULL;
     lrr_status st = rows && (!d || !l) ? LRR_ERR_NOMEM : LRR_OK;
-    double t0 = cli_now(), t;
     int probe = p != NULL; /* rank 0's: every rank takes part in the scatter */
     MPI_Bcast(&probe, 1, MPI_INT, 0, MPI_COMM_WORLD);
     st = lrr_mpi_agree(ctx, MPI_COMM_WORLD, st);
@@ -152,6 +151,7 @@ static lrr_status rank_lights(lrr_context *ctx, lrr_mpi_solver *s, const solve_m
         st = lrr_mpi_scatter(s, 0, p, d);
     if (st == LRR_OK && !op && rows)
         st = lrr_operator_load_head(ctx, a->file, &mine);
+    double t0 = cli_now(), t; /* the plan and the rays, as the serial direct_light_seconds */
     if (st == LRR_OK && rows)
         st = lrr_lighting_create(op ? op : mine, &lt);
     if (st == LRR_OK && rows)
