@@ -241,15 +241,25 @@ int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *
         rc = probe_direct(ctx, op, p, direct, seconds);
     if (rc == CLI_EXIT_OK && p->lights)
         rc = sources_direct(ctx, op, p, direct, oi.n, seconds);
-    for (size_t i = 0; rc == CLI_EXIT_OK && i < 3 * oi.n; i++) {
-        e[i] = p->no_scene_emission ? direct[i] : e[i] + direct[i];
-        if (!isfinite(e[i]))
-            rc = cli_fail(LRR_ERR_INVALID_ARG,
-                          "the emission of subpatch %zu overflows (--probe-scale %g, --light)",
-                          i / 3, p->scale);
-    }
+    const size_t bad = rc == CLI_EXIT_OK ? cli_add_direct(e, direct, oi.n, p->no_scene_emission)
+                                         : oi.n;
+    if (bad < oi.n)
+        rc = cli_fail(LRR_ERR_INVALID_ARG,
+                      "the emission of subpatch %zu overflows (--probe-scale %g, --light)", bad,
+                      p->scale);
     free(direct);
     return rc;
+}
+
+size_t cli_add_direct(float *e, const float *direct, size_t n, int replace)
+{
+    size_t bad = n;
+    for (size_t i = 0; i < 3 * n; i++) {
+        e[i] = replace ? direct[i] : e[i] + direct[i];
+        if (!isfinite(e[i]) && bad == n)
+            bad = i / 3;
+    }
+    return bad;
 }
 
 /* ------------------------------------------------------------------ solving */

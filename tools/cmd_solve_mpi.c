@@ -9,7 +9,6 @@
  * command's bit for bit: emission + (probe + lights), summed in its order. The distributed
  * frame always takes the full path on the CPU. */
 #ifdef LRR_MPI
-#include <math.h>
 #include <mpi.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -157,11 +156,12 @@ static lrr_status rank_lights(lrr_context *ctx, lrr_mpi_solver *s, const solve_m
     if (st == LRR_OK && rows)
         st = lrr_lighting_direct_rows(lt, a->pa->light, a->pa->lights, row0, rows, l);
     unsigned long long first = n;
-    for (size_t i = 0; st == LRR_OK && i < 3 * rows; i++) {
-        d[i] = probe ? d[i] + l[i] : l[i]; /* the serial direct: 0 + probe, += lights */
-        e_rows[i] = a->pa->no_scene_emission ? d[i] : e_rows[i] + d[i];
-        if (!isfinite(e_rows[i]) && first == n)
-            first = row0 + i / 3;
+    if (st == LRR_OK && rows) {
+        for (size_t i = 0; i < 3 * rows; i++)
+            d[i] = probe ? d[i] + l[i] : l[i]; /* the serial direct: 0 + probe, += lights */
+        const size_t at = cli_add_direct(e_rows, d, rows, a->pa->no_scene_emission);
+        if (at < rows)
+            first = row0 + at;
     }
     t = cli_now() - t0;
     lrr_lighting_destroy(lt);

@@ -337,6 +337,10 @@ int scaled_emission(const lrr_operator *op, double scale, float **out);
 /* e (n×3, the scaled stored emission) += the direct light of the probe and of the --light
  * sources, or = it with --no-scene-emission; *seconds the time of lrr_probe_direct_light and
  * lrr_lighting_direct. */
+/* e[i] = replace ? direct[i] : e[i] + direct[i] over n subpatches (n×3 floats): the
+ * subpatch of the first entry that is not finite, n when none (add_probe_light's sum, and
+ * each rank's under mpirun). */
+size_t cli_add_direct(float *e, const float *direct, size_t n, int replace);
 int add_probe_light(lrr_context *ctx, const lrr_operator *op, const probe_args *p, float *e,
                     double *seconds);
 

@@ -21,6 +21,13 @@ checks=0
 failures=0
 pass() { checks=$((checks + 1)); echo "PASS: $1"; }
 fail() { checks=$((checks + 1)); failures=$((failures + 1)); echo "FAIL: $1"; }
+# max_rel A B: `lrr compare`'s max_rel of CSV A against B into $max ($T/cmp keeps the
+# report), and whether it is a number <= 1e-6
+max_rel() {
+    "$LRR" compare "$1" "$2" >"$T/cmp" 2>&1
+    max=$(sed -n 's/^max_rel: //p' "$T/cmp")
+    awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'
+}
 T=$(mktemp -d "${LRR_TEST_TMP:-/tmp}/mpi.XXXXXX") || exit 1
 trap 'rm -rf "$T"' EXIT
 export LRR_TEST_TMP="$T"
@@ -128,19 +135,15 @@ for np in 1 2 3 4; do
     else
         cat "$T/out" "$T/err"; fail "mpirun -np $np lrr solve: exit $rc"
     fi
-    "$LRR" compare "$T/mpi$np.csv" "$T/serial.csv" >"$T/cmp" 2>&1
-    max=$(sed -n 's/^max_rel: //p' "$T/cmp")
-    if awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+    if max_rel "$T/mpi$np.csv" "$T/serial.csv"; then
         pass "mpirun -np $np lrr solve --csv = lrr solve --csv: max_rel $max <= 1e-6"
     else
         cat "$T/cmp"; fail "mpirun -np $np lrr solve --csv against the serial CSV: max_rel '$max'"
     fi
 done
 mpi 3 "$LRR" solve "$OP" --repeat 2 --light "$LIGHT" --csv "$T/mpi-light.csv"
-"$LRR" compare "$T/mpi-light.csv" "$T/serial-light.csv" >"$T/cmp" 2>&1
-max=$(sed -n 's/^max_rel: //p' "$T/cmp")
-if [ "$rc" -eq 0 ] && [ "$(value lights)" = 1 ] &&
-    awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+if max_rel "$T/mpi-light.csv" "$T/serial-light.csv" && [ "$rc" -eq 0 ] &&
+    [ "$(value lights)" = 1 ]; then
     pass "mpirun -np 3 lrr solve --light: each rank's rows of the direct light (lrr_lighting_direct_rows), max_rel $max <= 1e-6"
 else
     cat "$T/out" "$T/err" "$T/cmp"; fail "mpirun -np 3 lrr solve --light: exit $rc, max_rel '$max'"
@@ -163,10 +166,8 @@ for extra in "" --no-scene-emission; do
     fi
     mpi 2 "$LRR" solve "$OP" --probe "$PROBE" --light "$LIGHT" --light "$AREA" $extra \
         --csv "$T/mpi-pl.csv"
-    "$LRR" compare "$T/mpi-pl.csv" "$T/serial-pl.csv" >"$T/cmp" 2>&1
-    max=$(sed -n 's/^max_rel: //p' "$T/cmp")
-    if [ "$rc" -eq 0 ] && [ "$(value lights)" = 2 ] &&
-        awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+    if max_rel "$T/mpi-pl.csv" "$T/serial-pl.csv" && [ "$rc" -eq 0 ] &&
+        [ "$(value lights)" = 2 ]; then
         pass "mpirun -np 2 lrr solve --probe --light --light $extra: max_rel $max <= 1e-6"
     else
         cat "$T/out" "$T/err" "$T/cmp"; fail "mpirun -np 2 lrr solve --probe --light $extra: exit $rc, max_rel '$max'"
@@ -181,12 +182,10 @@ done
 for np in 2 3; do
     mpi "$np" "$LRR" render "$OP" -o "$T/mpi.png" --width 48 --height 32 --light "$LIGHT" \
         --csv "$T/render-mpi.csv"
-    "$LRR" compare "$T/render-mpi.csv" "$T/render-serial.csv" >"$T/cmp" 2>&1
-    max=$(sed -n 's/^max_rel: //p' "$T/cmp")
     size=$(od -An -tx1 -j16 -N8 "$T/mpi.png" 2>/dev/null | tr -d ' \n')
-    if [ "$rc" -eq 0 ] && [ "$(value ranks)" = "$np" ] && [ "$(grep -c '^output: ' "$T/out")" -eq 1 ] &&
-        [ "$size" = "0000003000000020" ] &&
-        awk -v v="$max" 'BEGIN { exit !(v ~ /^[0-9.eE+-]+$/ && v + 0 <= 1e-6) }'; then
+    if max_rel "$T/render-mpi.csv" "$T/render-serial.csv" && [ "$rc" -eq 0 ] &&
+        [ "$(value ranks)" = "$np" ] && [ "$(grep -c '^output: ' "$T/out")" -eq 1 ] &&
+        [ "$size" = "0000003000000020" ]; then
         pass "mpirun -np $np lrr render --light: rank 0 alone draws a 48x32 PNG, its B within $max of the serial render's"
     else
         cat "$T/out" "$T/err" "$T/cmp"; fail "mpirun -np $np lrr render: exit $rc, size '$size', max_rel '$max'"

@@ -12,8 +12,8 @@
  *   rank's share of F̄ fails serially (LRR_ERR_BUDGET) and succeeds on two ranks or more;
  * and its faults, every rank returning the same error in seconds and no file left: a root
  * without a path, an unknown LRR_MPI_FACTOR (and scalapack when built without it), a
- * directory that does not exist, the root's file size limited so that the write fails
- * within F̄'s section (the other ranks' chunks of the pass are drained), and every
+ * directory that does not exist, the root's and then the last rank's file size limited so
+ * that its writes of its chunks of F̄ (MPI-IO) fail within the section, and every
  * allocation of the last rank failing in turn. */
 #include <dirent.h>
 #include <errno.h>
